@@ -1,0 +1,94 @@
+"""The one object that owns the OpenGL context, and the shader sources."""
+
+from __future__ import annotations
+
+import sys
+import threading
+from pathlib import Path
+
+from .errors import GLUnavailableError
+
+SHADER_DIR = Path(__file__).parent / "shaders"
+GLSL_VERSION = "#version 330 core\n"
+
+
+def _backends() -> list[str | None]:
+    """Context backends to try, best first: EGL on Linux (headless), the platform default else."""
+    if sys.platform.startswith("linux"):
+        return ["egl", None]
+    return [None]
+
+
+def create_context():
+    """A standalone OpenGL >= 3.3 context, current on the calling thread."""
+    try:
+        import moderngl
+    except ImportError as exc:  # pragma: no cover - packaging error
+        raise GLUnavailableError(f"the moderngl package is missing ({exc})") from exc
+    errors = []
+    for backend in _backends():
+        try:
+            kwargs = {"backend": backend} if backend else {}
+            ctx = moderngl.create_standalone_context(require=330, **kwargs)
+        except Exception as exc:  # moderngl raises plain Exceptions
+            errors.append(f"{backend or 'default'}: {exc}")
+            continue
+        return ctx
+    hint = ("install an OpenGL driver with EGL (on Debian/Ubuntu: apt install libegl1 libgl1-mesa-dri)"
+            if sys.platform.startswith("linux") else "update the graphics driver")
+    raise GLUnavailableError(
+        "The TFM renderer needs OpenGL 3.3, but no OpenGL context could be created ("
+        + "; ".join(errors) + f"). To fix: {hint}.")
+
+
+class GLContext:
+    """Owns a moderngl context and the programs compiled in it; use it from one thread only."""
+
+    def __init__(self):
+        self.ctx = create_context()
+        self.thread_id = threading.get_ident()
+        self._programs: dict[tuple, object] = {}
+        self.max_3d_texture_size = int(self.ctx.info.get("GL_MAX_3D_TEXTURE_SIZE", 256))
+        self.max_texture_size = int(self.ctx.info.get("GL_MAX_TEXTURE_SIZE", 4096))
+
+    def check_thread(self) -> None:
+        if threading.get_ident() != self.thread_id:
+            raise RuntimeError("the GL context is used from a thread that does not own it")
+
+    def program(self, vertex: str, fragment: str, defines: dict[str, int] | None = None):
+        """A compiled program from files in shaders/, with #defines; cached."""
+        key = (vertex, fragment, tuple(sorted((defines or {}).items())))
+        prog = self._programs.get(key)
+        if prog is None:
+            header = GLSL_VERSION + "".join(f"#define {k} {v}\n" for k, v in sorted((defines or {}).items()))
+            common = (SHADER_DIR / "common.glsl").read_text()
+            vs = header + (SHADER_DIR / vertex).read_text()
+            fs = header + common + (SHADER_DIR / fragment).read_text()
+            prog = self.ctx.program(vertex_shader=vs, fragment_shader=fs)
+            self._programs[key] = prog
+        return prog
+
+    def release(self) -> None:
+        for prog in self._programs.values():
+            prog.release()
+        self._programs.clear()
+        self.ctx.release()
+
+
+def set_uniforms(prog, **values) -> None:
+    """Set the uniforms the program uses; the compiler drops unused ones, so skip those."""
+    for name, value in values.items():
+        if name in prog:
+            prog[name].value = value
+
+
+def mat4_bytes(m) -> bytes:
+    """A row-major numpy 4x4 (column vectors) as GLSL's column-major bytes."""
+    import numpy as np
+
+    return np.asarray(m, dtype=np.float32).T.copy().tobytes()
+
+
+def set_matrix(prog, name: str, m) -> None:
+    if name in prog:
+        prog[name].write(mat4_bytes(m))

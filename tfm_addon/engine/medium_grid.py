@@ -1,0 +1,68 @@
+"""Preparing a density grid for the GPU: cleaning bad values, fitting it in the limits."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class PreparedGrid:
+    """A density grid ready to upload: ``density`` (nx, ny, nz) float32, finite and >= 0;
+    ``index_to_world`` for it (changed when the grid was downsampled); ``max_value``."""
+
+    density: np.ndarray
+    index_to_world: np.ndarray
+    max_value: float
+    warnings: list[str] = field(default_factory=list)
+
+    @property
+    def is_empty(self) -> bool:
+        return self.density.size == 0 or self.max_value <= 0.0
+
+    def padded_xyz_fastest(self) -> np.ndarray:
+        """The grid with a layer of zeros around it, x varying fastest (OpenGL's order)."""
+        padded = np.pad(self.density, 1)
+        return np.ascontiguousarray(padded.transpose(2, 1, 0))
+
+
+def prepare_grid(density: np.ndarray, index_to_world: np.ndarray, max_side: int,
+                 max_bytes: int) -> PreparedGrid:
+    """Clean a grid and downsample it until it fits ``max_side`` voxels per axis (padding
+    included) and ``max_bytes`` of float32; each change adds a warning for the user."""
+    warnings = []
+    d = np.asarray(density, dtype=np.float32)
+    bad = ~np.isfinite(d)
+    negative = d < 0
+    if bad.any() or negative.any():
+        warnings.append(
+            f"The density grid had {int(bad.sum())} NaN/infinite and {int(negative.sum())} negative "
+            "values; they were set to 0.")
+        d = np.where(bad | negative, np.float32(0.0), d)
+    m = np.asarray(index_to_world, dtype=np.float64)
+    if d.size:
+        side_factor = max(math.ceil(n / (max_side - 2)) for n in d.shape)
+        byte_factor = math.ceil((d.size * 4 / max(max_bytes, 1)) ** (1.0 / 3.0))
+        f = max(side_factor, byte_factor, 1)
+        if f > 1:
+            old_shape = d.shape
+            d = downsample(d, f)
+            s = np.diag([f, f, f, 1.0])
+            s[:3, 3] = (f - 1) / 2.0
+            m = m @ s
+            warnings.append(
+                f"The density grid {old_shape[0]}x{old_shape[1]}x{old_shape[2]} exceeds the GPU limit "
+                f"({max_side} voxels a side, {max_bytes // 2**20} MiB); it was downsampled by {f} to "
+                f"{d.shape[0]}x{d.shape[1]}x{d.shape[2]}.")
+    max_value = float(d.max()) if d.size else 0.0
+    return PreparedGrid(np.ascontiguousarray(d), m, max_value, warnings)
+
+
+def downsample(d: np.ndarray, f: int) -> np.ndarray:
+    """Mean over f^3 blocks; the last partial block of each axis repeats its edge values."""
+    pad = [(0, (-n) % f) for n in d.shape]
+    p = np.pad(d, pad, mode="edge")
+    nx, ny, nz = (n // f for n in p.shape)
+    return p.reshape(nx, f, ny, f, nz, f).mean(axis=(1, 3, 5), dtype=np.float64).astype(np.float32)

@@ -1,0 +1,45 @@
+"""What a render returns."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+PASS_NAMES = ("scattering", "surfaces", "transmittance")
+
+
+@dataclass
+class RenderOutput:
+    """A rendered frame, scene-linear radiance, numpy arrays with the top row first.
+
+    ``combined``: (h, w, 4) float32, premultiplied RGBA over a transparent background: RGB is
+    scattering + surfaces; alpha is 1 where a solid is seen, else 1 - mean(transmittance).
+    ``passes``: 'scattering' (light scattered toward the camera, spot lights and ambient),
+    'surfaces' (radiance of the solids, already attenuated by the medium in front of them) and
+    'transmittance' (view-ray transmittance to the solid or through the medium), each (h, w, 3).
+    ``warnings``: one line per problem the user should hear about.
+    ``timings_s``: seconds spent per stage.
+    """
+
+    combined: np.ndarray
+    passes: dict[str, np.ndarray] = field(default_factory=dict)
+    warnings: list[str] = field(default_factory=list)
+    timings_s: dict[str, float] = field(default_factory=dict)
+
+    @property
+    def rgb(self) -> np.ndarray:
+        return self.combined[:, :, :3]
+
+    @staticmethod
+    def compose(scattering: np.ndarray, surfaces: np.ndarray, transmittance: np.ndarray,
+                surface_mask: np.ndarray, **kwargs) -> RenderOutput:
+        """Assemble the combined image from its passes (all (h, w, 3) except the (h, w) mask)."""
+        h, w = surface_mask.shape
+        combined = np.empty((h, w, 4), dtype=np.float32)
+        combined[:, :, :3] = scattering + surfaces
+        combined[:, :, 3] = np.where(surface_mask, 1.0, 1.0 - transmittance.mean(axis=2))
+        passes = {"scattering": np.asarray(scattering, np.float32),
+                  "surfaces": np.asarray(surfaces, np.float32),
+                  "transmittance": np.asarray(transmittance, np.float32)}
+        return RenderOutput(combined=combined, passes=passes, **kwargs)

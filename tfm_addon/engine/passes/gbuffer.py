@@ -1,0 +1,54 @@
+"""Pass 2: the solids seen from the camera (albedo, distance, normal)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..camera import ViewPlane, camera_to_world, clip_matrix
+from ..gl_context import GLContext, set_matrix, set_uniforms
+from ..scene import Camera
+from .solids import FORMAT, SolidsBuffer
+
+
+class GBuffer:
+    """Two RGBA32F textures the size of the pixel window: (albedo, distance along the view ray
+    in metres) and (world normal, 1 where a solid is seen)."""
+
+    def __init__(self, gl: GLContext, camera: Camera, plane: ViewPlane, solids: SolidsBuffer):
+        ctx = gl.ctx
+        size = (plane.width_px, plane.height_px)
+        self.albedo_distance = ctx.texture(size, 4, dtype="f4")
+        self.normal_hit = ctx.texture(size, 4, dtype="f4")
+        for t in (self.albedo_distance, self.normal_hit):
+            t.filter = (ctx.NEAREST, ctx.NEAREST)
+        depth = ctx.depth_renderbuffer(size)
+        fbo = ctx.framebuffer([self.albedo_distance, self.normal_hit], depth)
+        fbo.use()
+        fbo.clear(0, 0, 0, 0, depth=1.0)
+        if solids.vertex_count:
+            ctx.enable(ctx.DEPTH_TEST)
+            prog = gl.program("gbuffer.vert", "gbuffer.frag")
+            c2w = camera_to_world(camera)
+            set_matrix(prog, "u_camera_clip", clip_matrix(camera))
+            set_uniforms(prog, u_camera_pos=tuple(c2w[:3, 3]),
+                         u_camera_forward=tuple(-c2w[:3, 2]), u_ortho=int(plane.ortho))
+            vao = ctx.vertex_array(prog, [(solids.vbo, FORMAT, "in_position", "in_normal", "in_albedo")])
+            vao.render(vertices=solids.vertex_count)
+            ctx.disable(ctx.DEPTH_TEST)
+            vao.release()
+        fbo.release()
+        depth.release()
+
+    def bind(self) -> None:
+        self.albedo_distance.use(0)
+        self.normal_hit.use(1)
+
+    def surface_mask(self) -> np.ndarray:
+        """(h, w) bool, top row first: where a solid is seen."""
+        w, h = self.normal_hit.size
+        a = np.frombuffer(self.normal_hit.read(), dtype=np.float32).reshape(h, w, 4)
+        return a[::-1, :, 3] > 0.5
+
+    def release(self) -> None:
+        self.albedo_distance.release()
+        self.normal_hit.release()

@@ -1,0 +1,83 @@
+"""Pass 4: per light, the light scattered toward the camera and the solids' radiance."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..camera import ViewPlane, camera_to_world
+from ..gl_context import GLContext, set_matrix, set_uniforms
+from ..scene import Camera, Medium, RenderSettings
+from .bindings import MEDIUM_NONE, MediumGPU, bind_light, bind_units
+
+# How a light pass finds the transmittance from the light (the shader's LIGHT_T).
+LIGHT_T_TFM, LIGHT_T_MARCH, LIGHT_T_ANALYTIC, LIGHT_T_NONE = 0, 1, 2, 3
+
+
+class ScatteringTargets:
+    """Three RGBA32F textures the size of the pixel window that the light passes add into:
+    scattered light, solids' radiance (before the medium in front of them), view transmittance."""
+
+    def __init__(self, gl: GLContext, size: tuple[int, int]):
+        ctx = gl.ctx
+        self.size = size
+        self.textures = [ctx.texture(size, 4, dtype="f4") for _ in range(3)]
+        self.fbo = ctx.framebuffer(self.textures)
+
+    def begin(self, ctx) -> None:
+        self.fbo.use()
+        self.fbo.clear(0, 0, 0, 0)
+        ctx.enable(ctx.BLEND)
+        ctx.blend_func = ctx.ONE, ctx.ONE
+        ctx.blend_equation = ctx.FUNC_ADD
+
+    def read(self) -> list[np.ndarray]:
+        """The three targets as (h, w, 3) float32 arrays, top row first."""
+        w, h = self.size
+        out = []
+        for t in self.textures:
+            a = np.frombuffer(t.read(), dtype=np.float32).reshape(h, w, 4)
+            out.append(np.ascontiguousarray(a[::-1, :, :3]))
+        return out
+
+    def release(self) -> None:
+        self.fbo.release()
+        for t in self.textures:
+            t.release()
+
+
+def camera_uniforms(prog, camera: Camera, plane: ViewPlane) -> None:
+    set_matrix(prog, "u_camera_to_world", camera_to_world(camera))
+    set_uniforms(prog, u_plane0=(plane.x0, plane.y0), u_pixel_size=plane.pixel_size,
+                 u_ortho=int(plane.ortho), u_clip=(camera.clip_start, camera.clip_end))
+
+
+def run_light_pass(gl: GLContext, *, camera: Camera, plane: ViewPlane, medium: Medium | None,
+                   medium_gpu: MediumGPU, settings: RenderSettings, ambient, first: bool,
+                   light=None, light_t: int = LIGHT_T_NONE, tfm=None) -> None:
+    """Add one pass into the bound ScatteringTargets. ``light`` is (frame, intensity, shadow
+    texture or None, gobo texture or None) or None for the ambient-only first pass."""
+    medium_kind = medium_gpu.kind
+    if light is not None and light_t == LIGHT_T_NONE and not first:
+        medium_kind = MEDIUM_NONE          # this light never reaches the medium
+    defines = {"MEDIUM": medium_kind, "LIGHT_T": light_t, "FIRST_PASS": int(first),
+               "HAS_LIGHT": int(light is not None),
+               "PROJECTIVE": int(settings.sampling == "PROJECTIVE")}
+    if tfm is not None:
+        defines.update(N_COEFF=tfm.coefficients, N_TARGETS=len(tfm.coef))
+    prog = gl.program("fullscreen.vert", "scatter.frag", defines)
+    bind_units(prog)
+    camera_uniforms(prog, camera, plane)
+    medium_gpu.bind(prog)
+    if medium is not None:
+        set_uniforms(prog, u_sigma_s=tuple(float(x) for x in medium.sigma_s),
+                     u_sigma_t=tuple(float(x) for x in medium.sigma_t), u_g=float(medium.anisotropy))
+    set_uniforms(prog, u_ambient=tuple(float(x) for x in ambient),
+                 u_view_steps=int(settings.view_steps), u_light_steps=int(settings.light_steps))
+    if light is not None:
+        frame, intensity, shadow, gobo = light
+        bind_light(prog, frame, intensity, settings.map_resolution, shadow, gobo)
+    if tfm is not None:
+        tfm.bind(prog, medium.sigma_t)
+    vao = gl.ctx.vertex_array(prog, [])
+    vao.render(vertices=3)
+    vao.release()

@@ -1,0 +1,39 @@
+"""Pass 1: distance from a spot light to the nearest solid, per map texel."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..gl_context import GLContext, set_matrix, set_uniforms
+from ..light import LightFrame
+from .solids import POSITION_ONLY, SolidsBuffer
+
+
+class ShadowMap:
+    """An R32F texture of distances in metres (1e30 where no solid is seen)."""
+
+    def __init__(self, gl: GLContext, frame: LightFrame, solids: SolidsBuffer, resolution: int):
+        ctx = gl.ctx
+        self.texture = ctx.texture((resolution, resolution), 1, dtype="f4")
+        self.texture.filter = (ctx.NEAREST, ctx.NEAREST)
+        depth = ctx.depth_renderbuffer((resolution, resolution))
+        fbo = ctx.framebuffer([self.texture], depth)
+        fbo.use()
+        ctx.enable(ctx.DEPTH_TEST)
+        fbo.clear(1e30, 0, 0, 0, depth=1.0)
+        lo, hi = solids.bounds
+        box = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
+        far = float(np.linalg.norm(box - frame.position, axis=1).max()) * 1.01 + 1e-3
+        near = max(far * 1e-5, 1e-4)
+        prog = gl.program("shadow_map.vert", "shadow_map.frag")
+        set_matrix(prog, "u_light_clip", frame.clip_matrix(near, far))
+        set_uniforms(prog, u_light_pos=tuple(frame.position))
+        vao = ctx.vertex_array(prog, [(solids.vbo, POSITION_ONLY, "in_position")])
+        vao.render(vertices=solids.vertex_count)
+        ctx.disable(ctx.DEPTH_TEST)
+        vao.release()
+        fbo.release()
+        depth.release()
+
+    def release(self) -> None:
+        self.texture.release()

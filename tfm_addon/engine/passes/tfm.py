@@ -1,0 +1,76 @@
+"""Pass 3: the transmittance function map of one spot light (METHOD.md section 3)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..gl_context import GLContext, set_uniforms
+from ..light import LightFrame
+from .bindings import MediumGPU, bind_light, bind_units
+
+MAX_COEFFICIENTS = 16
+
+
+def largest_density_integral(gl: GLContext, frame: LightFrame, medium: MediumGPU, resolution: int,
+                             light_steps: int) -> float:
+    """The largest integral of the density (metres at unit density) along the light's rays,
+    marched on a coarse map that ignores the solids."""
+    ctx = gl.ctx
+    res = max(16, resolution // 4)
+    tex = ctx.texture((res, res), 4, dtype="f4")
+    fbo = ctx.framebuffer([tex])
+    fbo.use()
+    prog = gl.program("fullscreen.vert", "tfm_build.frag", {"OPTICAL_DEPTH_ONLY": 1, "N_COEFF": 1,
+                                                            "N_TARGETS": 1})
+    bind_units(prog)
+    medium.bind(prog)
+    bind_light(prog, frame, (0, 0, 0), res, None, None)
+    set_uniforms(prog, u_light_steps=int(light_steps), u_inv_alpha=1.0)
+    vao = ctx.vertex_array(prog, [])
+    vao.render(vertices=3)
+    tau = np.frombuffer(tex.read(), dtype=np.float32).reshape(-1, 4)[:, 0]
+    vao.release()
+    fbo.release()
+    tex.release()
+    return float(tau.max()) if tau.size else 0.0
+
+
+class TransmittanceMap:
+    """K_in/K_out (metres from the light) and ceil(n / 4) RGBA32F textures of DCT coefficients of
+    F(x) = exp(-tau_D(x) / alpha_D), so that T = F ** (alpha_D * sigma_t) per channel."""
+
+    def __init__(self, gl: GLContext, frame: LightFrame, medium: MediumGPU, shadow, resolution: int,
+                 light_steps: int, coefficients: int, alpha_d: float):
+        ctx = gl.ctx
+        n = int(min(max(coefficients, 1), MAX_COEFFICIENTS))
+        self.coefficients = n
+        self.alpha_d = float(alpha_d)
+        targets = math.ceil(n / 4)
+        size = (resolution, resolution)
+        self.krange = ctx.texture(size, 4, dtype="f4")
+        self.coef = [ctx.texture(size, 4, dtype="f4") for _ in range(targets)]
+        for t in [self.krange, *self.coef]:
+            t.filter = (ctx.NEAREST, ctx.NEAREST)
+        fbo = ctx.framebuffer([self.krange, *self.coef])
+        fbo.use()
+        prog = gl.program("fullscreen.vert", "tfm_build.frag", {"N_COEFF": n, "N_TARGETS": targets})
+        bind_units(prog)
+        medium.bind(prog)
+        bind_light(prog, frame, (0, 0, 0), resolution, shadow, None)
+        set_uniforms(prog, u_light_steps=int(light_steps), u_inv_alpha=1.0 / self.alpha_d)
+        vao = ctx.vertex_array(prog, [])
+        vao.render(vertices=3)
+        vao.release()
+        fbo.release()
+
+    def bind(self, prog, sigma_t) -> None:
+        self.krange.use(5)
+        for i, t in enumerate(self.coef):
+            t.use(6 + i)
+        set_uniforms(prog, u_tfm_exponent=tuple(float(self.alpha_d * s) for s in sigma_t))
+
+    def release(self) -> None:
+        for t in [self.krange, *self.coef]:
+            t.release()

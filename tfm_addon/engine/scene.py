@@ -1,0 +1,271 @@
+"""What the renderer consumes: one frozen dataclass per thing in the scene.
+
+Conventions (Blender's, so that images compare with Cycles pixel for pixel):
+- world space in metres, right-handed, Z up; 4x4 matrices are row-major numpy arrays that act
+  on column vectors (``world = matrix @ local``), like ``mathutils.Matrix``;
+- a camera looks along its local -Z with +Y up; a spot light shines along its local -Z;
+- colours are scene-linear RGB triples;
+- images are numpy arrays with the top row first.
+"""
+
+from __future__ import annotations
+
+import hashlib
+from dataclasses import dataclass, field
+from functools import cached_property
+from typing import Literal
+
+import numpy as np
+
+RGB = tuple[float, float, float]
+
+
+def _matrix(m) -> np.ndarray:
+    a = np.asarray(m, dtype=np.float64).reshape(4, 4)
+    a.setflags(write=False)
+    return a
+
+
+def _digest(*parts) -> str:
+    """A content hash of numbers and arrays, used as a cache key."""
+    h = hashlib.blake2b(digest_size=16)
+    for p in parts:
+        if isinstance(p, np.ndarray):
+            h.update(str(p.dtype).encode() + str(p.shape).encode())
+            h.update(np.ascontiguousarray(p).tobytes())
+        else:
+            h.update(repr(p).encode())
+    return h.hexdigest()
+
+
+@dataclass(frozen=True, eq=False)
+class Camera:
+    """A Blender camera.
+
+    ``matrix_world`` places the camera (local -Z is the view direction, +Y up).
+    ``lens_mm`` and ``sensor_*_mm`` follow Blender: with ``sensor_fit='AUTO'`` the sensor width spans
+    the larger image axis; ``'HORIZONTAL'`` / ``'VERTICAL'`` pin it to the width / height (the
+    latter using ``sensor_height_mm``). ``shift_x``/``shift_y`` are fractions of the fitted
+    image side. ``ortho_scale`` (metres) is the fitted side of an orthographic view.
+    ``clip_start``/``clip_end`` in metres. ``border`` = (xmin, ymin, xmax, ymax) in [0, 1] of the
+    full frame (Blender's render border, y up) or None.
+    """
+
+    matrix_world: np.ndarray
+    width_px: int
+    height_px: int
+    projection: Literal["PERSP", "ORTHO"] = "PERSP"
+    lens_mm: float = 50.0
+    sensor_width_mm: float = 36.0
+    sensor_height_mm: float = 24.0
+    sensor_fit: Literal["AUTO", "HORIZONTAL", "VERTICAL"] = "AUTO"
+    shift_x: float = 0.0
+    shift_y: float = 0.0
+    ortho_scale: float = 6.0
+    clip_start: float = 0.1
+    clip_end: float = 100.0
+    border: tuple[float, float, float, float] | None = None
+
+    def __post_init__(self):
+        object.__setattr__(self, "matrix_world", _matrix(self.matrix_world))
+
+    @cached_property
+    def key(self) -> str:
+        return _digest(self.matrix_world, self.width_px, self.height_px, self.projection,
+                       self.lens_mm, self.sensor_width_mm, self.sensor_height_mm, self.sensor_fit,
+                       self.shift_x, self.shift_y, self.ortho_scale, self.clip_start,
+                       self.clip_end, self.border)
+
+    @property
+    def position(self) -> np.ndarray:
+        return np.array(self.matrix_world[:3, 3])
+
+
+@dataclass(frozen=True, eq=False)
+class SpotLight:
+    """A Blender spot light of zero radius.
+
+    ``power_w`` is Blender's power in watts; the radiant intensity is
+    I = power_w / (4 pi) W/sr whatever the cone. ``spot_size_rad`` is the full cone angle,
+    ``spot_blend`` Blender's blend in [0, 1]. ``gobo`` is an optional projected texture, an
+    (h, w, 3) float32 array (top row first) stretched over the square that bounds the cone.
+    """
+
+    matrix_world: np.ndarray
+    color: RGB = (1.0, 1.0, 1.0)
+    power_w: float = 1000.0
+    spot_size_rad: float = np.pi / 4
+    spot_blend: float = 0.15
+    gobo: np.ndarray | None = None
+    use_tfm: bool = True
+    name: str = "Spot"
+
+    def __post_init__(self):
+        object.__setattr__(self, "matrix_world", _matrix(self.matrix_world))
+        if self.gobo is not None:
+            g = np.asarray(self.gobo, dtype=np.float32)
+            if g.ndim == 2:
+                g = np.repeat(g[:, :, None], 3, axis=2)
+            g = np.ascontiguousarray(g[:, :, :3])
+            g.setflags(write=False)
+            object.__setattr__(self, "gobo", g)
+
+    @cached_property
+    def key(self) -> str:
+        """Everything the light's maps depend on (its colour and power do not change them)."""
+        return _digest(self.matrix_world, self.spot_size_rad, self.use_tfm,
+                       None if self.gobo is None else self.gobo)
+
+    @property
+    def position(self) -> np.ndarray:
+        return np.array(self.matrix_world[:3, 3])
+
+    @property
+    def direction(self) -> np.ndarray:
+        d = -self.matrix_world[:3, 2]
+        return d / np.linalg.norm(d)
+
+    @property
+    def intensity_w_per_sr(self) -> np.ndarray:
+        """Radiant intensity per colour channel, W/sr."""
+        return np.asarray(self.color, dtype=np.float64) * self.power_w / (4.0 * np.pi)
+
+
+@dataclass(frozen=True, eq=False)
+class Medium:
+    """A participating medium of one material at varying density D.
+
+    sigma(p) = D(p) * sigma_per_density, with ``sigma_a`` and ``sigma_s`` in 1/m per unit
+    density, per colour channel; ``anisotropy`` is the Henyey-Greenstein g.
+
+    Heterogeneous: ``density`` is an (nx, ny, nz) float32 grid in x, y, z index order whose
+    voxel centres sit at integer index coordinates; ``index_to_world`` maps index space to
+    world space. The density is trilinear between voxel centres and falls to zero one voxel
+    beyond the outermost centres.
+
+    Homogeneous (``density`` is None): D = 1 inside ``box_to_world``'s image of the cube
+    [-1, 1]^3, or everywhere when ``box_to_world`` is None (fog filling the scene, up to the
+    camera's clip_end).
+    """
+
+    sigma_a: RGB = (0.1, 0.1, 0.1)
+    sigma_s: RGB = (1.0, 1.0, 1.0)
+    anisotropy: float = 0.0
+    density: np.ndarray | None = None
+    index_to_world: np.ndarray | None = None
+    box_to_world: np.ndarray | None = None
+
+    def __post_init__(self):
+        if self.density is not None:
+            d = np.ascontiguousarray(self.density, dtype=np.float32)
+            if d.ndim != 3:
+                raise ValueError(f"density must be a 3D grid, got shape {d.shape}")
+            d.setflags(write=False)
+            object.__setattr__(self, "density", d)
+            m = np.eye(4) if self.index_to_world is None else self.index_to_world
+            object.__setattr__(self, "index_to_world", _matrix(m))
+        if self.box_to_world is not None:
+            object.__setattr__(self, "box_to_world", _matrix(self.box_to_world))
+
+    @property
+    def is_homogeneous(self) -> bool:
+        return self.density is None
+
+    @property
+    def sigma_t(self) -> np.ndarray:
+        """Extinction per unit density, 1/m, per channel."""
+        return np.asarray(self.sigma_a, dtype=np.float64) + np.asarray(self.sigma_s, dtype=np.float64)
+
+    @cached_property
+    def density_key(self) -> str:
+        """What the light-side maps depend on: the density field, not sigma."""
+        if self.density is None:
+            return _digest("homogeneous", self.box_to_world)
+        return _digest(self.density, self.index_to_world)
+
+    @cached_property
+    def key(self) -> str:
+        return _digest(self.density_key, self.sigma_a, self.sigma_s, self.anisotropy)
+
+
+@dataclass(frozen=True, eq=False)
+class Mesh:
+    """A solid diffuse object: ``vertices`` (n, 3) float in object space, ``triangles`` (m, 3)
+    int vertex indices, placed by ``matrix_world``; ``color`` is the diffuse albedo."""
+
+    vertices: np.ndarray
+    triangles: np.ndarray
+    matrix_world: np.ndarray = field(default_factory=lambda: np.eye(4))
+    color: RGB = (0.8, 0.8, 0.8)
+    name: str = "Mesh"
+
+    def __post_init__(self):
+        v = np.ascontiguousarray(self.vertices, dtype=np.float32).reshape(-1, 3)
+        t = np.ascontiguousarray(self.triangles, dtype=np.int32).reshape(-1, 3)
+        v.setflags(write=False)
+        t.setflags(write=False)
+        object.__setattr__(self, "vertices", v)
+        object.__setattr__(self, "triangles", t)
+        object.__setattr__(self, "matrix_world", _matrix(self.matrix_world))
+
+    @cached_property
+    def key(self) -> str:
+        return _digest(self.vertices, self.triangles, self.matrix_world, self.color)
+
+    @cached_property
+    def shape_key(self) -> str:
+        """What shadow maps depend on (not the colour)."""
+        return _digest(self.vertices, self.triangles, self.matrix_world)
+
+    def world_vertices(self) -> np.ndarray:
+        v = np.c_[self.vertices.astype(np.float64), np.ones(len(self.vertices))]
+        return (v @ self.matrix_world.T)[:, :3]
+
+
+@dataclass(frozen=True)
+class RenderSettings:
+    """How to render.
+
+    ``view_steps``: samples along each view ray through the medium.
+    ``light_steps``: samples along each light ray when building a TFM (and per view sample in
+    the brute-force march).
+    ``coefficients``: DCT coefficients stored per TFM texel, 1-16.
+    ``density_weight``: the paper's alpha (>= 1, dimensionless, relative to the optical depth of
+    the most extinguishing channel), or None for automatic (the largest density integral found
+    along the light rays; the map then does not depend on sigma).
+    ``map_resolution``: shadow map and TFM side, texels.
+    ``sampling``: 'WORLD' or 'PROJECTIVE' spacing of view samples in a homogeneous medium.
+    ``method``: 'TFM' (the product), 'BRUTE_FORCE' (GPU double march reference).
+    ``ambient``: whether the world colour lights the medium and the surfaces.
+    ``max_grid_bytes``: memory budget for the density texture; larger grids are downsampled.
+    """
+
+    view_steps: int = 100
+    light_steps: int = 100
+    coefficients: int = 8
+    density_weight: float | None = None
+    map_resolution: int = 512
+    sampling: Literal["WORLD", "PROJECTIVE"] = "WORLD"
+    method: Literal["TFM", "BRUTE_FORCE"] = "TFM"
+    ambient: bool = True
+    max_grid_bytes: int = 512 * 1024 * 1024
+
+
+@dataclass(frozen=True, eq=False)
+class Scene:
+    """Everything to render one frame. ``ambient`` is the world colour (radiance, W/(sr m^2))."""
+
+    camera: Camera
+    lights: tuple[SpotLight, ...] = ()
+    medium: Medium | None = None
+    meshes: tuple[Mesh, ...] = ()
+    ambient: RGB = (0.0, 0.0, 0.0)
+
+    def __post_init__(self):
+        object.__setattr__(self, "lights", tuple(self.lights))
+        object.__setattr__(self, "meshes", tuple(self.meshes))
+
+    @cached_property
+    def solids_key(self) -> str:
+        """What shadow maps depend on."""
+        return _digest(*[m.shape_key for m in self.meshes])

@@ -1,0 +1,85 @@
+// Shared by the fragment shaders: the medium's bounds and density, the spot light, the phase.
+const float PI = 3.14159265358979;
+const float NO_HIT = 1e30;
+
+// ---- the medium: an oriented box (a grid's index box, or the [-1, 1] cube) ----
+uniform mat4 u_world_to_box;
+uniform vec3 u_box_lo;
+uniform vec3 u_box_hi;
+uniform sampler3D u_density;   // padded by one zero voxel on every side
+uniform vec3 u_grid_size;      // padded texture size, voxels
+
+// Ray (o, d) against the medium's box: (t_in, t_out) in units of d; t_in >= t_out when missed.
+vec2 box_interval(vec3 o, vec3 d) {
+    vec3 ob = (u_world_to_box * vec4(o, 1.0)).xyz;
+    vec3 db = (u_world_to_box * vec4(d, 0.0)).xyz;
+    db = mix(db, vec3(1e-12), lessThan(abs(db), vec3(1e-12)));
+    vec3 t0 = (u_box_lo - ob) / db;
+    vec3 t1 = (u_box_hi - ob) / db;
+    vec3 tmin = min(t0, t1);
+    vec3 tmax = max(t0, t1);
+    return vec2(max(max(tmin.x, tmin.y), tmin.z), min(min(tmax.x, tmax.y), tmax.z));
+}
+
+// Density at a world point: trilinear between voxel centres (integer index coordinates).
+float density_at(vec3 p) {
+    vec3 idx = (u_world_to_box * vec4(p, 1.0)).xyz;
+    return texture(u_density, (idx + 1.5) / u_grid_size).r;
+}
+
+// ---- the spot light ----
+uniform mat4 u_world_to_light;   // rigid: the light at the origin shining along -Z
+uniform vec3 u_light_pos;
+uniform vec3 u_intensity;        // W/sr per channel
+uniform float u_cos_half;        // cos of half the cone angle
+uniform float u_spot_smooth;     // (1 - cos_half) * blend
+uniform float u_tan_half;        // half-width of the map frustum at unit distance
+uniform float u_map_res;         // texels per side of the shadow map and TFM
+uniform int u_has_shadow;
+uniform sampler2D u_shadow;      // distance from the light to the nearest solid, metres
+uniform int u_has_gobo;
+uniform sampler2D u_gobo;
+
+vec3 light_space(vec3 p) { return (u_world_to_light * vec4(p, 1.0)).xyz; }
+
+// Map coordinates in [0, 1]^2 of a light-space point in front of the light.
+vec2 light_uv(vec3 q) { return 0.5 + 0.5 * q.xy / (-q.z * u_tan_half); }
+
+float spot_falloff(vec3 q) {
+    float c = -q.z / max(length(q), 1e-20);
+    if (c <= u_cos_half) return 0.0;
+    if (u_spot_smooth <= 0.0) return 1.0;
+    float x = clamp((c - u_cos_half) / u_spot_smooth, 0.0, 1.0);
+    return x * x * (3.0 - 2.0 * x);
+}
+
+// Fraction of the light reaching distance r along the map direction uv past the solids
+// (2x2 percentage-closer filter).
+float solid_visibility(vec2 uv, float r) {
+    if (u_has_shadow == 0) return 1.0;
+    int res = int(u_map_res);
+    vec2 f = uv * u_map_res - 0.5;
+    ivec2 i0 = ivec2(floor(f));
+    vec2 w = f - floor(f);
+    float bias = r * (3.0 * u_tan_half / u_map_res) + 2e-3;
+    float v = 0.0;
+    for (int dy = 0; dy < 2; ++dy) {
+        for (int dx = 0; dx < 2; ++dx) {
+            ivec2 c = clamp(i0 + ivec2(dx, dy), ivec2(0), ivec2(res - 1));
+            float lit = r <= texelFetch(u_shadow, c, 0).r + bias ? 1.0 : 0.0;
+            v += lit * (dx == 1 ? w.x : 1.0 - w.x) * (dy == 1 ? w.y : 1.0 - w.y);
+        }
+    }
+    return v;
+}
+
+vec3 gobo(vec2 uv) {
+    if (u_has_gobo == 0) return vec3(1.0);
+    return texture(u_gobo, vec2(uv.x, 1.0 - uv.y)).rgb;
+}
+
+// Henyey-Greenstein phase, cos_theta between the light's and the scattered direction.
+float hg_phase(float cos_theta, float g) {
+    float d = 1.0 + g * g - 2.0 * g * cos_theta;
+    return (1.0 - g * g) / (4.0 * PI * d * sqrt(d));
+}

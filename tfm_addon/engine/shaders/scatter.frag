@@ -1,0 +1,283 @@
+// The camera pass for one spot light (HAS_LIGHT) and, on the first pass, for the ambient light
+// (FIRST_PASS): light scattered toward the camera, the solids' radiance before the medium in
+// front of them, and the view transmittance. Passes add up (blending ONE, ONE).
+//
+// MEDIUM: 0 none, 1 homogeneous box, 2 homogeneous everywhere, 3 density grid.
+// LIGHT_T: how the transmittance from the light is found: 0 TFM lookup, 1 march (brute force),
+//          2 analytic (homogeneous), 3 none (the light's rays never cross the medium).
+// PROJECTIVE: space the samples of a homogeneous medium uniformly in the light's map space.
+
+uniform sampler2D u_gb0;       // albedo, distance
+uniform sampler2D u_gb1;       // normal, hit
+uniform mat4 u_camera_to_world;
+uniform vec2 u_plane0;         // camera-space x, y of the window's lower-left corner (unit depth)
+uniform float u_pixel_size;    // at unit depth (perspective) or in metres (orthographic)
+uniform int u_ortho;
+uniform vec2 u_clip;           // clip start, end: depths along the view axis, metres
+uniform vec3 u_sigma_s;        // 1/m per unit density
+uniform vec3 u_sigma_t;
+uniform float u_g;
+uniform vec3 u_ambient;
+uniform int u_view_steps;
+uniform int u_light_steps;
+uniform int u_light_in_medium;
+uniform vec3 u_tfm_exponent;   // alpha_D * sigma_t: T = F^exponent
+uniform sampler2D u_krange;
+uniform sampler2D u_coef0;
+uniform sampler2D u_coef1;
+uniform sampler2D u_coef2;
+uniform sampler2D u_coef3;
+
+layout(location = 0) out vec4 o_scatter;
+layout(location = 1) out vec4 o_surface;
+layout(location = 2) out vec4 o_transmittance;
+
+#if LIGHT_T == 0
+// F reconstructed in one texel's own [K_in, K_out] domain, clamped to [0, 1].
+float tfm_texel(ivec2 c, float r) {
+    vec2 k = texelFetch(u_krange, c, 0).xy;
+    float x = (r - k.x) / max(k.y - k.x, 1e-6);
+    if (x <= 0.0) return 1.0;
+    x = min(x, 1.0);
+    vec4 cs[4];
+    cs[0] = texelFetch(u_coef0, c, 0);
+#if N_TARGETS > 1
+    cs[1] = texelFetch(u_coef1, c, 0);
+#endif
+#if N_TARGETS > 2
+    cs[2] = texelFetch(u_coef2, c, 0);
+#endif
+#if N_TARGETS > 3
+    cs[3] = texelFetch(u_coef3, c, 0);
+#endif
+    float c1 = cos(PI * x);
+    float b_prev = 1.0;
+    float b = c1;
+    float f = cs[0].x;
+    for (int j = 1; j < N_COEFF; ++j) {
+        f += cs[j / 4][j % 4] * b;
+        float b_next = 2.0 * c1 * b - b_prev;
+        b_prev = b;
+        b = b_next;
+    }
+    return clamp(f, 0.0, 1.0);
+}
+#endif
+
+// Transmittance from the light to p (q: p in light space, r: its distance to the light).
+vec3 light_transmittance(vec3 p, vec3 q, float r) {
+#if LIGHT_T == 0
+    // Each of the 2x2 nearest texels is reconstructed in its own domain, then blended.
+    vec2 f = light_uv(q) * u_map_res - 0.5;
+    ivec2 i0 = ivec2(floor(f));
+    vec2 w = f - floor(f);
+    int res = int(u_map_res);
+    float v = 0.0;
+    for (int dy = 0; dy < 2; ++dy) {
+        for (int dx = 0; dx < 2; ++dx) {
+            ivec2 c = clamp(i0 + ivec2(dx, dy), ivec2(0), ivec2(res - 1));
+            v += tfm_texel(c, r) * (dx == 1 ? w.x : 1.0 - w.x) * (dy == 1 ? w.y : 1.0 - w.y);
+        }
+    }
+    return pow(vec3(v), u_tfm_exponent);
+#elif LIGHT_T == 1
+    vec3 dir = (u_light_pos - p) / r;
+    vec2 k = box_interval(p, dir);
+    float a = max(k.x, 0.0);
+    float b = min(k.y, r);
+    if (b <= a) return vec3(1.0);
+    float dt = (b - a) / float(u_light_steps);
+    float tau = 0.0;
+    for (int i = 0; i < u_light_steps; ++i) tau += density_at(p + dir * (a + (float(i) + 0.5) * dt));
+    return exp(-u_sigma_t * tau * dt);
+#elif LIGHT_T == 2
+#if MEDIUM == 2
+    return exp(-u_sigma_t * r);
+#else
+    vec3 dir = (u_light_pos - p) / r;
+    vec2 k = box_interval(p, dir);
+    return exp(-u_sigma_t * max(min(k.y, r) - max(k.x, 0.0), 0.0));
+#endif
+#else
+    return vec3(1.0);
+#endif
+}
+
+#if HAS_LIGHT
+// Radiance arriving at p from the light, past solids and medium; q, r as above.
+vec3 light_arriving(vec3 p, out vec3 q, out float r) {
+    q = light_space(p);
+    r = length(q);
+    float spot = q.z < 0.0 ? spot_falloff(q) : 0.0;
+    if (spot <= 0.0) return vec3(0.0);
+    vec2 uv = light_uv(q);
+    float vis = solid_visibility(uv, r);
+    if (vis <= 0.0) return vec3(0.0);
+    return u_intensity * (spot * vis / (r * r)) * gobo(uv) * light_transmittance(p, q, r);
+}
+
+// Part of the ray (o, d) inside the pyramid that bounds the light's cone.
+vec2 frustum_interval(vec3 o, vec3 d, vec2 range) {
+    vec3 oq = light_space(o);
+    vec3 dq = mat3(u_world_to_light) * d;
+    vec4 A = vec4(-oq.z * u_tan_half - oq.x, -oq.z * u_tan_half + oq.x,
+                  -oq.z * u_tan_half - oq.y, -oq.z * u_tan_half + oq.y);
+    vec4 B = vec4(-dq.z * u_tan_half - dq.x, -dq.z * u_tan_half + dq.x,
+                  -dq.z * u_tan_half - dq.y, -dq.z * u_tan_half + dq.y);
+    for (int i = 0; i < 4; ++i) {
+        if (abs(B[i]) < 1e-12) {
+            if (A[i] < 0.0) return vec2(1.0, 0.0);
+        } else if (B[i] > 0.0) {
+            range.x = max(range.x, -A[i] / B[i]);
+        } else {
+            range.y = min(range.y, -A[i] / B[i]);
+        }
+    }
+    return range;
+}
+#endif
+
+void main() {
+    vec2 pc = u_plane0 + gl_FragCoord.xy * u_pixel_size;
+    vec3 o;
+    vec3 d;
+    float t_near;
+    float t_far;
+    if (u_ortho == 1) {
+        o = (u_camera_to_world * vec4(pc, 0.0, 1.0)).xyz;
+        d = normalize(mat3(u_camera_to_world) * vec3(0.0, 0.0, -1.0));
+        t_near = u_clip.x;
+        t_far = u_clip.y;
+    } else {
+        vec3 dc = vec3(pc, -1.0);
+        float len = length(dc);
+        o = u_camera_to_world[3].xyz;
+        d = mat3(u_camera_to_world) * (dc / len);
+        t_near = u_clip.x * len;
+        t_far = u_clip.y * len;
+    }
+    ivec2 px = ivec2(gl_FragCoord.xy);
+    vec4 g0 = texelFetch(u_gb0, px, 0);
+    vec4 g1 = texelFetch(u_gb1, px, 0);
+    bool hit = g1.w > 0.5;
+    float t_end = hit ? g0.w : t_far;
+
+    vec3 scatter = vec3(0.0);
+    vec3 surface = vec3(0.0);
+    vec3 transmittance = vec3(1.0);
+    float phase_g = u_g;
+
+    if (hit) {
+        vec3 albedo = g0.rgb;
+        vec3 n = normalize(g1.xyz);
+        if (dot(n, d) > 0.0) n = -n;
+        vec3 P = o + d * g0.w;
+#if FIRST_PASS
+        surface += albedo * u_ambient;
+#endif
+#if HAS_LIGHT
+        vec3 l = u_light_pos - P;
+        float ndl = dot(n, normalize(l));
+        if (ndl > 0.0) {
+            vec3 q;
+            float r;
+            surface += albedo / PI * ndl * light_arriving(P, q, r);
+        }
+#endif
+    }
+
+#if MEDIUM != 0
+#if MEDIUM == 2
+    vec2 seg = vec2(t_near, t_end);
+#else
+    vec2 seg = box_interval(o, d);
+    seg = vec2(max(seg.x, t_near), min(seg.y, t_end));
+#endif
+    if (seg.y > seg.x) {
+#if MEDIUM == 3
+        // Density grid: one march for the view transmittance and the scattered light.
+        float dt = (seg.y - seg.x) / float(u_view_steps);
+        float tau = 0.0;
+        float sigma_t_min = min(min(u_sigma_t.r, u_sigma_t.g), u_sigma_t.b);
+        for (int i = 0; i < u_view_steps; ++i) {
+            vec3 p = o + d * (seg.x + (float(i) + 0.5) * dt);
+            float D = density_at(p);
+            if (D > 0.0) {
+                vec3 tv = exp(-u_sigma_t * (tau + 0.5 * D * dt));
+                vec3 src = vec3(0.0);
+#if FIRST_PASS
+                src += u_ambient;
+#endif
+#if HAS_LIGHT
+                vec3 q;
+                float r;
+                vec3 li = light_arriving(p, q, r);
+                if (any(greaterThan(li, vec3(0.0)))) src += li * hg_phase(dot(q / r, mat3(u_world_to_light) * -d), phase_g);
+#endif
+                scatter += tv * u_sigma_s * D * dt * src;
+                tau += D * dt;
+                if (sigma_t_min * tau > 14.0) break;
+            }
+        }
+        transmittance = exp(-u_sigma_t * tau);
+#else
+        // Homogeneous: analytic transmittance and ambient term.
+        float len = seg.y - seg.x;
+        transmittance = exp(-u_sigma_t * len);
+#if FIRST_PASS
+        vec3 ratio = mix(u_sigma_s / max(u_sigma_t, vec3(1e-12)), vec3(len) * u_sigma_s,
+                         lessThan(u_sigma_t, vec3(1e-12)));
+        scatter += ratio * u_ambient * mix(1.0 - transmittance, vec3(1.0), lessThan(u_sigma_t, vec3(1e-12)));
+#endif
+#if HAS_LIGHT
+        vec2 cs = frustum_interval(o, d, seg);
+        if (cs.y > cs.x) {
+            int n = u_view_steps;
+            bool projective = false;
+            float w_in = 0.0;
+            float w_out = 0.0;
+#if PROJECTIVE
+            vec3 qa = light_space(o + d * cs.x);
+            vec3 qb = light_space(o + d * cs.y);
+            w_in = -qa.z;
+            w_out = -qb.z;
+            projective = min(w_in, w_out) > 1e-6 * max(w_in, w_out)
+                      && length(light_uv(qb) - light_uv(qa)) * u_map_res > 1.0;
+#endif
+            float span = cs.y - cs.x;
+            float s_prev = 0.0;
+            for (int i = 0; i < n; ++i) {
+                float s_mid = (float(i) + 0.5) / float(n);
+                float s_next = float(i + 1) / float(n);
+                float u_mid = s_mid;
+                float u_next = s_next;
+                if (projective) {
+                    u_mid = s_mid * w_in / ((1.0 - s_mid) * w_out + s_mid * w_in);
+                    u_next = s_next * w_in / ((1.0 - s_next) * w_out + s_next * w_in);
+                }
+                float dt = (u_next - s_prev) * span;
+                s_prev = u_next;
+                float t = cs.x + u_mid * span;
+                vec3 p = o + d * t;
+                vec3 q;
+                float r;
+                vec3 li = light_arriving(p, q, r);
+                if (any(greaterThan(li, vec3(0.0)))) {
+                    vec3 tv = exp(-u_sigma_t * (t - seg.x));
+                    scatter += tv * u_sigma_s * dt * li * hg_phase(dot(q / r, mat3(u_world_to_light) * -d), phase_g);
+                }
+            }
+        }
+#endif
+#endif
+    }
+#endif
+
+#if FIRST_PASS
+    o_transmittance = vec4(transmittance, 1.0);
+#else
+    o_transmittance = vec4(0.0);
+#endif
+    o_scatter = vec4(scatter, 0.0);
+    o_surface = vec4(surface, 0.0);
+}

@@ -1,0 +1,80 @@
+// One texel per light ray: march the density from where the ray enters the medium (K_in) to
+// where it leaves it or meets a solid (K_out), and project F(x) = exp(-tau_D(x) / alpha_D)
+// onto N_COEFF cosines, x in [0, 1] from K_in to K_out (METHOD.md section 3).
+// With OPTICAL_DEPTH_ONLY the texel holds tau_D(1) alone (used to choose alpha automatically).
+uniform int u_light_steps;
+uniform float u_inv_alpha;          // 1 / alpha_D, per unit density integral (metres)
+
+#ifdef OPTICAL_DEPTH_ONLY
+out vec4 o_tau;
+#else
+layout(location = 0) out vec4 o_krange;
+layout(location = 1) out vec4 o_coef0;
+#if N_TARGETS > 1
+layout(location = 2) out vec4 o_coef1;
+#endif
+#if N_TARGETS > 2
+layout(location = 3) out vec4 o_coef2;
+#endif
+#if N_TARGETS > 3
+layout(location = 4) out vec4 o_coef3;
+#endif
+#endif
+
+void main() {
+    vec2 uv = gl_FragCoord.xy / u_map_res;
+    vec3 dir_light = normalize(vec3((uv * 2.0 - 1.0) * u_tan_half, -1.0));
+    mat3 light_to_world = transpose(mat3(u_world_to_light));
+    vec3 dir = light_to_world * dir_light;
+
+    vec2 k = box_interval(u_light_pos, dir);
+    float k_in = max(k.x, 0.0);
+    float k_out = k.y;
+    if (u_has_shadow == 1) k_out = min(k_out, texelFetch(u_shadow, ivec2(gl_FragCoord.xy), 0).r);
+
+    float c[16];
+    for (int j = 0; j < 16; ++j) c[j] = 0.0;
+    float tau = 0.0;
+    if (k_out > k_in) {
+        float dt = (k_out - k_in) / float(u_light_steps);
+        float dx = 1.0 / float(u_light_steps);
+        for (int m = 0; m < u_light_steps; ++m) {
+            float x = (float(m) + 0.5) * dx;
+            float d = density_at(u_light_pos + dir * (k_in + x * (k_out - k_in)));
+#ifndef OPTICAL_DEPTH_ONLY
+            float f = exp(-(tau + 0.5 * d * dt) * u_inv_alpha);
+            float c1 = cos(PI * x);
+            float b_prev = 1.0;     // cos(0 pi x)
+            float b = c1;           // cos(1 pi x)
+            c[0] += f;
+            for (int j = 1; j < N_COEFF; ++j) {
+                c[j] += f * b;
+                float b_next = 2.0 * c1 * b - b_prev;
+                b_prev = b;
+                b = b_next;
+            }
+#endif
+            tau += d * dt;
+        }
+        for (int j = 0; j < 16; ++j) c[j] *= (j == 0 ? 1.0 : 2.0) * dx;
+    } else {
+        c[0] = 1.0;                 // a ray that misses the medium: F = 1
+        k_in = 0.0;
+        k_out = 0.0;
+    }
+#ifdef OPTICAL_DEPTH_ONLY
+    o_tau = vec4(tau, 0.0, 0.0, 1.0);
+#else
+    o_krange = vec4(k_in, k_out, 0.0, 1.0);
+    o_coef0 = vec4(c[0], c[1], c[2], c[3]);
+#if N_TARGETS > 1
+    o_coef1 = vec4(c[4], c[5], c[6], c[7]);
+#endif
+#if N_TARGETS > 2
+    o_coef2 = vec4(c[8], c[9], c[10], c[11]);
+#endif
+#if N_TARGETS > 3
+    o_coef3 = vec4(c[12], c[13], c[14], c[15]);
+#endif
+#endif
+}

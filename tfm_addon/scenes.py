@@ -1,0 +1,88 @@
+"""Procedural scenes for the tests, the benchmark and the demo (numpy only, no Blender)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .engine.scene import Camera, Medium, Mesh, Scene, SpotLight
+
+
+def look_at(eye, target, up=(0.0, 0.0, 1.0)) -> np.ndarray:
+    """A 4x4 placing an object at ``eye`` with its local -Z toward ``target`` and +Y up-ish."""
+    eye, target, up = (np.asarray(v, dtype=np.float64) for v in (eye, target, up))
+    back = eye - target
+    back /= np.linalg.norm(back)
+    if abs(back @ up) > 0.999:
+        up = np.array([0.0, 1.0, 0.0]) if abs(back[1]) < 0.9 else np.array([1.0, 0.0, 0.0])
+    right = np.cross(up, back)
+    right /= np.linalg.norm(right)
+    m = np.eye(4)
+    m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3] = right, np.cross(back, right), back, eye
+    return m
+
+
+def translate_scale(offset, scale) -> np.ndarray:
+    m = np.diag([*np.broadcast_to(np.asarray(scale, float), 3), 1.0])
+    m[:3, 3] = offset
+    return m
+
+
+def box_mesh(center, size, color=(0.8, 0.8, 0.8), name="Box") -> Mesh:
+    """An axis-aligned box of the given full size (metres)."""
+    c = np.array([[x, y, z] for x in (-0.5, 0.5) for y in (-0.5, 0.5) for z in (-0.5, 0.5)])
+    quads = [(0, 1, 3, 2), (4, 6, 7, 5), (0, 4, 5, 1), (2, 3, 7, 6), (0, 2, 6, 4), (1, 5, 7, 3)]
+    tris = [t for a, b, c_, d in quads for t in ((a, b, c_), (a, c_, d))]
+    return Mesh(vertices=c, triangles=tris, matrix_world=translate_scale(center, size), color=color,
+                name=name)
+
+
+def plane_mesh(center, size, color=(0.8, 0.8, 0.8), name="Ground") -> Mesh:
+    """A horizontal square of side ``size`` (metres)."""
+    v = np.array([[-0.5, -0.5, 0], [0.5, -0.5, 0], [0.5, 0.5, 0], [-0.5, 0.5, 0]])
+    return Mesh(vertices=v, triangles=[(0, 1, 2), (0, 2, 3)],
+                matrix_world=translate_scale(center, (size, size, 1.0)), color=color, name=name)
+
+
+def smoke_density(n: int = 64, seed: int = 1) -> np.ndarray:
+    """A smooth turbulent puff in an n^3 grid, values in [0, ~1], zero near the faces."""
+    rng = np.random.default_rng(seed)
+    x = (np.arange(n) + 0.5) / n * 2 - 1
+    X, Y, Z = np.meshgrid(x, x, x, indexing="ij")
+    d = np.zeros((n, n, n))
+    for _ in range(10):
+        c = rng.uniform(-0.4, 0.4, 3)
+        r = rng.uniform(0.2, 0.4)
+        d += np.exp(-((X - c[0]) ** 2 + (Y - c[1]) ** 2 + (Z - c[2]) ** 2) / (2 * r * r))
+    for k in range(1, 4):
+        ph = rng.uniform(0, 2 * math.pi, 3)
+        f = 2.0 * k
+        d *= 1 + 0.35 / k * np.sin(f * X + ph[0]) * np.sin(f * Y + ph[1]) * np.sin(f * Z + ph[2])
+    d *= np.clip(1 - (X**2 + Y**2 + Z**2), 0, None) ** 2
+    return (d / d.max()).astype(np.float32)
+
+
+def grid_to_world(n_voxels, size_m: float, center=(0.0, 0.0, 0.0)) -> np.ndarray:
+    """index_to_world for a grid spanning a cube of side ``size_m`` centred at ``center``."""
+    n = np.asarray(n_voxels, dtype=np.float64)
+    h = size_m / n.max()
+    return translate_scale(np.asarray(center) - 0.5 * h * (n - 1), h)
+
+
+def smoke_scene(width: int = 96, height: int = 64, n: int = 64, sigma_s=(4.0, 4.0, 4.0),
+                sigma_a=(0.4, 0.4, 0.4), with_bar: bool = True, with_ground: bool = True,
+                ambient=(0.0, 0.0, 0.0)) -> Scene:
+    """A 2 m puff of smoke lit from above-left by a spot, a bar casting a shadow through it."""
+    medium = Medium(sigma_a=sigma_a, sigma_s=sigma_s, density=smoke_density(n),
+                    index_to_world=grid_to_world((n, n, n), 2.0, (0, 0, 1.2)))
+    light = SpotLight(matrix_world=look_at((-2.5, -1.0, 4.0), (0, 0, 1.0)), power_w=2000.0,
+                      spot_size_rad=math.radians(40), spot_blend=0.2)
+    meshes = []
+    if with_bar:
+        meshes.append(box_mesh((-1.5, -0.6, 3.0), (0.12, 1.2, 0.12), name="Bar"))
+    if with_ground:
+        meshes.append(plane_mesh((0, 0, 0), 8.0))
+    camera = Camera(matrix_world=look_at((0.0, -6.5, 1.6), (0, 0, 1.1)), width_px=width,
+                    height_px=height, lens_mm=40.0)
+    return Scene(camera=camera, lights=(light,), medium=medium, meshes=tuple(meshes), ambient=ambient)
