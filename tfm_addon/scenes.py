@@ -45,22 +45,33 @@ def plane_mesh(center, size, color=(0.8, 0.8, 0.8), name="Ground") -> Mesh:
                 matrix_world=translate_scale(center, (size, size, 1.0)), color=color, name=name)
 
 
-def smoke_density(n: int = 64, seed: int = 1) -> np.ndarray:
-    """A smooth turbulent puff in an n^3 grid, values in [0, ~1], zero near the faces."""
+def smooth_noise(n: int, scale: float, rng: np.random.Generator) -> np.ndarray:
+    """White noise low-passed by a Gaussian of ``scale`` voxels (periodic), unit variance."""
+    k = np.fft.fftfreq(n)
+    kx, ky, kz = np.meshgrid(k, k, np.fft.rfftfreq(n), indexing="ij")
+    spectrum = np.fft.rfftn(rng.standard_normal((n, n, n)))
+    spectrum *= np.exp(-2 * (math.pi * scale) ** 2 * (kx**2 + ky**2 + kz**2))
+    field = np.fft.irfftn(spectrum, s=(n, n, n))
+    return field / (field.std() + 1e-12)
+
+
+def smoke_density(n: int = 64, seed: int = 1, turbulence: float = 1.0) -> np.ndarray:
+    """A turbulent puff in an n^3 grid, values in [0, 1], zero near the faces: a few Gaussian
+    blobs carved by three octaves of smooth noise."""
     rng = np.random.default_rng(seed)
     x = (np.arange(n) + 0.5) / n * 2 - 1
     X, Y, Z = np.meshgrid(x, x, x, indexing="ij")
     d = np.zeros((n, n, n))
-    for _ in range(10):
-        c = rng.uniform(-0.4, 0.4, 3)
-        r = rng.uniform(0.2, 0.4)
+    for _ in range(12):
+        c = rng.uniform(-0.45, 0.45, 3)
+        r = rng.uniform(0.1, 0.22)
         d += np.exp(-((X - c[0]) ** 2 + (Y - c[1]) ** 2 + (Z - c[2]) ** 2) / (2 * r * r))
-    for k in range(1, 4):
-        ph = rng.uniform(0, 2 * math.pi, 3)
-        f = 2.0 * k
-        d *= 1 + 0.35 / k * np.sin(f * X + ph[0]) * np.sin(f * Y + ph[1]) * np.sin(f * Z + ph[2])
-    d *= np.clip(1 - (X**2 + Y**2 + Z**2), 0, None) ** 2
-    return (d / d.max()).astype(np.float32)
+    fbm = sum(smooth_noise(n, n / 2 ** (octave + 2), rng) / 2**octave for octave in range(3))
+    d *= np.exp(1.2 * turbulence * fbm)
+    edge = np.clip((1.0 - np.sqrt(X**2 + Y**2 + Z**2)) / 0.3, 0.0, 1.0)
+    d *= edge * edge * (3 - 2 * edge)
+    d = np.clip(d / np.percentile(d, 99.5) - 0.05, 0.0, 1.0)
+    return d.astype(np.float32)
 
 
 def grid_to_world(n_voxels, size_m: float, center=(0.0, 0.0, 0.0)) -> np.ndarray:
@@ -70,8 +81,8 @@ def grid_to_world(n_voxels, size_m: float, center=(0.0, 0.0, 0.0)) -> np.ndarray
     return translate_scale(np.asarray(center) - 0.5 * h * (n - 1), h)
 
 
-def smoke_scene(width: int = 96, height: int = 64, n: int = 64, sigma_s=(4.0, 4.0, 4.0),
-                sigma_a=(0.4, 0.4, 0.4), with_bar: bool = True, with_ground: bool = True,
+def smoke_scene(width: int = 96, height: int = 64, n: int = 64, sigma_s=(2.0, 2.0, 2.0),
+                sigma_a=(0.2, 0.2, 0.2), with_bar: bool = True, with_ground: bool = True,
                 ambient=(0.0, 0.0, 0.0)) -> Scene:
     """A 2 m puff of smoke lit from above-left by a spot, a bar casting a shadow through it."""
     medium = Medium(sigma_a=sigma_a, sigma_s=sigma_s, density=smoke_density(n),

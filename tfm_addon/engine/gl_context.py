@@ -41,11 +41,26 @@ def create_context():
         + "; ".join(errors) + f"). To fix: {hint}.")
 
 
+def shader_source(name: str) -> str:
+    """A file of shaders/ with its ``#include "file"`` lines replaced by those files."""
+    lines = []
+    for line in (SHADER_DIR / name).read_text().splitlines():
+        if line.startswith("#include "):
+            lines.append(shader_source(line.split('"')[1]))
+        else:
+            lines.append(line)
+    return "\n".join(lines) + "\n"
+
+
 class GLContext:
-    """Owns a moderngl context and the programs compiled in it; use it from one thread only."""
+    """Owns a moderngl context and the programs compiled in it; use it from one thread only.
+    ``GLContext.live`` counts the contexts created and not yet released in this process."""
+
+    live = 0
 
     def __init__(self):
         self.ctx = create_context()
+        GLContext.live += 1
         self.thread_id = threading.get_ident()
         self._programs: dict[tuple, object] = {}
         self.max_3d_texture_size = int(self.ctx.info.get("GL_MAX_3D_TEXTURE_SIZE", 256))
@@ -61,9 +76,8 @@ class GLContext:
         prog = self._programs.get(key)
         if prog is None:
             header = GLSL_VERSION + "".join(f"#define {k} {v}\n" for k, v in sorted((defines or {}).items()))
-            common = (SHADER_DIR / "common.glsl").read_text()
-            vs = header + (SHADER_DIR / vertex).read_text()
-            fs = header + common + (SHADER_DIR / fragment).read_text()
+            vs = header + shader_source(vertex)
+            fs = header + shader_source(fragment)
             prog = self.ctx.program(vertex_shader=vs, fragment_shader=fs)
             self._programs[key] = prog
         return prog
@@ -73,6 +87,7 @@ class GLContext:
             prog.release()
         self._programs.clear()
         self.ctx.release()
+        GLContext.live -= 1
 
 
 def set_uniforms(prog, **values) -> None:

@@ -93,7 +93,7 @@ def cone_meets_box(frame: LightFrame, box_to_world: np.ndarray, lo, hi) -> bool:
         elif abs(qb) > 1e-15:
             cand.append(-qc / qb)
         cand = sorted(s for s in cand if 0.0 <= s <= 1.0)
-        probes = cand + [(x + y) / 2 for x, y in zip(cand, cand[1:])]
+        probes = cand + [(x + y) / 2 for x, y in zip(cand, cand[1:], strict=False)]
         if np.any(inside(np.array([a + s * d for s in probes]))):
             return True
     # The axis through a face (the cone's section lies within that face).

@@ -33,7 +33,8 @@ class MediumGPU:
         elif grid is not None:
             self.kind = MEDIUM_GRID
             n = grid.density.shape
-            world_to_box, lo, hi = np.linalg.inv(grid.index_to_world), (-1, -1, -1), tuple(float(x) for x in n)
+            world_to_box = np.linalg.inv(grid.index_to_world)
+            lo, hi = (-1, -1, -1), tuple(float(x) for x in n)
             data = grid.padded_xyz_fastest()
             self.grid_size = (n[0] + 2, n[1] + 2, n[2] + 2)
             self.texture = gl.ctx.texture3d(self.grid_size, 1, data.tobytes(), dtype="f4")

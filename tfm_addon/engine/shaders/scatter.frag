@@ -3,9 +3,10 @@
 // front of them, and the view transmittance. Passes add up (blending ONE, ONE).
 //
 // MEDIUM: 0 none, 1 homogeneous box, 2 homogeneous everywhere, 3 density grid.
-// LIGHT_T: how the transmittance from the light is found: 0 TFM lookup, 1 march (brute force),
-//          2 analytic (homogeneous), 3 none (the light's rays never cross the medium).
+// LIGHT_T: how the transmittance from the light is found (transmittance.glsl).
 // PROJECTIVE: space the samples of a homogeneous medium uniformly in the light's map space.
+#include "common.glsl"
+#include "transmittance.glsl"
 
 uniform sampler2D u_gb0;       // albedo, distance
 uniform sampler2D u_gb1;       // normal, hit
@@ -15,93 +16,13 @@ uniform float u_pixel_size;    // at unit depth (perspective) or in metres (orth
 uniform int u_ortho;
 uniform vec2 u_clip;           // clip start, end: depths along the view axis, metres
 uniform vec3 u_sigma_s;        // 1/m per unit density
-uniform vec3 u_sigma_t;
 uniform float u_g;
 uniform vec3 u_ambient;
 uniform int u_view_steps;
-uniform int u_light_steps;
 uniform int u_light_in_medium;
-uniform vec3 u_tfm_exponent;   // alpha_D * sigma_t: T = F^exponent
-uniform sampler2D u_krange;
-uniform sampler2D u_coef0;
-uniform sampler2D u_coef1;
-uniform sampler2D u_coef2;
-uniform sampler2D u_coef3;
-
 layout(location = 0) out vec4 o_scatter;
 layout(location = 1) out vec4 o_surface;
 layout(location = 2) out vec4 o_transmittance;
-
-#if LIGHT_T == 0
-// F reconstructed in one texel's own [K_in, K_out] domain, clamped to [0, 1].
-float tfm_texel(ivec2 c, float r) {
-    vec2 k = texelFetch(u_krange, c, 0).xy;
-    float x = (r - k.x) / max(k.y - k.x, 1e-6);
-    if (x <= 0.0) return 1.0;
-    x = min(x, 1.0);
-    vec4 cs[4];
-    cs[0] = texelFetch(u_coef0, c, 0);
-#if N_TARGETS > 1
-    cs[1] = texelFetch(u_coef1, c, 0);
-#endif
-#if N_TARGETS > 2
-    cs[2] = texelFetch(u_coef2, c, 0);
-#endif
-#if N_TARGETS > 3
-    cs[3] = texelFetch(u_coef3, c, 0);
-#endif
-    float c1 = cos(PI * x);
-    float b_prev = 1.0;
-    float b = c1;
-    float f = cs[0].x;
-    for (int j = 1; j < N_COEFF; ++j) {
-        f += cs[j / 4][j % 4] * b;
-        float b_next = 2.0 * c1 * b - b_prev;
-        b_prev = b;
-        b = b_next;
-    }
-    return clamp(f, 0.0, 1.0);
-}
-#endif
-
-// Transmittance from the light to p (q: p in light space, r: its distance to the light).
-vec3 light_transmittance(vec3 p, vec3 q, float r) {
-#if LIGHT_T == 0
-    // Each of the 2x2 nearest texels is reconstructed in its own domain, then blended.
-    vec2 f = light_uv(q) * u_map_res - 0.5;
-    ivec2 i0 = ivec2(floor(f));
-    vec2 w = f - floor(f);
-    int res = int(u_map_res);
-    float v = 0.0;
-    for (int dy = 0; dy < 2; ++dy) {
-        for (int dx = 0; dx < 2; ++dx) {
-            ivec2 c = clamp(i0 + ivec2(dx, dy), ivec2(0), ivec2(res - 1));
-            v += tfm_texel(c, r) * (dx == 1 ? w.x : 1.0 - w.x) * (dy == 1 ? w.y : 1.0 - w.y);
-        }
-    }
-    return pow(vec3(v), u_tfm_exponent);
-#elif LIGHT_T == 1
-    vec3 dir = (u_light_pos - p) / r;
-    vec2 k = box_interval(p, dir);
-    float a = max(k.x, 0.0);
-    float b = min(k.y, r);
-    if (b <= a) return vec3(1.0);
-    float dt = (b - a) / float(u_light_steps);
-    float tau = 0.0;
-    for (int i = 0; i < u_light_steps; ++i) tau += density_at(p + dir * (a + (float(i) + 0.5) * dt));
-    return exp(-u_sigma_t * tau * dt);
-#elif LIGHT_T == 2
-#if MEDIUM == 2
-    return exp(-u_sigma_t * r);
-#else
-    vec3 dir = (u_light_pos - p) / r;
-    vec2 k = box_interval(p, dir);
-    return exp(-u_sigma_t * max(min(k.y, r) - max(k.x, 0.0), 0.0));
-#endif
-#else
-    return vec3(1.0);
-#endif
-}
 
 #if HAS_LIGHT
 // Radiance arriving at p from the light, past solids and medium; q, r as above.

@@ -1,3 +1,4 @@
+#include "common.glsl"
 in vec3 v_world;
 out float o_distance;
 void main() { o_distance = length(v_world - u_light_pos); }

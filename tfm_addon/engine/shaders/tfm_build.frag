@@ -1,5 +1,6 @@
+#include "common.glsl"
 // One texel per light ray: march the density from where the ray enters the medium (K_in) to
-// where it leaves it or meets a solid (K_out), and project F(x) = exp(-tau_D(x) / alpha_D)
+// where it leaves it or meets a solid (K_out), both tightened to where the density is not zero, and project F(x) = exp(-tau_D(x) / alpha_D)
 // onto N_COEFF cosines, x in [0, 1] from K_in to K_out (METHOD.md section 3).
 // With OPTICAL_DEPTH_ONLY the texel holds tau_D(1) alone (used to choose alpha automatically).
 uniform int u_light_steps;
@@ -32,6 +33,27 @@ void main() {
     float k_out = k.y;
     if (u_has_shadow == 1) k_out = min(k_out, texelFetch(u_shadow, ivec2(gl_FragCoord.xy), 0).r);
 
+#ifndef OPTICAL_DEPTH_ONLY
+    // Tighten [K_in, K_out] to the part of the ray where the density is not zero, so that the
+    // cosines spend their resolution where the transmittance changes.
+    if (k_out > k_in) {
+        float dt = (k_out - k_in) / float(u_light_steps);
+        int first = u_light_steps;
+        int last = -1;
+        for (int m = 0; m < u_light_steps; ++m) {
+            if (density_at(u_light_pos + dir * (k_in + (float(m) + 0.5) * dt)) > 0.0) {
+                first = min(first, m);
+                last = m;
+            }
+        }
+        if (last < 0) {
+            k_out = k_in;
+        } else {
+            k_out = k_in + float(min(last + 2, u_light_steps)) * dt;
+            k_in = k_in + float(max(first - 1, 0)) * dt;
+        }
+    }
+#endif
     float c[16];
     for (int j = 0; j < 16; ++j) c[j] = 0.0;
     float tau = 0.0;

@@ -1,0 +1,498 @@
+"""Brute-force CPU reference: single scattering by a double ray march in numpy.
+
+This is the ground truth the GPU renderer is tested against, so it shares no code with it: it reads
+only the scene dataclasses and returns a :class:`RenderOutput`. Everything is float64 internally.
+
+The model (units: metres, watts, radians; colours are scene-linear RGB):
+
+- Camera: Blender's viewplane (sensor fit, shift, perspective or orthographic), one ray through
+  each pixel centre, valid between the clip depths. The camera matrix is normalised (Blender ignores
+  a camera object's scale).
+- Solids: two-sided triangles, Lambert with the normal turned to the camera, lit by the spots
+  (shadowed by any triangle strictly between the point and the light, attenuated by the medium
+  along the light ray) plus the unattenuated ambient ``albedo * ambient``.
+- Spot lights: intensity ``color * power / (4 pi)`` W/sr, Blender's smoothstep cone falloff, an
+  optional gobo, inverse-square falloff.
+- Medium: ``sigma = D(p) * sigma_per_density``; D trilinear in a grid that fades to zero one voxel
+  beyond the outermost centres, or 1 inside a box (or everywhere) for a homogeneous medium.
+- View rays: ``view_steps`` midpoint samples over the part of the valid range in front of the first
+  solid and inside the medium's bounds. At each sample the in-scattered radiance is
+  ``T_view * sigma_s * D * dt * (sum_lights phase * I * spot * gobo * V * T_light / r^2 + ambient)``
+  with Henyey-Greenstein phase; ``T_light`` is a ``light_steps`` midpoint march toward the light
+  over the part of that segment inside the medium's bounds (analytic for a homogeneous medium).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import time
+from concurrent.futures import Executor, ThreadPoolExecutor
+
+import numpy as np
+from scipy import ndimage
+
+from .output import RenderOutput
+from .scene import Camera, Medium, Mesh, RenderSettings, Scene, SpotLight
+
+# Samples (pixels x view steps) handled at once; each (n, 3) float64 array of them is 12 MiB.
+_SAMPLES_PER_CHUNK = 1 << 19
+# Density look-ups per light-march task; each task holds about 36 bytes per look-up.
+_LOOKUPS_PER_TASK = 1 << 21
+# Pairs (rays x triangles) tested at once.
+_PAIRS_PER_CHUNK = 1 << 21
+# Offset (m) of a surface point toward the light before its shadow ray.
+_SURFACE_OFFSET_M = 1e-4
+# Shadow-ray parameter margin (fraction of the segment) for "strictly between".
+_SEGMENT_EPS = 1e-9
+
+
+# --------------------------------------------------------------------------------------------
+# Geometry helpers
+# --------------------------------------------------------------------------------------------
+
+def _rotation(matrix: np.ndarray) -> np.ndarray:
+    """The 3x3 part of a 4x4 matrix with its columns normalised (scale removed)."""
+    r = np.array(matrix[:3, :3], dtype=np.float64)
+    return r / np.linalg.norm(r, axis=0, keepdims=True)
+
+
+def _normalise(v: np.ndarray) -> np.ndarray:
+    n = np.linalg.norm(v, axis=-1, keepdims=True)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(n > 0, v / n, 0.0)
+
+
+def _slab(o: np.ndarray, d: np.ndarray, lo: np.ndarray, hi: np.ndarray
+          ) -> tuple[np.ndarray, np.ndarray]:
+    """Parameter interval [t_in, t_out] of the lines o + t d, (n, 3) each, inside the box
+    lo <= x <= hi (empty where t_in >= t_out)."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        inv = 1.0 / d
+        ta = (lo - o) * inv
+        tb = (hi - o) * inv
+    t_near = np.minimum(ta, tb)
+    t_far = np.maximum(ta, tb)
+    parallel = d == 0
+    inside = (o >= lo) & (o <= hi)
+    t_near = np.where(parallel, np.where(inside, -np.inf, np.inf), t_near)
+    t_far = np.where(parallel, np.where(inside, np.inf, -np.inf), t_far)
+    return t_near.max(axis=1), t_far.min(axis=1)
+
+
+def _camera_rays(camera: Camera) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """One ray per pixel centre, rows top first: origins (n, 3) m, unit directions (n, 3), and
+    the valid distance range along each ray (n,), (n,) m."""
+    w, h = int(camera.width_px), int(camera.height_px)
+    fit = camera.sensor_fit
+    if fit == "AUTO":
+        fit = "HORIZONTAL" if w >= h else "VERTICAL"
+    viewfac = float(w if fit == "HORIZONTAL" else h)
+    ii, jj = np.meshgrid(np.arange(w) + 0.5, np.arange(h) + 0.5)  # (h, w), row 0 at the top
+    ii = ii.reshape(-1)
+    jj = jj.reshape(-1)
+    rot = _rotation(camera.matrix_world)
+    pos = np.array(camera.matrix_world[:3, 3], dtype=np.float64)
+    if camera.projection == "ORTHO":
+        pix = camera.ortho_scale / viewfac
+    else:
+        sensor = camera.sensor_height_mm if camera.sensor_fit == "VERTICAL" else \
+            camera.sensor_width_mm
+        pix = sensor / camera.lens_mm / viewfac
+    x = (ii - w / 2.0 + camera.shift_x * viewfac) * pix
+    y = (h / 2.0 - jj + camera.shift_y * viewfac) * pix
+    n = len(x)
+    if camera.projection == "ORTHO":
+        local = np.stack([x, y, np.zeros(n)], axis=1)
+        origins = pos + local @ rot.T
+        forward = -rot[:, 2] / np.linalg.norm(rot[:, 2])
+        dirs = np.broadcast_to(forward, (n, 3)).copy()
+        t_near = np.full(n, float(camera.clip_start))
+        t_far = np.full(n, float(camera.clip_end))
+    else:
+        local = np.stack([x, y, -np.ones(n)], axis=1)
+        length = np.linalg.norm(local, axis=1)
+        dirs = _normalise((local / length[:, None]) @ rot.T)
+        origins = np.broadcast_to(pos, (n, 3)).copy()
+        # depth -z = clip  <=>  distance = clip * |(x, y, -1)|
+        t_near = camera.clip_start * length
+        t_far = camera.clip_end * length
+    return origins, dirs, t_near, t_far
+
+
+class _Solids:
+    """All mesh triangles in world space, for first hits and shadow tests."""
+
+    def __init__(self, meshes: tuple[Mesh, ...]):
+        v0s, e1s, e2s, albedo = [], [], [], []
+        for mesh in meshes:
+            if len(mesh.triangles) == 0:
+                continue
+            wv = mesh.world_vertices()
+            tri = wv[mesh.triangles]
+            v0s.append(tri[:, 0])
+            e1s.append(tri[:, 1] - tri[:, 0])
+            e2s.append(tri[:, 2] - tri[:, 0])
+            albedo.append(np.broadcast_to(np.asarray(mesh.color, np.float64), (len(tri), 3)))
+        if v0s:
+            v0, e1, e2 = np.concatenate(v0s), np.concatenate(e1s), np.concatenate(e2s)
+            alb = np.concatenate(albedo)
+            normal = np.cross(e1, e2)
+            area = np.linalg.norm(normal, axis=1)
+            keep = area > 0
+            self.v0, self.e1, self.e2, self.albedo = v0[keep], e1[keep], e2[keep], alb[keep]
+            self.normal = normal[keep] / area[keep, None]
+        else:
+            self.v0 = self.e1 = self.e2 = self.albedo = self.normal = np.zeros((0, 3))
+
+    def __len__(self) -> int:
+        return len(self.v0)
+
+    def first_hit(self, o: np.ndarray, d: np.ndarray, t_min: np.ndarray, t_max: np.ndarray
+                  ) -> tuple[np.ndarray, np.ndarray]:
+        """Nearest two-sided Moller-Trumbore hit with t in [t_min, t_max]: distance (inf where
+        none) and triangle index (-1 where none)."""
+        n = len(o)
+        best_t = np.full(n, np.inf)
+        best_i = np.full(n, -1, dtype=np.int64)
+        m = len(self)
+        if m == 0 or n == 0:
+            return best_t, best_i
+        per = max(1, _PAIRS_PER_CHUNK // n)
+        for k in range(0, m, per):
+            v0, e1, e2 = self.v0[k:k + per], self.e1[k:k + per], self.e2[k:k + per]
+            pvec = np.cross(d[:, None, :], e2[None, :, :])
+            det = np.einsum("tk,ntk->nt", e1, pvec)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                inv = 1.0 / det
+                tvec = o[:, None, :] - v0[None, :, :]
+                u = np.einsum("ntk,ntk->nt", tvec, pvec) * inv
+                qvec = np.cross(tvec, e1[None, :, :])
+                v = np.einsum("nk,ntk->nt", d, qvec) * inv
+                t = np.einsum("tk,ntk->nt", e2, qvec) * inv
+                hit = ((det != 0) & (u >= 0) & (v >= 0) & (u + v <= 1)
+                       & (t >= t_min[:, None]) & (t <= t_max[:, None]))
+            t = np.where(hit, t, np.inf)
+            j = np.argmin(t, axis=1)
+            tj = t[np.arange(n), j]
+            better = tj < best_t
+            best_t[better] = tj[better]
+            best_i[better] = j[better] + k
+        return best_t, best_i
+
+    def blocked(self, light: np.ndarray, points: np.ndarray) -> np.ndarray:
+        """Whether any triangle lies strictly between ``light`` (3,) and each of ``points``
+        (n, 3). Moller-Trumbore with the common origin at the light, written as dot products."""
+        n = len(points)
+        out = np.zeros(n, dtype=bool)
+        if len(self) == 0 or n == 0:
+            return out
+        d = points - light  # segment light -> point is t in [0, 1]
+        tvec = light - self.v0  # (m, 3)
+        qvec = np.cross(tvec, self.e1)
+        e2xt = np.cross(self.e2, tvec)
+        minus_n = -np.cross(self.e1, self.e2)  # det = e1 . (d x e2) = d . (e2 x e1)
+        t_num = np.einsum("tk,tk->t", self.e2, qvec)
+        per = max(1, _PAIRS_PER_CHUNK // len(self))
+        for k in range(0, n, per):
+            dk = d[k:k + per]
+            det = dk @ minus_n.T
+            with np.errstate(divide="ignore", invalid="ignore"):
+                inv = 1.0 / det
+                u = (dk @ e2xt.T) * inv
+                v = (dk @ qvec.T) * inv
+                t = t_num[None, :] * inv
+                hit = ((det != 0) & (u >= 0) & (v >= 0) & (u + v <= 1)
+                       & (t > _SEGMENT_EPS) & (t < 1.0 - _SEGMENT_EPS))
+            out[k:k + per] = hit.any(axis=1)
+        return out
+
+
+# --------------------------------------------------------------------------------------------
+# Medium
+# --------------------------------------------------------------------------------------------
+
+class _Field:
+    """The density D of a medium: its bounds, point look-ups and integrals toward a light."""
+
+    def __init__(self, medium: Medium, light_steps: int, pool: Executor):
+        self.light_steps = int(light_steps)
+        self.pool = pool
+        self.heterogeneous = medium.density is not None
+        if self.heterogeneous:
+            grid = np.asarray(medium.density, dtype=np.float64)
+            self.grid = np.pad(grid, 1, mode="constant", constant_values=0.0)
+            self.to_local = np.linalg.inv(np.asarray(medium.index_to_world, np.float64))
+            self.lo = np.full(3, -1.0)
+            self.hi = np.asarray(grid.shape, dtype=np.float64)
+        elif medium.box_to_world is not None:
+            self.to_local = np.linalg.inv(np.asarray(medium.box_to_world, np.float64))
+            self.lo = np.full(3, -1.0)
+            self.hi = np.full(3, 1.0)
+        else:
+            self.to_local = None
+
+    def _points_local(self, p: np.ndarray) -> np.ndarray:
+        return p @ self.to_local[:3, :3].T + self.to_local[:3, 3]
+
+    def _dirs_local(self, d: np.ndarray) -> np.ndarray:
+        return d @ self.to_local[:3, :3].T
+
+    def interval(self, o: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Distance range of the rays o + t d inside the medium's bounds (unbounded: all t)."""
+        if self.to_local is None:
+            n = len(o)
+            return np.full(n, -np.inf), np.full(n, np.inf)
+        return _slab(self._points_local(o), self._dirs_local(d), self.lo, self.hi)
+
+    def density(self, p: np.ndarray) -> np.ndarray:
+        """D at the points (n, 3); homogeneous media answer 1 (callers only ask inside bounds)."""
+        if not self.heterogeneous:
+            return np.ones(len(p))
+        idx = self._points_local(p) + 1.0  # padded grid
+        return ndimage.map_coordinates(self.grid, idx.T, order=1, mode="constant", cval=0.0,
+                                       output=np.float64)
+
+    def _march_sums(self, start: np.ndarray, step: np.ndarray) -> np.ndarray:
+        """Sum of D over ``light_steps`` midpoints start + (k + 1/2) step (padded index space)."""
+        m = self.light_steps
+        s = np.arange(m, dtype=np.float64) + 0.5
+        coords = np.empty((3, len(start), m))
+        for axis in range(3):
+            np.multiply(step[:, axis, None], s[None, :], out=coords[axis])
+            coords[axis] += start[:, axis, None]
+        vals = ndimage.map_coordinates(self.grid, coords.reshape(3, -1), order=1,
+                                       mode="constant", cval=0.0, output=np.float64)
+        return vals.reshape(len(start), m).sum(axis=1)
+
+    def integral_to(self, points: np.ndarray, light: np.ndarray) -> np.ndarray:
+        """Integral of D (metres x density) along the segments points (n, 3) -> light (3,)."""
+        n = len(points)
+        if n == 0:
+            return np.zeros(0)
+        seg = light - points
+        dist = np.linalg.norm(seg, axis=1)
+        if self.to_local is None:
+            return dist
+        a = self._points_local(points)
+        dl = self._dirs_local(seg)
+        s0, s1 = _slab(a, dl, self.lo, self.hi)
+        s0 = np.maximum(s0, 0.0)
+        s1 = np.minimum(s1, 1.0)
+        frac = np.clip(s1 - s0, 0.0, None)
+        if not self.heterogeneous:
+            return dist * frac
+        out = np.zeros(n)
+        nz = np.flatnonzero(frac > 0)
+        if len(nz) == 0:
+            return out
+        m = self.light_steps
+        start = a[nz] + s0[nz, None] * dl[nz] + 1.0
+        step = dl[nz] * (frac[nz] / m)[:, None]
+        per = max(1, _LOOKUPS_PER_TASK // m)
+        tasks = [(start[k:k + per], step[k:k + per]) for k in range(0, len(nz), per)]
+        sums = list(self.pool.map(lambda args: self._march_sums(*args), tasks))
+        out[nz] = np.concatenate(sums) * dist[nz] * frac[nz] / m
+        return out
+
+
+# --------------------------------------------------------------------------------------------
+# Lights
+# --------------------------------------------------------------------------------------------
+
+class _Spot:
+    """A spot light's emission toward points: I * spot * gobo / r^2."""
+
+    def __init__(self, light: SpotLight):
+        self.position = np.array(light.matrix_world[:3, 3], dtype=np.float64)
+        self.rotation = _rotation(light.matrix_world)
+        self.direction = -self.rotation[:, 2]
+        self.intensity = np.asarray(light.color, np.float64) * light.power_w / (4.0 * math.pi)
+        self.cos_half = math.cos(light.spot_size_rad / 2.0)
+        self.blend = float(light.spot_blend)
+        self.tan_half = math.tan(min(light.spot_size_rad / 2.0, math.radians(85.0)))
+        self.gobo = None if light.gobo is None else np.asarray(light.gobo, np.float64)
+
+    @staticmethod
+    def usable(light: SpotLight) -> bool:
+        return light.power_w != 0 and light.spot_size_rad > 0 and any(c != 0 for c in light.color)
+
+    def spot(self, cos_theta: np.ndarray) -> np.ndarray:
+        """Blender's cone falloff for the cosine of the angle off the spot axis."""
+        inside = cos_theta > self.cos_half
+        if self.blend <= 0:
+            return inside.astype(np.float64)
+        x = np.clip((cos_theta - self.cos_half) / ((1.0 - self.cos_half) * self.blend), 0.0, 1.0)
+        return np.where(inside, x * x * (3.0 - 2.0 * x), 0.0)
+
+    def gobo_at(self, points: np.ndarray) -> np.ndarray:
+        """Bilinear gobo colour (n, 3) at world points inside the cone (clamped to the edge)."""
+        g = self.gobo
+        h, w = g.shape[:2]
+        q = (points - self.position) @ self.rotation  # = R^T (p - pos), light-local
+        depth = np.maximum(-q[:, 2], 1e-300)
+        u = 0.5 + 0.5 * (q[:, 0] / depth) / self.tan_half
+        v = 0.5 + 0.5 * (q[:, 1] / depth) / self.tan_half
+        x = np.clip(u * w - 0.5, 0.0, w - 1.0)  # column coordinate, texel centres at integers
+        y = np.clip((1.0 - v) * h - 0.5, 0.0, h - 1.0)  # row coordinate, row 0 at the top
+        x0 = np.minimum(np.floor(x).astype(np.int64), max(w - 2, 0))
+        y0 = np.minimum(np.floor(y).astype(np.int64), max(h - 2, 0))
+        x1 = np.minimum(x0 + 1, w - 1)
+        y1 = np.minimum(y0 + 1, h - 1)
+        fx = (x - x0)[:, None]
+        fy = (y - y0)[:, None]
+        top = g[y0, x0] * (1 - fx) + g[y0, x1] * fx
+        bottom = g[y1, x0] * (1 - fx) + g[y1, x1] * fx
+        return top * (1 - fy) + bottom * fy
+
+    def emission(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Unit vectors light -> point (n, 3) and I * spot * gobo / r^2 (n, 3), the irradiance
+        (W/m^2) at normal incidence before shadows and the medium; zero outside the cone."""
+        v = points - self.position
+        r2 = np.einsum("nk,nk->n", v, v)
+        unit = _normalise(v)
+        spot = self.spot(unit @ self.direction)
+        spot[r2 <= 0] = 0.0
+        with np.errstate(divide="ignore", invalid="ignore"):
+            fac = np.where((spot > 0)[:, None], spot[:, None] / r2[:, None] * self.intensity, 0.0)
+        if self.gobo is not None:
+            lit = np.flatnonzero(spot > 0)
+            if len(lit):
+                fac[lit] *= self.gobo_at(points[lit])
+        return unit, fac
+
+
+def _henyey_greenstein(cos_theta: np.ndarray, g: float) -> np.ndarray:
+    """Henyey-Greenstein phase function, 1/sr."""
+    return (1.0 - g * g) / (4.0 * math.pi * (1.0 + g * g - 2.0 * g * cos_theta) ** 1.5)
+
+
+# --------------------------------------------------------------------------------------------
+# Rendering
+# --------------------------------------------------------------------------------------------
+
+def _shade_surfaces(p: np.ndarray, view_dir: np.ndarray, tri: np.ndarray, solids: _Solids,
+                    lights: list[_Spot], field: _Field | None, sigma_t: np.ndarray,
+                    ambient: np.ndarray) -> np.ndarray:
+    """Outgoing Lambert radiance (n, 3) of the solid points p seen along view_dir."""
+    normal = solids.normal[tri]
+    facing = np.einsum("nk,nk->n", normal, view_dir) > 0
+    normal[facing] *= -1.0
+    albedo = solids.albedo[tri]
+    radiance = albedo * ambient
+    for light in lights:
+        unit, fac = light.emission(p)
+        ndl = -np.einsum("nk,nk->n", normal, unit)
+        live = np.flatnonzero((ndl > 0) & (fac > 0).any(axis=1))
+        if len(live) == 0:
+            continue
+        offset = p[live] + _SURFACE_OFFSET_M * normal[live]
+        live = live[~solids.blocked(light.position, offset)]
+        if len(live) == 0:
+            continue
+        trans = np.ones((len(live), 3))
+        if field is not None:
+            trans = np.exp(-field.integral_to(p[live], light.position)[:, None] * sigma_t)
+        radiance[live] += albedo[live] / math.pi * fac[live] * ndl[live, None] * trans
+    return radiance
+
+
+def _march_view(o: np.ndarray, d: np.ndarray, t0: np.ndarray, t1: np.ndarray, medium: Medium,
+                field: _Field, solids: _Solids, lights: list[_Spot], ambient: np.ndarray,
+                view_steps: int) -> tuple[np.ndarray, np.ndarray]:
+    """In-scattered radiance (n, 3) and transmittance (n, 3) along the segments [t0, t1] of the
+    rays o + t d (non-empty segments only)."""
+    n, steps = len(o), int(view_steps)
+    sigma_t = medium.sigma_t
+    sigma_s = np.asarray(medium.sigma_s, np.float64)
+    dt = (t1 - t0) / steps
+    t = t0[:, None] + (np.arange(steps) + 0.5)[None, :] * dt[:, None]
+    p = (o[:, None, :] + t[:, :, None] * d[:, None, :]).reshape(-1, 3)
+    dens = field.density(p).reshape(n, steps)
+    tau = (np.cumsum(dens, axis=1) - 0.5 * dens) * dt[:, None]
+    t_view = np.exp(-tau[:, :, None] * sigma_t)
+    t_end = np.exp(-(dens.sum(axis=1) * dt)[:, None] * sigma_t)
+    weight = t_view * sigma_s * (dens * dt[:, None])[:, :, None]  # (n, steps, 3)
+    source = np.broadcast_to(ambient, (n * steps, 3)).copy()
+    if lights and np.any(sigma_s != 0):
+        active = np.flatnonzero((dens > 0).reshape(-1))
+        pa = p[active]
+        da = np.repeat(d, steps, axis=0)[active]
+        g = float(medium.anisotropy)
+        for light in lights:
+            unit, fac = light.emission(pa)
+            live = np.flatnonzero((fac > 0).any(axis=1))
+            if len(live) == 0:
+                continue
+            live = live[~solids.blocked(light.position, pa[live])]
+            if len(live) == 0:
+                continue
+            cos = -np.einsum("nk,nk->n", unit[live], da[live])
+            phase = _henyey_greenstein(cos, g)
+            trans = np.exp(-field.integral_to(pa[live], light.position)[:, None] * sigma_t)
+            source[active[live]] += phase[:, None] * fac[live] * trans
+    scattering = np.einsum("nsk,nsk->nk", weight, source.reshape(n, steps, 3))
+    return scattering, t_end
+
+
+def render_reference(scene: Scene, settings: RenderSettings | None = None, *,
+                     view_steps: int = 128, light_steps: int = 128) -> RenderOutput:
+    """Render ``scene`` by brute force on the CPU (the ground truth for the GPU renderer).
+
+    ``view_steps`` midpoint samples per view ray through the medium and ``light_steps`` per light
+    ray from each of them. Only ``settings.ambient`` is read (None: ambient on). Returns
+    scene-linear radiance (W/(sr m^2)) passes of camera.width_px x height_px pixels, top row
+    first: 'scattering', 'surfaces' (already attenuated by the medium), 'transmittance'
+    (dimensionless), composed by :meth:`RenderOutput.compose`.
+    """
+    start_time = time.perf_counter()
+    ambient_on = True if settings is None else bool(settings.ambient)
+    ambient = np.asarray(scene.ambient, np.float64) if ambient_on else np.zeros(3)
+    cam = scene.camera
+    w, h = int(cam.width_px), int(cam.height_px)
+    origins, dirs, t_near, t_far = _camera_rays(cam)
+    n_pix = len(origins)
+    solids = _Solids(scene.meshes)
+    lights = [_Spot(light) for light in scene.lights if _Spot.usable(light)]
+    medium = scene.medium
+    sigma_t = medium.sigma_t if medium is not None else np.zeros(3)
+
+    scattering = np.zeros((n_pix, 3))
+    surfaces = np.zeros((n_pix, 3))
+    transmittance = np.ones((n_pix, 3))
+    mask = np.zeros(n_pix, dtype=bool)
+    per = max(1, _SAMPLES_PER_CHUNK // max(1, int(view_steps)))
+    workers = max(1, min(8, os.cpu_count() or 1))
+    with ThreadPoolExecutor(max_workers=workers) as pool:
+        field = _Field(medium, light_steps, pool) if medium is not None else None
+        for k in range(0, n_pix, per):
+            sl = slice(k, min(k + per, n_pix))
+            o, d, tn, tf = origins[sl], dirs[sl], t_near[sl], t_far[sl]
+            t_hit, tri = solids.first_hit(o, d, tn, tf)
+            hit = np.flatnonzero(tri >= 0)
+            t_end = np.where(tri >= 0, t_hit, tf)
+            trans = np.ones((len(o), 3))
+            if field is not None:
+                ta, tb = field.interval(o, d)
+                t0 = np.maximum(tn, ta)
+                t1 = np.minimum(t_end, tb)
+                seg = np.flatnonzero(t1 > t0)
+                if len(seg):
+                    scat, trans_seg = _march_view(o[seg], d[seg], t0[seg], t1[seg], medium, field,
+                                                  solids, lights, ambient, view_steps)
+                    trans[seg] = trans_seg
+                    scattering[k + seg] = scat
+            transmittance[sl] = trans
+            if len(hit):
+                p = o[hit] + t_hit[hit, None] * d[hit]
+                radiance = _shade_surfaces(p, d[hit], tri[hit], solids, lights, field, sigma_t,
+                                           ambient)
+                surfaces[k + hit] = trans[hit] * radiance
+                mask[k + hit] = True
+
+    def image(a: np.ndarray) -> np.ndarray:
+        return a.reshape(h, w, 3).astype(np.float32)
+
+    return RenderOutput.compose(image(scattering), image(surfaces), image(transmittance),
+                                mask.reshape(h, w),
+                                timings_s={"reference": time.perf_counter() - start_time})
