@@ -97,3 +97,27 @@ def smoke_scene(width: int = 96, height: int = 64, n: int = 64, sigma_s=(2.0, 2.
     camera = Camera(matrix_world=look_at((0.0, -6.5, 1.6), (0, 0, 1.1)), width_px=width,
                     height_px=height, lens_mm=40.0)
     return Scene(camera=camera, lights=(light,), medium=medium, meshes=tuple(meshes), ambient=ambient)
+
+
+def stripes_gobo(size: int = 64, period_px: int = 4) -> np.ndarray:
+    """A high-frequency projected texture: concentric rings, ``period_px`` texels apart."""
+    y, x = np.mgrid[0:size, 0:size] + 0.5
+    r = np.hypot(x - size / 2, y - size / 2)
+    g = (np.floor(r / (period_px / 2)) % 2).astype(np.float32)
+    return np.repeat(g[:, :, None], 3, axis=2)
+
+
+def homogeneous_box_scene(width: int = 96, height: int = 64, sigma_s=(0.6, 0.5, 0.4),
+                          sigma_a=(0.05, 0.05, 0.05), gobo: np.ndarray | None = None,
+                          camera_eye=(3.5, -5.0, 2.5), with_bar: bool = True,
+                          ambient=(0.0, 0.0, 0.0)) -> Scene:
+    """Fog in a 3 m box on a ground plane, lit by a spot (optionally through a gobo)."""
+    medium = Medium(sigma_a=sigma_a, sigma_s=sigma_s, box_to_world=translate_scale((0, 0, 1.5), 1.5))
+    light = SpotLight(matrix_world=look_at((-1.0, -3.0, 4.0), (0.0, 0.5, 0.0)), power_w=3000.0,
+                      spot_size_rad=math.radians(45), spot_blend=0.1, gobo=gobo)
+    meshes = [plane_mesh((0, 0, 0), 10.0)]
+    if with_bar:
+        meshes.append(box_mesh((-0.7, -1.8, 3.0), (1.0, 0.1, 0.1), name="Bar"))
+    camera = Camera(matrix_world=look_at(camera_eye, (0, 0, 1.2)), width_px=width, height_px=height,
+                    lens_mm=35.0)
+    return Scene(camera=camera, lights=(light,), medium=medium, meshes=tuple(meshes), ambient=ambient)

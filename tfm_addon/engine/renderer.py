@@ -101,14 +101,18 @@ class Renderer:
                cancel: Callable[[], bool] | None = None,
                progress: Callable[[float], None] | None = None) -> RenderOutput:
         """Render ``scene``; raises RenderCancelled when ``cancel()`` turns true between passes."""
-        settings = settings or RenderSettings()
         gl = self.gl
         gl.check_thread()
+        with gl.ctx:     # current for the call, whatever other context the thread made current
+            return self._render(scene, settings or RenderSettings(), cancel, progress)
+
+    def _render(self, scene, settings, cancel, progress) -> RenderOutput:
+        gl = self.gl
         t_start = time.perf_counter()
         timings: dict[str, float] = {}
         warnings: list[str] = []
         lights = [light for light in scene.lights if not is_dark(light)]
-        steps = 2 + 2 * len(lights) + max(len(lights), 1)
+        steps = 2 + len(lights) + max(len(lights), 1)   # scene, maps per light, G-buffer, passes
         done = [0]
 
         def step(name: str, t0: float) -> None:
@@ -188,9 +192,13 @@ class Renderer:
         """The transmittance from ``scene.lights[light_index]`` to world ``points`` (n, 3), as the
         camera passes see it (TFM lookup, march or analytic), (n, 3) float32 per channel.
         Builds or reuses that light's maps like ``render``; for tests and diagnostics."""
-        settings = settings or RenderSettings()
         gl = self.gl
         gl.check_thread()
+        with gl.ctx:
+            return self._light_transmittance_at(scene, settings or RenderSettings(), light_index, points)
+
+    def _light_transmittance_at(self, scene, settings, light_index, points) -> np.ndarray:
+        gl = self.gl
         medium_gpu, _ = self._medium(scene, settings)
         solids = self._solids.get(tuple(m.key for m in scene.meshes),
                                   lambda: SolidsBuffer(gl.ctx, scene.meshes))[0]
@@ -300,9 +308,10 @@ class Renderer:
 
     def release(self) -> None:
         """Release every GPU resource and the context."""
-        for cache in self._caches:
-            cache.clear()
         if self._gl is not None:
+            with self._gl.ctx:
+                for cache in self._caches:
+                    cache.clear()
             self._gl.release()
             self._gl = None
 
