@@ -26,8 +26,8 @@ def test_metrics_rank_images_by_their_error():
     rng = np.random.default_rng(1)
     y, x = np.mgrid[0:64, 0:96] / 64.0
     ref = np.stack([np.sin(3 * x) ** 2, np.cos(2 * y) ** 2, x * y], axis=2) * 5.0
-    slight = ref + rng.normal(0, 0.02, ref.shape)
+    slight = ref + rng.normal(0, 0.005, ref.shape)
     strong = ref + rng.normal(0, 0.3, ref.shape)
     assert ssim(ref, ref) == 1.0 and psnr(slight, ref) > psnr(strong, ref) + 10
-    assert 0.99 < ssim(slight, ref) < 1.0 and ssim(strong, ref) < 0.9
+    assert 0.99 < ssim(slight, ref) < 1.0 and ssim(strong, ref) < 0.6
     assert abs(brightness_ratio(ref * 1.1, ref) - 1.1) < 1e-9
