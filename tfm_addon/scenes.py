@@ -99,6 +99,16 @@ def smoke_scene(width: int = 96, height: int = 64, n: int = 64, sigma_s=(2.0, 2.
     return Scene(camera=camera, lights=(light,), medium=medium, meshes=tuple(meshes), ambient=ambient)
 
 
+def paper_smoke_scene(width: int = 320, height: int = 180, n: int = 128) -> Scene:
+    """The paper's smoke set-up: a 128^3 puff filling the frame, lit whole by a wide spot."""
+    base = smoke_scene(width=width, height=height, n=n)
+    light = SpotLight(matrix_world=look_at((-2.0, -1.5, 3.2), (0, 0, 1.2)), power_w=2000.0,
+                      spot_size_rad=math.radians(70), spot_blend=0.2)
+    camera = Camera(matrix_world=look_at((0.0, -2.6, 1.3), (0, 0, 1.2)), width_px=width, height_px=height,
+                    lens_mm=30.0)
+    return Scene(camera=camera, lights=(light,), medium=base.medium, meshes=base.meshes)
+
+
 def stripes_gobo(size: int = 64, period_px: int = 4) -> np.ndarray:
     """A high-frequency projected texture: concentric rings, ``period_px`` texels apart."""
     y, x = np.mgrid[0:size, 0:size] + 0.5

@@ -99,14 +99,15 @@ class Renderer:
 
     def render(self, scene: Scene, settings: RenderSettings | None = None,
                cancel: Callable[[], bool] | None = None,
-               progress: Callable[[float], None] | None = None) -> RenderOutput:
-        """Render ``scene``; raises RenderCancelled when ``cancel()`` turns true between passes."""
+               progress: Callable[[float], None] | None = None, passes: bool = True) -> RenderOutput:
+        """Render ``scene``; raises RenderCancelled when ``cancel()`` turns true between passes.
+        ``passes=False`` reads back the combined image alone (the viewport's case)."""
         gl = self.gl
         gl.check_thread()
         with gl.ctx:     # current for the call, whatever other context the thread made current
-            return self._render(scene, settings or RenderSettings(), cancel, progress)
+            return self._render(scene, settings or RenderSettings(), cancel, progress, passes)
 
-    def _render(self, scene, settings, cancel, progress) -> RenderOutput:
+    def _render(self, scene, settings, cancel, progress, want_passes) -> RenderOutput:
         gl = self.gl
         t_start = time.perf_counter()
         timings: dict[str, float] = {}
@@ -166,10 +167,10 @@ class Renderer:
                                **common)
                 self.counters["light_passes"] += 1
                 step("scattering", t0)
-            gl.ctx.disable(gl.ctx.BLEND)
             t0 = time.perf_counter()
-            scattering, surfaces, transmittance = targets.read()
-            mask = gbuffer.surface_mask()
+            targets.compose(gl)
+            combined = targets.read_combined()
+            passes = targets.read_passes() if want_passes else {}
             timings["readback"] = time.perf_counter() - t0
         except BaseException:
             for cache in self._caches:
@@ -184,8 +185,7 @@ class Renderer:
                             "rendered, and the medium scatters no light beam.")
         elif not lights:
             warnings.append("Every spot light has zero power, colour or cone angle: no light beam.")
-        return RenderOutput.compose(scattering, surfaces * transmittance, transmittance, mask,
-                                    warnings=warnings, timings_s=timings)
+        return RenderOutput(combined=combined, passes=passes, warnings=warnings, timings_s=timings)
 
     def light_transmittance_at(self, scene: Scene, settings: RenderSettings | None, light_index: int,
                                points: np.ndarray) -> np.ndarray:
@@ -306,12 +306,17 @@ class Renderer:
 
         return self._tfms.get(key, build)[0]
 
-    def release(self) -> None:
-        """Release every GPU resource and the context."""
+    def clear_maps(self) -> None:
+        """Drop every cached map and buffer (compiled programs stay): the next render is full."""
         if self._gl is not None:
             with self._gl.ctx:
                 for cache in self._caches:
                     cache.clear()
+
+    def release(self) -> None:
+        """Release every GPU resource and the context."""
+        if self._gl is not None:
+            self.clear_maps()
             self._gl.release()
             self._gl = None
 

@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import numpy as np
-
 from ..camera import ViewPlane, camera_to_world, clip_matrix
 from ..gl_context import GLContext, set_matrix, set_uniforms
 from ..scene import Camera
@@ -42,12 +40,6 @@ class GBuffer:
     def bind(self) -> None:
         self.albedo_distance.use(0)
         self.normal_hit.use(1)
-
-    def surface_mask(self) -> np.ndarray:
-        """(h, w) bool, top row first: where a solid is seen."""
-        w, h = self.normal_hit.size
-        a = np.frombuffer(self.normal_hit.read(), dtype=np.float32).reshape(h, w, 4)
-        return a[::-1, :, 3] > 0.5
 
     def release(self) -> None:
         self.albedo_distance.release()

@@ -15,13 +15,16 @@ LIGHT_T_TFM, LIGHT_T_MARCH, LIGHT_T_ANALYTIC, LIGHT_T_NONE = 0, 1, 2, 3
 
 class ScatteringTargets:
     """Three RGBA32F textures the size of the pixel window that the light passes add into:
-    scattered light, solids' radiance (before the medium in front of them), view transmittance."""
+    scattered light, solids' radiance (before the medium in front of them), view transmittance;
+    and the combined image made from them."""
 
     def __init__(self, gl: GLContext, size: tuple[int, int]):
         ctx = gl.ctx
         self.size = size
         self.textures = [ctx.texture(size, 4, dtype="f4") for _ in range(3)]
         self.fbo = ctx.framebuffer(self.textures)
+        self.combined = ctx.texture(size, 4, dtype="f4")
+        self.combined_fbo = ctx.framebuffer([self.combined])
 
     def begin(self, ctx) -> None:
         self.fbo.use()
@@ -30,18 +33,39 @@ class ScatteringTargets:
         ctx.blend_func = ctx.ONE, ctx.ONE
         ctx.blend_equation = ctx.FUNC_ADD
 
-    def read(self) -> list[np.ndarray]:
-        """The three targets as (h, w, 3) float32 arrays, top row first."""
+    def compose(self, gl: GLContext) -> None:
+        """Write the combined image (blending off)."""
+        gl.ctx.disable(gl.ctx.BLEND)
+        self.combined_fbo.use()
+        prog = gl.program("fullscreen.vert", "composite.frag")
+        for unit, (name, tex) in enumerate(zip(("u_scatter", "u_surface", "u_transmittance"),
+                                               self.textures, strict=True), start=11):
+            tex.use(unit)
+            prog[name].value = unit
+        prog["u_gb1"].value = 1
+        vao = gl.ctx.vertex_array(prog, [])
+        vao.render(vertices=3)
+        vao.release()
+
+    def read_combined(self) -> np.ndarray:
+        """(h, w, 4) float32, top row first."""
         w, h = self.size
-        out = []
-        for t in self.textures:
-            a = np.frombuffer(t.read(), dtype=np.float32).reshape(h, w, 4)
-            out.append(np.ascontiguousarray(a[::-1, :, :3]))
-        return out
+        a = np.frombuffer(self.combined.read(), dtype=np.float32).reshape(h, w, 4)
+        return np.ascontiguousarray(a[::-1])
+
+    def read_passes(self) -> dict[str, np.ndarray]:
+        """The passes as (h, w, 3) float32 arrays, top row first."""
+        w, h = self.size
+        scatter, surface, transmittance = (
+            np.frombuffer(t.read(), dtype=np.float32).reshape(h, w, 4)[::-1, :, :3] for t in self.textures)
+        return {"scattering": np.ascontiguousarray(scatter),
+                "surfaces": np.ascontiguousarray(surface * transmittance),
+                "transmittance": np.ascontiguousarray(transmittance)}
 
     def release(self) -> None:
         self.fbo.release()
-        for t in self.textures:
+        self.combined_fbo.release()
+        for t in [*self.textures, self.combined]:
             t.release()
 
 

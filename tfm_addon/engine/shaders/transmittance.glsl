@@ -11,33 +11,36 @@ uniform sampler2D u_coef2;
 uniform sampler2D u_coef3;
 
 #if LIGHT_T == 0
-// F reconstructed in one texel's own [K_in, K_out] domain, clamped to [0, 1].
+// F reconstructed in one texel's own [K_in, K_out] domain, clamped to [0, 1]. The cosines
+// cos(j pi x) come four at a time from cos((j + 4) t) = 2 cos(4 t) cos(j t) - cos((j - 4) t);
+// coefficients past N_COEFF are stored as zeros.
 float tfm_texel(ivec2 c, float r) {
     vec2 k = texelFetch(u_krange, c, 0).xy;
     float x = (r - k.x) / max(k.y - k.x, 1e-6);
     if (x <= 0.0) return 1.0;
-    x = min(x, 1.0);
-    vec4 cs[4];
-    cs[0] = texelFetch(u_coef0, c, 0);
+    float c1 = cos(PI * min(x, 1.0));
+    float c2 = 2.0 * c1 * c1 - 1.0;
+    float c3 = 2.0 * c1 * c2 - c1;
+    float c4 = 2.0 * c2 * c2 - 1.0;
+    vec4 b = vec4(1.0, c1, c2, c3);
+    float f = dot(texelFetch(u_coef0, c, 0), b);
 #if N_TARGETS > 1
-    cs[1] = texelFetch(u_coef1, c, 0);
+    vec4 b_prev = vec4(c4, c3, c2, c1);
+    vec4 b_next = 2.0 * c4 * b - b_prev;
+    f += dot(texelFetch(u_coef1, c, 0), b_next);
 #endif
 #if N_TARGETS > 2
-    cs[2] = texelFetch(u_coef2, c, 0);
+    b_prev = b;
+    b = b_next;
+    b_next = 2.0 * c4 * b - b_prev;
+    f += dot(texelFetch(u_coef2, c, 0), b_next);
 #endif
 #if N_TARGETS > 3
-    cs[3] = texelFetch(u_coef3, c, 0);
+    b_prev = b;
+    b = b_next;
+    b_next = 2.0 * c4 * b - b_prev;
+    f += dot(texelFetch(u_coef3, c, 0), b_next);
 #endif
-    float c1 = cos(PI * x);
-    float b_prev = 1.0;
-    float b = c1;
-    float f = cs[0].x;
-    for (int j = 1; j < N_COEFF; ++j) {
-        f += cs[j / 4][j % 4] * b;
-        float b_next = 2.0 * c1 * b - b_prev;
-        b_prev = b;
-        b = b_next;
-    }
     return clamp(f, 0.0, 1.0);
 }
 #endif
