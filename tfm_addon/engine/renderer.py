@@ -212,7 +212,7 @@ class Renderer:
         fbo.use()
         defines = {"MEDIUM": medium_gpu.kind, "LIGHT_T": plan.light_t}
         if plan.tfm is not None:
-            defines.update(N_COEFF=plan.tfm.coefficients, N_TARGETS=len(plan.tfm.coef))
+            defines.update(plan.tfm.defines(settings.tfm_filter))
         prog = gl.program("fullscreen.vert", "probe.frag", defines)
         bind_units(prog)
         medium_gpu.bind(prog)

@@ -236,6 +236,9 @@ class RenderSettings:
     ``map_resolution``: shadow map and TFM side, texels.
     ``sampling``: 'WORLD' or 'PROJECTIVE' spacing of view samples in a homogeneous medium.
     ``method``: 'TFM' (the product), 'BRUTE_FORCE' (GPU double march reference).
+    ``tfm_filter``: 'EXACT' reconstructs the 2x2 nearest TFM texels each in its own [K_in, K_out]
+    and blends the results; 'LINEAR' lets the hardware blend coefficients and domains (about a
+    quarter of the lookups; mixes domains at the medium's edges as seen from the light).
     ``ambient``: whether the world colour lights the medium and the surfaces.
     ``max_grid_bytes``: memory budget for the density texture; larger grids are downsampled.
     """
@@ -247,6 +250,7 @@ class RenderSettings:
     map_resolution: int = 512
     sampling: Literal["WORLD", "PROJECTIVE"] = "WORLD"
     method: Literal["TFM", "BRUTE_FORCE"] = "TFM"
+    tfm_filter: Literal["EXACT", "LINEAR"] = "EXACT"
     ambient: bool = True
     max_grid_bytes: int = 512 * 1024 * 1024
 

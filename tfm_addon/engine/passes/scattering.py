@@ -87,7 +87,7 @@ def run_light_pass(gl: GLContext, *, camera: Camera, plane: ViewPlane, medium: M
                "HAS_LIGHT": int(light is not None),
                "PROJECTIVE": int(settings.sampling == "PROJECTIVE")}
     if tfm is not None:
-        defines.update(N_COEFF=tfm.coefficients, N_TARGETS=len(tfm.coef))
+        defines.update(tfm.defines(settings.tfm_filter))
     prog = gl.program("fullscreen.vert", "scatter.frag", defines)
     bind_units(prog)
     camera_uniforms(prog, camera, plane)

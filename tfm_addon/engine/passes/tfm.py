@@ -52,7 +52,8 @@ class TransmittanceMap:
         self.krange = ctx.texture(size, 4, dtype="f4")
         self.coef = [ctx.texture(size, 4, dtype="f4") for _ in range(targets)]
         for t in [self.krange, *self.coef]:
-            t.filter = (ctx.NEAREST, ctx.NEAREST)
+            t.filter = (ctx.LINEAR, ctx.LINEAR)      # texelFetch ignores it; 'LINEAR' lookups use it
+            t.repeat_x = t.repeat_y = False
         fbo = ctx.framebuffer([self.krange, *self.coef])
         fbo.use()
         prog = gl.program("fullscreen.vert", "tfm_build.frag", {"N_COEFF": n, "N_TARGETS": targets})
@@ -64,6 +65,10 @@ class TransmittanceMap:
         vao.render(vertices=3)
         vao.release()
         fbo.release()
+
+    def defines(self, tfm_filter: str) -> dict[str, int]:
+        return {"N_COEFF": self.coefficients, "N_TARGETS": len(self.coef),
+                "TFM_FILTER": int(tfm_filter == "LINEAR")}
 
     def bind(self, prog, sigma_t) -> None:
         self.krange.use(5)

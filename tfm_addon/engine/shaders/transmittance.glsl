@@ -11,45 +11,85 @@ uniform sampler2D u_coef2;
 uniform sampler2D u_coef3;
 
 #if LIGHT_T == 0
-// F reconstructed in one texel's own [K_in, K_out] domain, clamped to [0, 1]. The cosines
-// cos(j pi x) come four at a time from cos((j + 4) t) = 2 cos(4 t) cos(j t) - cos((j - 4) t);
-// coefficients past N_COEFF are stored as zeros.
-float tfm_texel(ivec2 c, float r) {
-    vec2 k = texelFetch(u_krange, c, 0).xy;
+// F(x) from the cosine coefficients c0..c3 (four each) over the domain k = (K_in, K_out), at
+// distance r from the light, clamped to [0, 1]. The cosines cos(j pi x) come four at a time
+// from cos((j + 4) t) = 2 cos(4 t) cos(j t) - cos((j - 4) t); coefficients past N_COEFF are 0.
+float tfm_series(vec2 k, vec4 c0, vec4 c1, vec4 c2, vec4 c3, float r) {
     float x = (r - k.x) / max(k.y - k.x, 1e-6);
     if (x <= 0.0) return 1.0;
-    float c1 = cos(PI * min(x, 1.0));
-    float c2 = 2.0 * c1 * c1 - 1.0;
-    float c3 = 2.0 * c1 * c2 - c1;
-    float c4 = 2.0 * c2 * c2 - 1.0;
-    vec4 b = vec4(1.0, c1, c2, c3);
-    float f = dot(texelFetch(u_coef0, c, 0), b);
+    float t1 = cos(PI * min(x, 1.0));
+    float t2 = 2.0 * t1 * t1 - 1.0;
+    float t3 = 2.0 * t1 * t2 - t1;
+    float t4 = 2.0 * t2 * t2 - 1.0;
+    vec4 b = vec4(1.0, t1, t2, t3);
+    float f = dot(c0, b);
 #if N_TARGETS > 1
-    vec4 b_prev = vec4(c4, c3, c2, c1);
-    vec4 b_next = 2.0 * c4 * b - b_prev;
-    f += dot(texelFetch(u_coef1, c, 0), b_next);
+    vec4 b_prev = vec4(t4, t3, t2, t1);
+    vec4 b_next = 2.0 * t4 * b - b_prev;
+    f += dot(c1, b_next);
 #endif
 #if N_TARGETS > 2
     b_prev = b;
     b = b_next;
-    b_next = 2.0 * c4 * b - b_prev;
-    f += dot(texelFetch(u_coef2, c, 0), b_next);
+    b_next = 2.0 * t4 * b - b_prev;
+    f += dot(c2, b_next);
 #endif
 #if N_TARGETS > 3
     b_prev = b;
     b = b_next;
-    b_next = 2.0 * c4 * b - b_prev;
-    f += dot(texelFetch(u_coef3, c, 0), b_next);
+    b_next = 2.0 * t4 * b - b_prev;
+    f += dot(c3, b_next);
 #endif
     return clamp(f, 0.0, 1.0);
 }
-#endif
 
-// Transmittance from the light to p (q: p in light space, r: its distance to the light).
-vec3 light_transmittance(vec3 p, vec3 q, float r) {
-#if LIGHT_T == 0
-    // Each of the 2x2 nearest texels is reconstructed in its own domain, then blended.
-    vec2 f = light_uv(q) * u_map_res - 0.5;
+// F in one texel's own domain.
+float tfm_texel(ivec2 c, float r) {
+    vec4 zero = vec4(0.0);
+    return tfm_series(texelFetch(u_krange, c, 0).xy, texelFetch(u_coef0, c, 0),
+#if N_TARGETS > 1
+                      texelFetch(u_coef1, c, 0),
+#else
+                      zero,
+#endif
+#if N_TARGETS > 2
+                      texelFetch(u_coef2, c, 0),
+#else
+                      zero,
+#endif
+#if N_TARGETS > 3
+                      texelFetch(u_coef3, c, 0),
+#else
+                      zero,
+#endif
+                      r);
+}
+
+// F at map coordinates uv. TFM_FILTER 0: the 2x2 nearest texels are each reconstructed in their
+// own domain, then blended (exact domains, 4x the fetches). 1: the hardware blends domains
+// and coefficients (one fetch per texture; mixes domains where neighbouring texels differ).
+float tfm_lookup(vec2 uv, float r) {
+#if TFM_FILTER == 1
+    vec4 zero = vec4(0.0);
+    return tfm_series(texture(u_krange, uv).xy, texture(u_coef0, uv),
+#if N_TARGETS > 1
+                      texture(u_coef1, uv),
+#else
+                      zero,
+#endif
+#if N_TARGETS > 2
+                      texture(u_coef2, uv),
+#else
+                      zero,
+#endif
+#if N_TARGETS > 3
+                      texture(u_coef3, uv),
+#else
+                      zero,
+#endif
+                      r);
+#else
+    vec2 f = uv * u_map_res - 0.5;
     ivec2 i0 = ivec2(floor(f));
     vec2 w = f - floor(f);
     int res = int(u_map_res);
@@ -60,7 +100,15 @@ vec3 light_transmittance(vec3 p, vec3 q, float r) {
             v += tfm_texel(c, r) * (dx == 1 ? w.x : 1.0 - w.x) * (dy == 1 ? w.y : 1.0 - w.y);
         }
     }
-    return pow(vec3(v), u_tfm_exponent);
+    return v;
+#endif
+}
+#endif
+
+// Transmittance from the light to p (q: p in light space, r: its distance to the light).
+vec3 light_transmittance(vec3 p, vec3 q, float r) {
+#if LIGHT_T == 0
+    return pow(vec3(tfm_lookup(light_uv(q), r)), u_tfm_exponent);
 #elif LIGHT_T == 1
     vec3 dir = (u_light_pos - p) / r;
     vec2 k = box_interval(p, dir);
