@@ -144,3 +144,20 @@ def test_render_border_is_the_matching_crop(renderer):
     assert crop.shape == (24, 32, 4)
     # y up in Blender's border: (0.5, 1.0) is the top half, rows 0..23 of a top-first array.
     np.testing.assert_allclose(crop, full[0:24, 16:48], atol=1e-5)
+
+
+def test_fog_filling_the_scene_with_two_spots_matches_reference(renderer):
+    """Homogeneous fog everywhere (bounded by the camera's clip range), forward scattering,
+    two spot lights (one through a gobo), a solid: the analytic path against the reference."""
+    base = homogeneous_box_scene(width=64, height=48)
+    fog = Medium(sigma_a=(0.01, 0.01, 0.01), sigma_s=(0.08, 0.06, 0.05), anisotropy=0.5)
+    second = SpotLight(matrix_world=look_at((3.0, -2.0, 3.5), (0.5, 0.5, 0.0)), power_w=1500.0,
+                       color=(1.0, 0.6, 0.3), spot_size_rad=math.radians(30), spot_blend=0.4,
+                       gobo=stripes_gobo(32, 8))
+    cam = Camera(matrix_world=look_at((3.5, -5.0, 2.5), (0, 0, 1.2)), width_px=64, height_px=48,
+                 lens_mm=35.0, clip_end=20.0)
+    scene = Scene(camera=cam, lights=(base.lights[0], second), medium=fog, meshes=base.meshes)
+    ref = render_reference(scene, view_steps=512, light_steps=8)
+    out = renderer.render(scene, RenderSettings(view_steps=256, map_resolution=512))
+    assert ssim(out.rgb, ref.rgb) >= 0.99
+    assert abs(brightness_ratio(out.rgb, ref.rgb) - 1) <= 0.02
