@@ -63,6 +63,7 @@ class GLContext:
         GLContext.live += 1
         self.thread_id = threading.get_ident()
         self._programs: dict[tuple, object] = {}
+        self._fullscreen: dict[int, object] = {}
         self.max_3d_texture_size = int(self.ctx.info.get("GL_MAX_3D_TEXTURE_SIZE", 256))
         self.max_texture_size = int(self.ctx.info.get("GL_MAX_TEXTURE_SIZE", 4096))
 
@@ -82,7 +83,16 @@ class GLContext:
             self._programs[key] = prog
         return prog
 
+    def draw_fullscreen(self, prog) -> None:
+        """Run ``prog`` over the bound framebuffer with one triangle (fullscreen.vert)."""
+        vao = self._fullscreen.get(id(prog))
+        if vao is None:
+            vao = self._fullscreen[id(prog)] = self.ctx.vertex_array(prog, [])
+        vao.render(vertices=3)
+
     def release(self) -> None:
+        for vao in self._fullscreen.values():
+            vao.release()
         for prog in self._programs.values():
             prog.release()
         self._programs.clear()

@@ -11,12 +11,13 @@ import numpy as np
 
 from .camera import view_plane
 from .errors import RenderCancelled
-from .gl_context import GLContext, set_uniforms
+from .gl_context import GLContext
 from .light import LightFrame, cone_meets_box, is_dark
 from .medium_grid import prepare_grid
 from .output import RenderOutput
-from .passes.bindings import MEDIUM_GRID, MediumGPU, bind_light, bind_units, gobo_texture
+from .passes.bindings import MEDIUM_GRID, MediumGPU, gobo_texture
 from .passes.gbuffer import GBuffer
+from .passes.probe import probe_light_transmittance
 from .passes.scattering import (
     LIGHT_T_ANALYTIC,
     LIGHT_T_MARCH,
@@ -203,33 +204,10 @@ class Renderer:
         solids = self._solids.get(tuple(m.key for m in scene.meshes),
                                   lambda: SolidsBuffer(gl.ctx, scene.meshes))[0]
         plan = self._plan_light(scene, settings, scene.lights[light_index], medium_gpu, solids)
-        pts = np.ascontiguousarray(np.asarray(points, dtype=np.float32).reshape(-1, 3))
-        n = len(pts)
-        src = gl.ctx.texture((n, 1), 3, pts.tobytes(), dtype="f4")
-        src.filter = (gl.ctx.NEAREST, gl.ctx.NEAREST)
-        dst = gl.ctx.texture((n, 1), 4, dtype="f4")
-        fbo = gl.ctx.framebuffer([dst])
-        fbo.use()
-        defines = {"MEDIUM": medium_gpu.kind, "LIGHT_T": plan.light_t}
-        if plan.tfm is not None:
-            defines.update(plan.tfm.defines(settings.tfm_filter))
-        prog = gl.program("fullscreen.vert", "probe.frag", defines)
-        bind_units(prog)
-        medium_gpu.bind(prog)
-        bind_light(prog, plan.frame, plan.light.intensity_w_per_sr, settings.map_resolution,
-                   plan.shadow.texture if plan.shadow else None, None)
-        if scene.medium is not None:
-            set_uniforms(prog, u_sigma_t=tuple(float(x) for x in scene.medium.sigma_t),
-                         u_light_steps=int(settings.light_steps))
-        if plan.tfm is not None:
-            plan.tfm.bind(prog, scene.medium.sigma_t)
-        src.use(10)
-        set_uniforms(prog, u_points=10)
-        vao = gl.ctx.vertex_array(prog, [])
-        vao.render(vertices=3)
-        out = np.frombuffer(dst.read(), dtype=np.float32).reshape(n, 4)[:, :3].copy()
-        for obj in (vao, fbo, dst, src):
-            obj.release()
+        out = probe_light_transmittance(
+            gl, points, medium=scene.medium, medium_gpu=medium_gpu, settings=settings,
+            light=(plan.frame, plan.light.intensity_w_per_sr, plan.shadow.texture if plan.shadow else None,
+                   None), light_t=plan.light_t, tfm=plan.tfm)
         for cache in self._caches:
             cache.used.clear()          # a probe keeps every map for the next render
         return out

@@ -43,9 +43,7 @@ class ScatteringTargets:
             tex.use(unit)
             prog[name].value = unit
         prog["u_gb1"].value = 1
-        vao = gl.ctx.vertex_array(prog, [])
-        vao.render(vertices=3)
-        vao.release()
+        gl.draw_fullscreen(prog)
 
     def read_combined(self) -> np.ndarray:
         """(h, w, 4) float32, top row first."""
@@ -102,6 +100,4 @@ def run_light_pass(gl: GLContext, *, camera: Camera, plane: ViewPlane, medium: M
         bind_light(prog, frame, intensity, settings.map_resolution, shadow, gobo)
     if tfm is not None:
         tfm.bind(prog, medium.sigma_t)
-    vao = gl.ctx.vertex_array(prog, [])
-    vao.render(vertices=3)
-    vao.release()
+    gl.draw_fullscreen(prog)

@@ -28,10 +28,8 @@ def largest_density_integral(gl: GLContext, frame: LightFrame, medium: MediumGPU
     medium.bind(prog)
     bind_light(prog, frame, (0, 0, 0), res, None, None)
     set_uniforms(prog, u_light_steps=int(light_steps), u_inv_alpha=1.0)
-    vao = ctx.vertex_array(prog, [])
-    vao.render(vertices=3)
+    gl.draw_fullscreen(prog)
     tau = np.frombuffer(tex.read(), dtype=np.float32).reshape(-1, 4)[:, 0]
-    vao.release()
     fbo.release()
     tex.release()
     return float(tau.max()) if tau.size else 0.0
@@ -61,9 +59,7 @@ class TransmittanceMap:
         medium.bind(prog)
         bind_light(prog, frame, (0, 0, 0), resolution, shadow, None)
         set_uniforms(prog, u_light_steps=int(light_steps), u_inv_alpha=1.0 / self.alpha_d)
-        vao = ctx.vertex_array(prog, [])
-        vao.render(vertices=3)
-        vao.release()
+        gl.draw_fullscreen(prog)
         fbo.release()
 
     def defines(self, tfm_filter: str) -> dict[str, int]:
