@@ -31,3 +31,20 @@ def test_metrics_rank_images_by_their_error():
     assert ssim(ref, ref) == 1.0 and psnr(slight, ref) > psnr(strong, ref) + 10
     assert 0.99 < ssim(slight, ref) < 1.0 and ssim(strong, ref) < 0.6
     assert abs(brightness_ratio(ref * 1.1, ref) - 1.1) < 1e-9
+
+
+def test_multi_part_exr_channels_are_named_by_part(tmp_path):
+    """Blender writes one part per pass; every part's channels come back, named by part."""
+    import OpenEXR
+
+    from tfm_addon.engine.exr import read_exr
+
+    a = np.arange(20, dtype=np.float32).reshape(4, 5)
+    header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
+    parts = [OpenEXR.Part({**header, "name": "Combined"}, {"R": a, "G": 2 * a}),
+             OpenEXR.Part({**header, "name": "Scattering"}, {"R": 3 * a})]
+    with OpenEXR.File(parts) as f:
+        f.write(str(tmp_path / "multi.exr"))
+    back = read_exr(tmp_path / "multi.exr")
+    assert set(back) == {"Combined.R", "Combined.G", "Scattering.R"}
+    np.testing.assert_array_equal(back["Scattering.R"], 3 * a)

@@ -24,13 +24,22 @@ def write_exr(path: str | Path, channels: dict[str, np.ndarray]) -> Path:
 
 
 def read_exr(path: str | Path) -> dict[str, np.ndarray]:
-    """Every channel of an EXR file as a float32 (h, w) array, top row first."""
+    """Every channel of every part of an EXR file as a float32 (h, w) array, top row first.
+    Channels of a multi-part file (Blender writes one part per pass) are named
+    '<part name>.<channel>' unless the channel name already carries the layer."""
     import OpenEXR
 
     out = {}
     with OpenEXR.File(str(path), separate_channels=True) as f:
-        for name, channel in f.channels().items():
-            out[name] = np.asarray(channel.pixels, dtype=np.float32)
+        parts = f.parts
+        for part in parts:
+            prefix = ""
+            if len(parts) > 1:
+                name = part.header.get("name", "")
+                prefix = f"{name}." if name else ""
+            for channel_name, channel in part.channels.items():
+                key = channel_name if "." in channel_name or not prefix else prefix + channel_name
+                out[key] = np.asarray(channel.pixels, dtype=np.float32)
     return out
 
 

@@ -48,9 +48,9 @@ class RenderWorker:
 
     def render(self, scene: Scene, settings: RenderSettings | None = None,
                cancel: Callable[[], bool] | None = None,
-               progress: Callable[[float], None] | None = None) -> RenderOutput:
+               progress: Callable[[float], None] | None = None, passes: bool = True) -> RenderOutput:
         """Renderer.render on the GL thread; ``cancel`` and ``progress`` are called there."""
-        return self.call(lambda r: r.render(scene, settings, cancel, progress))
+        return self.call(lambda r: r.render(scene, settings, cancel, progress, passes))
 
     @property
     def counters(self) -> dict:

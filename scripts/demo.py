@@ -1,0 +1,164 @@
+"""Render the built-in demo scene through Blender with the TFM engine.
+
+    python scripts/demo.py --out out/
+
+Runs Blender as a Python module (bpy). Writes a procedural smoke .vdb, builds a scene around it
+(a spot light, a bar casting a shadow through the smoke, a ground plane, a camera), enables the
+add-on, renders one frame with the TFM engine and writes a PNG and a multilayer EXR (Combined,
+Scattering, Surfaces, Transmittance), printing where they are and how long the frame took.
+
+The add-on is installed the way a user installs it when a built extension is found in dist/
+(``scripts/build_extension.py``) or given with --zip; otherwise it is registered straight from
+this repository.
+"""
+
+from __future__ import annotations
+
+import argparse
+import glob
+import os
+import sys
+import tempfile
+import time
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+
+def parse_args(argv=None):
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("--out", default=os.path.join(ROOT, "out"), help="output folder")
+    p.add_argument("--width", type=int, default=640)
+    p.add_argument("--height", type=int, default=360)
+    p.add_argument("--grid", type=int, default=64, help="smoke grid side, voxels")
+    p.add_argument("--view-steps", type=int, default=100)
+    p.add_argument("--light-steps", type=int, default=100)
+    p.add_argument("--coefficients", type=int, default=8)
+    p.add_argument("--map-resolution", type=int, default=512)
+    p.add_argument("--zip", default=None,
+                   help="extension zip to install (default: the newest in dist/ when it is newer "
+                        "than the sources, else the repository's tfm_addon is registered)")
+    p.add_argument("--direct", action="store_true",
+                   help="register tfm_addon from this repository instead of installing the zip")
+    p.add_argument("--blend", action="store_true", help="also save the scene as a .blend file")
+    return p.parse_args(argv)
+
+
+def enable_addon(zip_path: str | None, direct: bool):
+    """Install and enable the extension (or register the repository's tfm_addon); return the
+    tfm_addon package in use and a description of how it was enabled."""
+    import importlib
+
+    import bpy
+
+
+    if not direct:
+        zip_path = zip_path or newest_build()
+        if zip_path:
+            import addon_utils
+
+            repo_dir = tempfile.mkdtemp(prefix="tfm_demo_repo_")
+            bpy.context.preferences.extensions.repos.new(
+                name="TFM Demo", module="tfm_demo", custom_directory=repo_dir, source='USER')
+            bpy.ops.extensions.package_install_files(filepath=zip_path, repo="tfm_demo",
+                                                     enable_on_install=False)
+            module = "bl_ext.tfm_demo.tfm_volumes"
+            addon_utils.enable(module, default_set=True, handle_error=_raise)
+            return importlib.import_module(module + ".tfm_addon"), f"extension {zip_path}"
+    sys.path.insert(0, ROOT)
+    import tfm_addon
+
+    tfm_addon.register()
+    return tfm_addon, "tfm_addon registered from " + ROOT
+
+
+def newest_build() -> str | None:
+    """The newest zip in dist/ if it is newer than every source file of the add-on, else None."""
+    zips = sorted(glob.glob(os.path.join(ROOT, "dist", "*.zip")), key=os.path.getmtime)
+    if not zips:
+        return None
+    sources = glob.glob(os.path.join(ROOT, "tfm_addon", "**", "*"), recursive=True)
+    sources += [os.path.join(ROOT, "__init__.py"), os.path.join(ROOT, "blender_manifest.toml")]
+    newest_source = max(os.path.getmtime(p) for p in sources if os.path.isfile(p))
+    return zips[-1] if os.path.getmtime(zips[-1]) >= newest_source else None
+
+
+def disable_addon(addon) -> None:
+    if addon.__name__.startswith("bl_ext."):
+        import addon_utils
+
+        addon_utils.disable(addon.__name__.rsplit(".", 1)[0], default_set=True)
+    else:
+        addon.unregister()
+
+
+def _raise(ex):
+    raise ex
+
+
+def main(argv=None) -> int:
+    args = parse_args(argv)
+    out_dir = os.path.abspath(args.out)
+    os.makedirs(out_dir, exist_ok=True)
+
+    # Keep Blender's user folders (extension repositories, wheels) out of the user's own.
+    os.environ.setdefault("BLENDER_USER_RESOURCES", tempfile.mkdtemp(prefix="tfm_demo_user_"))
+    import bpy
+
+    sys.path.insert(0, ROOT)
+    from tfm_addon import scenes  # numpy only: the demo scene's numbers
+
+    addon, how = enable_addon(args.zip, args.direct)
+    import importlib
+
+    scene_builder = importlib.import_module(addon.__name__ + ".blender.scene_builder")
+    final_render = importlib.import_module(addon.__name__ + ".blender.final_render")
+    engine_api = importlib.import_module(addon.__name__ + ".engine")
+
+    bpy.ops.wm.read_homefile(use_empty=True)
+    demo = scenes.smoke_scene(width=args.width, height=args.height, n=args.grid,
+                              ambient=(0.03, 0.035, 0.045))
+    settings = engine_api.RenderSettings(
+        view_steps=args.view_steps, light_steps=args.light_steps, coefficients=args.coefficients,
+        map_resolution=args.map_resolution)
+    scene_builder.build(demo, out_dir, settings=settings, name="Demo")
+    scene = bpy.context.scene
+    scene.render.engine = 'TFM'
+
+    png = os.path.join(out_dir, "tfm_demo.png")
+    exr = os.path.join(out_dir, "tfm_demo.exr")
+    settings_out = scene.render.image_settings
+    scene.view_settings.view_transform = 'AgX'
+
+    t0 = time.perf_counter()
+    bpy.ops.render.render()
+    frame_s = time.perf_counter() - t0
+
+    result = bpy.data.images["Render Result"]
+    settings_out.media_type = 'MULTI_LAYER_IMAGE'
+    settings_out.file_format = 'OPEN_EXR_MULTILAYER'
+    settings_out.color_depth = '32'
+    result.save_render(exr)
+    settings_out.media_type = 'IMAGE'
+    settings_out.file_format = 'PNG'
+    settings_out.color_mode = 'RGB'
+    settings_out.color_depth = '8'
+    result.save_render(png)
+    if args.blend:
+        bpy.ops.wm.save_as_mainfile(filepath=os.path.join(out_dir, "tfm_demo.blend"))
+
+    for level, message in final_render.last_messages:
+        print(f"{level}: {message}")
+    print(f"add-on: {how}")
+    print(f"scene: {args.width}x{args.height}, smoke {args.grid}^3 "
+          f"({os.path.join(out_dir, 'Demo_density.vdb')})")
+    print(f"PNG: {png}")
+    print(f"EXR: {exr}")
+    engine_s = final_render.last_timings.get("total", float("nan"))
+    print(f"frame time: {frame_s:.2f} s (bpy.ops.render.render; the renderer itself: {engine_s:.2f} s, "
+          f"first frame, so GL start-up and shader compilation included)")
+    disable_addon(addon)
+    return 0 if os.path.isfile(png) and os.path.isfile(exr) else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())

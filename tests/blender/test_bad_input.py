@@ -1,0 +1,152 @@
+"""Bad input renders what it can and tells the user why the rest is missing."""
+
+import importlib
+from types import SimpleNamespace
+
+import bpy
+import numpy as np
+import pytest
+from blender_helpers import MODULE, SETTINGS, render_passes, smoke
+
+
+def _mod(name):
+    return importlib.import_module(f"{MODULE}.tfm_addon.blender.{name}")
+
+
+def _messages():
+    return list(_mod("final_render").last_messages)
+
+
+def _smoke_in_blender(tmp_path, **kwargs):
+    return _mod("scene_builder").build(smoke(**kwargs), str(tmp_path), settings=SETTINGS)
+
+
+def test_missing_volume_file_renders_the_rest_and_names_the_file(blank, tmp_path):
+    made = _smoke_in_blender(tmp_path)
+    made["medium"].data.filepath = str(tmp_path / "gone.vdb")
+    image = render_passes(tmp_path)
+    warnings = [m for level, m in _messages() if level == 'WARNING']
+    assert any("gone.vdb" in m and "not found" in m for m in warnings), warnings
+    # No medium: the lit ground is seen unattenuated, nothing scatters.
+    assert image["Surfaces"].max() > 0.1
+    assert image["Scattering"].max() == 0.0
+    assert image["Transmittance"].min() == 1.0
+
+
+def test_vector_only_grid_says_which_grid_was_expected(blank, tmp_path):
+    made = _smoke_in_blender(tmp_path)
+    velocity = np.zeros((8, 8, 8, 3), np.float32)
+    velocity[2:6, 2:6, 2:6] = (1.0, 0.0, 0.0)
+    path = str(tmp_path / "velocity.vdb")
+    _mod("scene_builder").write_vdb(path, velocity, name="velocity")
+    made["medium"].data.filepath = path
+    render_passes(tmp_path)
+    warnings = [m for level, m in _messages() if level == 'WARNING']
+    assert any("expected 'density'" in m and "velocity (VECTOR_FLOAT)" in m for m in warnings), warnings
+
+
+def test_no_spot_light_renders_ambient_light_and_says_why(blank, tmp_path):
+    made = _smoke_in_blender(tmp_path, ambient=(0.2, 0.2, 0.2))
+    for light in made["lights"]:
+        bpy.data.objects.remove(light)
+    sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", 'SUN'))
+    bpy.context.scene.collection.objects.link(sun)
+    image = render_passes(tmp_path)
+    warnings = [m for level, m in _messages() if level == 'WARNING']
+    # The renderer explains it once (the add-on does not repeat it).
+    assert len([m for m in warnings if "no spot light" in m.lower()]) == 1, warnings
+    assert any("skipped Sun (sun)" in m for m in warnings), warnings
+    assert image["Surfaces"].max() > 0.01  # the ground, lit by the world
+    assert image["Scattering"].max() > 0.01  # the smoke scatters the world's light
+
+
+class FakeEngine:
+    """What final_render uses of a RenderEngine, recorded; test_break turns true at the
+    ``break_at``-th check."""
+
+    is_preview = False
+    camera_override = None
+
+    def __init__(self, width, height, break_at=None):
+        self.resolution_x, self.resolution_y = width, height
+        self.break_at, self.checks = break_at, 0
+        self.progress, self.reports, self.errors, self.results = [], [], [], 0
+
+    def test_break(self):
+        self.checks += 1
+        return self.break_at is not None and self.checks >= self.break_at
+
+    def update_progress(self, fraction):
+        self.progress.append(fraction)
+
+    def update_stats(self, stats, info):
+        pass
+
+    def report(self, levels, message):
+        self.reports.append((set(levels), message))
+
+    def error_set(self, message):
+        self.errors.append(message)
+
+    def add_pass(self, *args, **kwargs):
+        pass
+
+    def begin_result(self, *args, **kwargs):
+        self.results += 1
+        return SimpleNamespace(layers=[SimpleNamespace(passes=[])])
+
+    def end_result(self, result, cancel=False):
+        pass
+
+
+@pytest.mark.parametrize("break_at", [1, 3])
+def test_cancel_stops_within_one_pass(blank, tmp_path, break_at):
+    _smoke_in_blender(tmp_path)
+    dg = bpy.context.evaluated_depsgraph_get()
+    full = FakeEngine(64, 48)
+    _mod("final_render").render(full, dg)
+    total_passes = len(full.progress)
+    assert total_passes >= 4 and full.errors == []
+    engine = FakeEngine(64, 48, break_at=break_at)
+    _mod("final_render").render(engine, dg)
+    # The pass during which the user cancelled is the last one that ran.
+    assert len(engine.progress) == break_at < total_passes
+    assert engine.results == 0 and engine.errors == []
+    assert ('INFO', "cancelled") in _messages()
+
+
+def test_no_opengl_is_reported_not_raised(blank, tmp_path, monkeypatch):
+    _smoke_in_blender(tmp_path)
+
+    # The add-on's own copy of the renderer's error class.
+    error = importlib.import_module(f"{MODULE}.tfm_addon.engine.errors").GLUnavailableError
+
+    class NoGL:
+        def render(self, *args, **kwargs):
+            raise error("No OpenGL 3.3 context could be created: EGL not found")
+
+    final_render = _mod("final_render")
+    monkeypatch.setattr(final_render, "get_worker", lambda: NoGL())
+    engine = FakeEngine(32, 24)
+    final_render.render(engine, bpy.context.evaluated_depsgraph_get())
+    assert engine.errors == ["No OpenGL 3.3 context could be created: EGL not found"]
+    assert ({'ERROR'}, engine.errors[0]) in engine.reports
+    assert engine.results == 0
+
+
+def test_scene_without_camera_is_an_error_message(blank):
+    engine = FakeEngine(32, 24)
+    _mod("final_render").render(engine, bpy.context.evaluated_depsgraph_get())
+    assert engine.errors == ["The scene has no camera to render from"]
+
+
+def test_material_preview_renders_without_nagging(blank, tmp_path):
+    # Blender's preview scenes light a sphere with area lights: no spot light, by design.
+    made = _smoke_in_blender(tmp_path)
+    for light in made["lights"]:
+        bpy.data.objects.remove(light)
+    engine = FakeEngine(32, 24)
+    engine.is_preview = True
+    _mod("final_render").render(engine, bpy.context.evaluated_depsgraph_get())
+    assert engine.reports == [] and engine.errors == []
+    assert engine.results == 1

@@ -1,0 +1,258 @@
+"""The evaluated depsgraph as the renderer's Scene: the only module that walks Blender's scene.
+
+``extract`` reads the parts named by a Change flag and keeps the others from a previous
+extraction, so the viewport re-reads only what an edit touched.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from ..engine.scene import Camera, Medium, Mesh, RenderSettings, Scene, SpotLight
+from . import lights as lights_module
+from . import materials, meshes
+from .camera import camera_from_object
+from .changes import Change
+from .volumes import GridCache, NoGridThisFrame, VolumeReadError, grid_cache
+from .world import ambient_radiance
+
+RGB = tuple[float, float, float]
+
+
+@dataclass(frozen=True)
+class Extraction:
+    """A scene read from Blender, part by part, with the warnings each part raised."""
+
+    camera: Camera | None = None
+    lights: tuple[SpotLight, ...] = ()
+    medium: Medium | None = None
+    meshes: tuple[Mesh, ...] = ()
+    ambient: RGB = (0.0, 0.0, 0.0)
+    settings: RenderSettings = field(default_factory=RenderSettings)
+    medium_source: str | None = None  # name of the object the medium comes from
+    warnings: dict[Change, tuple[str, ...]] = field(default_factory=dict)
+
+    def scene(self, camera: Camera | None = None) -> Scene:
+        cam = camera if camera is not None else self.camera
+        if cam is None:
+            raise ValueError("no camera")
+        return Scene(camera=cam, lights=self.lights, medium=self.medium, meshes=self.meshes,
+                     ambient=self.ambient if self.settings.ambient else (0.0, 0.0, 0.0))
+
+    @property
+    def all_warnings(self) -> list[str]:
+        return [w for part in Change if part in self.warnings for w in self.warnings[part]]
+
+
+def render_settings(scene) -> RenderSettings:
+    """RenderSettings from the scene's TFM properties."""
+    tfm = scene.tfm
+    optional = {}
+    if "tfm_filter" in RenderSettings.__dataclass_fields__:
+        optional["tfm_filter"] = tfm.tfm_filter
+    return RenderSettings(
+        **optional,
+        view_steps=tfm.view_steps,
+        light_steps=tfm.light_steps,
+        coefficients=tfm.coefficients,
+        density_weight=None if tfm.density_weight_auto else tfm.density_weight,
+        map_resolution=tfm.map_resolution,
+        sampling=tfm.sampling,
+        method=tfm.method,
+        ambient=tfm.ambient,
+    )
+
+
+def render_size(scene) -> tuple[int, int]:
+    """Output size in pixels after the resolution percentage."""
+    r = scene.render
+    return (int(r.resolution_x * r.resolution_percentage / 100),
+            int(r.resolution_y * r.resolution_percentage / 100))
+
+
+def extract(depsgraph, *, parts: Change = Change.ALL, previous: Extraction | None = None,
+            camera_object=None, size: tuple[int, int] | None = None, window=None,
+            cache: GridCache | None = None) -> Extraction:
+    """Read ``parts`` of the scene from an evaluated depsgraph; take the rest from ``previous``.
+
+    ``camera_object``: the camera to render through (default: the scene's); ``size``: image size
+    in pixels (default: the scene's output size); ``window``: a render border's pixel window.
+    """
+    if previous is None:
+        previous, parts = Extraction(), Change.ALL
+    cache = grid_cache if cache is None else cache
+    scene = depsgraph.scene
+    changes: dict = {}
+    warnings = dict(previous.warnings)
+
+    if Change.SETTINGS in parts:
+        changes["settings"] = render_settings(scene)
+        warnings[Change.SETTINGS] = tuple(_settings_warnings(scene))
+
+    if Change.CAMERA in parts:
+        notes: list[str] = []
+        cam_ob = camera_object if camera_object is not None else scene.camera
+        if cam_ob is None:
+            changes["camera"] = None
+        else:
+            cam_ob = cam_ob.evaluated_get(depsgraph)
+            width, height = size if size is not None else render_size(scene)
+            changes["camera"] = camera_from_object(cam_ob, width, height, window=window, warnings=notes)
+        warnings[Change.CAMERA] = tuple(notes)
+
+    if Change.WORLD in parts:
+        ambient, note = ambient_radiance(scene.world)
+        changes["ambient"] = tuple(float(c) for c in ambient)
+        warnings[Change.WORLD] = (note,) if note else ()
+
+    geometry = parts & Change.GEOMETRY
+    if geometry:
+        found = _walk_instances(depsgraph, geometry, cache)
+        for part, key in ((Change.LIGHTS, "lights"), (Change.SOLIDS, "meshes")):
+            if part in geometry:
+                changes[key] = tuple(found[key])
+                warnings[part] = tuple(found["warnings"][part])
+        if Change.MEDIUM in geometry:
+            changes["medium"] = found["medium"]
+            changes["medium_source"] = found["medium_source"]
+            warnings[Change.MEDIUM] = tuple(found["warnings"][Change.MEDIUM])
+
+    return replace(previous, warnings=warnings, **changes)
+
+
+def _settings_warnings(scene) -> list[str]:
+    r = scene.render
+    if r.pixel_aspect_x != r.pixel_aspect_y:
+        return ["Non-square pixel aspect is not supported; rendering square pixels"]
+    return []
+
+
+def _label(instance) -> str:
+    ob = instance.object
+    if instance.is_instance and instance.parent is not None:
+        return f"{ob.name} (instanced by {instance.parent.name})"
+    return ob.name
+
+
+def _walk_instances(depsgraph, parts: Change, cache: GridCache) -> dict:
+    """Lights, meshes and the medium among the depsgraph's object instances."""
+    spots: list[SpotLight] = []
+    solids: list[Mesh] = []
+    skipped_lights: list[str] = []
+    media: list[str] = []
+    medium = None
+    notes = {Change.LIGHTS: [], Change.SOLIDS: [], Change.MEDIUM: []}
+    arrays: dict = {}  # evaluated mesh data -> (vertices, triangles), shared by its instances
+
+    for instance in depsgraph.object_instances:
+        ob = instance.object
+        kind = ob.type
+        if kind == 'LIGHT' and Change.LIGHTS in parts:
+            if ob.data.type == 'SPOT':
+                spots.append(lights_module.spot_light(ob, np.array(instance.matrix_world),
+                                                      notes[Change.LIGHTS]))
+            else:
+                skipped_lights.append(f"{ob.name} ({ob.data.type.lower()})")
+        elif kind == 'VOLUME' and Change.MEDIUM in parts:
+            media.append(_label(instance))
+            if medium is None and len(media) == 1:
+                medium = _volume_medium(instance, cache, notes[Change.MEDIUM])
+        elif kind in meshes.MESH_TYPES and parts & (Change.SOLIDS | Change.MEDIUM):
+            material = meshes.first_material(ob)
+            if materials.has_volume_only(material):
+                if Change.MEDIUM in parts:
+                    media.append(_label(instance))
+                    if medium is None and len(media) == 1:
+                        medium = _mesh_medium(instance, material, notes[Change.MEDIUM])
+                continue
+            if Change.SOLIDS not in parts:
+                continue
+            key = ob.data.as_pointer() if kind == 'MESH' else ob.as_pointer()
+            if key not in arrays:
+                arrays[key] = meshes.triangles(ob)
+            if arrays[key] is None:
+                continue
+            vertices, tris = arrays[key]
+            solids.append(Mesh(vertices=vertices, triangles=tris,
+                               matrix_world=np.array(instance.matrix_world),
+                               color=meshes.diffuse_color(ob), name=_label(instance)))
+
+    if Change.LIGHTS in parts:
+        if skipped_lights:
+            notes[Change.LIGHTS].append(
+                "Only spot lights are rendered; skipped " + ", ".join(skipped_lights))
+        # A scene without spot lights is the renderer's to explain (it says so in its warnings).
+    if len(media) > 1:
+        notes[Change.MEDIUM].append(
+            f"One medium is rendered: using {media[0]}, skipping " + ", ".join(media[1:]))
+    return {"lights": spots, "meshes": solids, "medium": medium,
+            "medium_source": media[0] if media else None, "warnings": notes}
+
+
+def _box_matrix(lo, hi) -> np.ndarray:
+    """Matrix mapping the cube [-1, 1]^3 onto the box [lo, hi]."""
+    lo, hi = np.asarray(lo, dtype=np.float64), np.asarray(hi, dtype=np.float64)
+    m = np.diag([*((hi - lo) / 2.0), 1.0])
+    m[:3, 3] = (hi + lo) / 2.0
+    return m
+
+
+def _sigma(material, settings, label: str, notes: list[str]):
+    """(sigma_a, sigma_s, g, grid the material reads or None, constant density?) for a medium."""
+    use_nodes = settings is None or settings.use_node_material
+    if use_nodes and material is not None:
+        sigma, reason = materials.read_volume_material(material)
+        if sigma is not None:
+            for note in sigma.notes:
+                notes.append(f"{label}: {note} is not rendered")
+            return sigma.sigma_a, sigma.sigma_s, sigma.anisotropy, sigma.grid, sigma.grid is None
+        notes.append(f"{label}: {reason}")
+    if settings is None:
+        return (0.1, 0.1, 0.1), (1.0, 1.0, 1.0), 0.0, None, False
+    k = settings.density_scale
+    return (tuple(k * c for c in settings.sigma_a), tuple(k * c for c in settings.sigma_s),
+            settings.anisotropy, None, False)
+
+
+def _volume_medium(instance, cache: GridCache, notes: list[str]) -> Medium | None:
+    ob = instance.object
+    volume = ob.data
+    label = f"Volume '{_label(instance)}'"
+    settings = getattr(volume, "tfm", None)
+    preferred = settings.density_grid if settings is not None else "density"
+    generated = (not volume.filepath or len(ob.original.modifiers) > 0
+                 or (instance.is_instance and instance.parent is not None
+                     and len(instance.parent.original.modifiers) > 0))
+    sigma_a, sigma_s, g, material_grid, constant = _sigma(
+        meshes.first_material(ob), settings, label, notes)
+    try:
+        grid, grid_notes = cache.read(volume, preferred, _label(instance), generated=generated)
+    except NoGridThisFrame:
+        return None
+    except VolumeReadError as ex:
+        notes.append(f"{ex}; rendering without it")
+        return None
+    notes.extend(grid_notes)
+    if material_grid and material_grid != grid.grid_name:
+        notes.append(f"{label}: the material reads grid '{material_grid}', the density comes from "
+                     f"grid '{grid.grid_name}' (set in the volume's TFM panel)")
+    to_world = np.array(instance.matrix_world) @ grid.index_to_object
+    if constant:
+        n = np.asarray(grid.density.shape, dtype=np.float64)
+        box = to_world @ _box_matrix(-0.5 * np.ones(3), n - 0.5)
+        return Medium(sigma_a=sigma_a, sigma_s=sigma_s, anisotropy=g, box_to_world=box)
+    return Medium(sigma_a=sigma_a, sigma_s=sigma_s, anisotropy=g, density=grid.density,
+                  index_to_world=to_world)
+
+
+def _mesh_medium(instance, material, notes: list[str]) -> Medium:
+    """A mesh with a volume-only material: a homogeneous medium filling its bounding box."""
+    ob = instance.object
+    corners = np.array([tuple(c) for c in ob.bound_box], dtype=np.float64)
+    sigma_a, sigma_s, g, _grid, _constant = _sigma(material, None, f"Object '{_label(instance)}'",
+                                                   notes)
+    notes.append(f"Object '{_label(instance)}': a mesh medium fills its bounding box")
+    box = np.array(instance.matrix_world) @ _box_matrix(corners.min(axis=0), corners.max(axis=0))
+    return Medium(sigma_a=sigma_a, sigma_s=sigma_s, anisotropy=g, box_to_world=box)

@@ -1,0 +1,106 @@
+"""Final renders (F12, animations, command line) and material previews.
+
+Reads the scene, renders on the GL thread, writes Combined and the three passes into Blender's
+render result, and reports problems to the user; nothing raises into Blender.
+"""
+
+from __future__ import annotations
+
+import traceback
+
+import numpy as np
+
+from ..engine.errors import RenderCancelled, RendererError
+from .camera import border_window
+from .extract import extract
+from .render_worker import get_worker
+
+# Blender pass name -> RenderOutput pass name.
+PASSES = (("Scattering", "scattering"), ("Surfaces", "surfaces"), ("Transmittance", "transmittance"))
+
+# What the last final render told the user: (level, message) pairs, for scripts and tests.
+last_messages: list[tuple[str, str]] = []
+# Seconds per stage of the last final render, as the renderer measured them.
+last_timings: dict[str, float] = {}
+
+
+def register_passes(engine, scene, view_layer) -> None:
+    """Declare the passes this engine writes (for the compositor and the image editor)."""
+    engine.register_pass(scene, view_layer, "Combined", 4, "RGBA", 'COLOR')
+    for name, _ in PASSES:
+        engine.register_pass(scene, view_layer, name, 3, "RGB", 'COLOR')
+
+
+def _tell(engine, level: str, message: str) -> None:
+    last_messages.append((level, message))
+    if level == 'ERROR':
+        engine.error_set(message)
+    engine.report({level}, message)
+
+
+def render(engine, depsgraph) -> None:
+    """RenderEngine.render: one frame of one view layer."""
+    last_messages.clear()
+    last_timings.clear()
+    scene = depsgraph.scene
+    width, height = engine.resolution_x, engine.resolution_y
+    window = border_window(scene.render, width, height)
+    quiet = engine.is_preview  # previews light their own scenes; their warnings help nobody
+    try:
+        extraction = extract(depsgraph, camera_object=engine.camera_override,
+                             size=(width, height), window=window)
+        if extraction.camera is None:
+            _tell(engine, 'ERROR', "The scene has no camera to render from")
+            return
+        if not quiet:
+            for message in extraction.all_warnings:
+                _tell(engine, 'WARNING', message)
+        engine.update_stats("", "TFM: rendering")
+        output = get_worker().render(
+            extraction.scene(), extraction.settings,
+            cancel=lambda: engine.test_break(),
+            progress=lambda fraction: engine.update_progress(fraction),
+        )
+    except RenderCancelled:
+        last_messages.append(('INFO', "cancelled"))
+        return
+    except RendererError as ex:
+        _tell(engine, 'ERROR', str(ex))
+        return
+    except Exception as ex:
+        traceback.print_exc()
+        _tell(engine, 'ERROR', f"TFM render failed: {type(ex).__name__}: {ex}")
+        return
+    if not quiet:
+        for message in output.warnings:
+            if message not in extraction.all_warnings:
+                _tell(engine, 'WARNING', message)
+    last_timings.update(output.timings_s)
+    write_result(engine, output, depsgraph.view_layer.name, width, height)
+
+
+def write_result(engine, output, layer_name: str, width: int, height: int) -> None:
+    """Copy a RenderOutput (top row first) into Blender's render result (bottom row first)."""
+    for name, _ in PASSES:
+        engine.add_pass(name, 3, "RGB", layer=layer_name)
+    result = engine.begin_result(0, 0, width, height, layer=layer_name)
+    try:
+        layer = result.layers[0]
+        images = {"Combined": output.combined}
+        for blender_name, name in PASSES:
+            images[blender_name] = output.passes[name]
+        for render_pass in layer.passes:
+            image = images.get(render_pass.name)
+            if image is None:
+                continue
+            h, w, c = image.shape
+            if h * w != len(render_pass.rect) or c != render_pass.channels:
+                raise RendererError(
+                    f"pass '{render_pass.name}' is {w}x{h}x{c}, Blender expects "
+                    f"{len(render_pass.rect)} pixels of {render_pass.channels} channels")
+            render_pass.rect = np.ascontiguousarray(image[::-1].reshape(h * w, c), dtype=np.float32)
+    except Exception as ex:
+        engine.end_result(result, cancel=True)
+        _tell(engine, 'ERROR', f"TFM could not write the render result: {ex}")
+        return
+    engine.end_result(result)

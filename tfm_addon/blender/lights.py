@@ -1,0 +1,57 @@
+"""Spot lights (and the projected textures they carry) as the renderer's SpotLight."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..engine.scene import SpotLight
+from .camera import without_scale
+
+
+def light_color(light) -> tuple[float, float, float]:
+    """Colour as Cycles uses it: the colour, tinted by the blackbody temperature when enabled."""
+    color = np.asarray(light.color[:3], dtype=np.float64)
+    if getattr(light, "use_temperature", False):
+        color = color * np.asarray(light.temperature_color[:3], dtype=np.float64)
+    return tuple(float(c) for c in color)
+
+
+def light_power_w(light) -> float:
+    """Power in watts as Cycles uses it: energy times 2^exposure."""
+    return float(light.energy) * 2.0 ** float(getattr(light, "exposure", 0.0))
+
+
+def image_pixels(image) -> np.ndarray:
+    """An image's pixels as an (h, w, 3) float32 array, top row first, scene-linear."""
+    w, h = image.size
+    if w == 0 or h == 0:
+        raise ValueError(f"image '{image.name}' has no pixels (missing file?)")
+    flat = np.empty(w * h * image.channels, dtype=np.float32)
+    image.pixels.foreach_get(flat)
+    rgba = flat.reshape(h, w, image.channels)
+    rgb = rgba[:, :, :3] if image.channels >= 3 else np.repeat(rgba[:, :, :1], 3, axis=2)
+    if not image.is_float and image.colorspace_settings.name in ("sRGB", "sRGB Display"):
+        rgb = np.where(rgb <= 0.04045, rgb / 12.92, ((rgb + 0.055) / 1.055) ** 2.4)
+    return np.ascontiguousarray(rgb[::-1], dtype=np.float32)
+
+
+def spot_light(light_object, matrix_world, warnings: list[str]) -> SpotLight:
+    """The renderer's SpotLight for an evaluated spot light object placed at ``matrix_world``."""
+    light = light_object.data
+    settings = getattr(light, "tfm", None)
+    gobo = None
+    if settings is not None and settings.gobo is not None:
+        try:
+            gobo = image_pixels(settings.gobo)
+        except ValueError as ex:
+            warnings.append(f"Light '{light_object.name}': projected texture ignored: {ex}")
+    return SpotLight(
+        matrix_world=without_scale(matrix_world),
+        color=light_color(light),
+        power_w=light_power_w(light),
+        spot_size_rad=float(light.spot_size),
+        spot_blend=float(light.spot_blend),
+        gobo=gobo,
+        use_tfm=True if settings is None else bool(settings.use_tfm),
+        name=light_object.name,
+    )

@@ -1,0 +1,63 @@
+"""The RenderEngine Blender talks to: every callback forwards to the module that does the work."""
+
+import traceback
+
+import bpy
+
+from . import final_render
+from .camera import camera_from_view
+from .viewport import DrawTexture, ViewportSession, view_size
+
+
+class TFMRenderEngine(bpy.types.RenderEngine):
+    bl_idname = 'TFM'
+    bl_label = "TFM"
+    bl_use_preview = True
+    bl_use_postprocess = True
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self._session = None
+        self._texture = None
+        self._texture_of = None
+        self._viewport_error = None
+
+    def render(self, depsgraph):
+        final_render.render(self, depsgraph)
+
+    def update_render_passes(self, scene=None, renderlayer=None):
+        final_render.register_passes(self, scene, renderlayer)
+
+    def view_update(self, context, depsgraph):
+        try:
+            if self._session is None:
+                self._session = ViewportSession()
+            self._session.update(depsgraph)
+        except Exception as ex:
+            self._viewport_failed(ex)
+
+    def view_draw(self, context, depsgraph):
+        if self._session is None or self._session.extraction is None:
+            return
+        region, rv3d = context.region, context.region_data
+        width, height = view_size(region, context.scene.tfm.viewport_scale)
+        try:
+            camera = camera_from_view(rv3d.view_matrix, rv3d.window_matrix, width, height)
+            image = self._session.render(camera)
+        except Exception as ex:
+            self._viewport_failed(ex)
+            return
+        self._viewport_error = None
+        if self._texture_of is not image:
+            self._texture, self._texture_of = DrawTexture(image.combined), image
+        self._texture.draw(self, context.scene, region.width, region.height)
+
+    def _viewport_failed(self, ex):
+        message = f"TFM viewport: {ex}"
+        if message != self._viewport_error:
+            self._viewport_error = message
+            traceback.print_exc()
+        self.update_stats("", message)
+
+
+classes = (TFMRenderEngine,)

@@ -1,0 +1,243 @@
+"""The reverse of ``extract``: a renderer Scene written into Blender as ordinary objects.
+
+A Volume object reading a .vdb file written here (heterogeneous medium) or a cube with a volume
+material (homogeneous box), spot lights, meshes with Diffuse BSDF materials, a camera and a world.
+Used by the demo scene and by the tests, which render the same Scene directly and through Blender.
+"""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+
+from ..engine.scene import Medium, RenderSettings, Scene
+
+
+def write_vdb(path: str, density: np.ndarray, voxel_size_m: float = 1.0, name: str = "density",
+              extra_grids: dict[str, np.ndarray] | None = None) -> str:
+    """Write a float grid (x, y, z index order) as a .vdb file with a uniform voxel size.
+    ``extra_grids``: more grids by name; (nx, ny, nz, 3) arrays become vector grids."""
+    from .openvdb_module import import_openvdb
+
+    vdb = import_openvdb()
+    grids = []
+    for grid_name, array in {name: density, **(extra_grids or {})}.items():
+        array = np.array(array, dtype=np.float32, order="C")  # a writable copy for openvdb
+        grid = vdb.Vec3SGrid() if array.ndim == 4 else vdb.FloatGrid()
+        grid.copyFromArray(array)
+        grid.name = grid_name
+        grid.transform = vdb.createLinearTransform(voxelSize=voxel_size_m)
+        grids.append(grid)
+    os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
+    vdb.write(path, grids=grids)
+    return path
+
+
+def _matrix(m):
+    from mathutils import Matrix
+
+    return Matrix([list(map(float, row)) for row in np.asarray(m).reshape(4, 4)])
+
+
+def _link(obj, collection):
+    collection.objects.link(obj)
+    return obj
+
+
+def principled_volume_inputs(sigma_a, sigma_s) -> tuple[float, tuple, tuple]:
+    """Density, Color and Absorption Color of a Principled Volume with these sigmas (per channel):
+    sigma_s = d c, sigma_a = d (1 - c)(1 - sqrt(absorption))."""
+    sa, ss = np.asarray(sigma_a, float), np.asarray(sigma_s, float)
+    d = float(max((sa + ss).max(), 1e-6))
+    color = ss / d
+    rest = d - ss
+    absorption = np.where(rest > 1e-9, (1.0 - np.clip(sa / np.maximum(rest, 1e-9), 0, 1)) ** 2, 1.0)
+    return d, tuple(color), tuple(absorption)
+
+
+def volume_material(name: str, sigma_a, sigma_s, anisotropy: float = 0.0, grid: str = "density"):
+    """A Principled Volume material giving these sigmas per unit of ``grid`` ('' for constant)."""
+    import bpy
+
+    mat = bpy.data.materials.new(name)
+    nt = mat.node_tree if mat.node_tree is not None else _use_nodes(mat)
+    nt.nodes.clear()
+    out = nt.nodes.new('ShaderNodeOutputMaterial')
+    node = nt.nodes.new('ShaderNodeVolumePrincipled')
+    d, color, absorption = principled_volume_inputs(sigma_a, sigma_s)
+    node.inputs["Density"].default_value = d
+    node.inputs["Color"].default_value = (*color, 1.0)
+    node.inputs["Absorption Color"].default_value = (*absorption, 1.0)
+    node.inputs["Anisotropy"].default_value = anisotropy
+    node.inputs["Density Attribute"].default_value = grid
+    nt.links.new(node.outputs[0], out.inputs["Volume"])
+    return mat
+
+
+def diffuse_material(name: str, color):
+    """A Diffuse BSDF material (the engine's solids are Lambertian)."""
+    import bpy
+
+    mat = bpy.data.materials.new(name)
+    nt = mat.node_tree if mat.node_tree is not None else _use_nodes(mat)
+    nt.nodes.clear()
+    out = nt.nodes.new('ShaderNodeOutputMaterial')
+    node = nt.nodes.new('ShaderNodeBsdfDiffuse')
+    node.inputs["Color"].default_value = (*color, 1.0)
+    nt.links.new(node.outputs[0], out.inputs["Surface"])
+    mat.diffuse_color = (*color, 1.0)
+    return mat
+
+
+def _use_nodes(owner):
+    owner.use_nodes = True  # Blender < 5.0
+    return owner.node_tree
+
+
+def apply_settings(scene_settings, settings: RenderSettings) -> None:
+    """Copy RenderSettings into ``scene.tfm``."""
+    scene_settings.view_steps = settings.view_steps
+    scene_settings.light_steps = settings.light_steps
+    scene_settings.coefficients = settings.coefficients
+    scene_settings.density_weight_auto = settings.density_weight is None
+    if settings.density_weight is not None:
+        scene_settings.density_weight = settings.density_weight
+    scene_settings.map_resolution = settings.map_resolution
+    scene_settings.sampling = settings.sampling
+    scene_settings.method = settings.method
+    scene_settings.ambient = settings.ambient
+    if hasattr(settings, "tfm_filter"):
+        scene_settings.tfm_filter = settings.tfm_filter
+
+
+def build(scene: Scene, directory: str, *, bl_scene=None, settings: RenderSettings | None = None,
+          name: str = "TFM", use_node_material: bool = True) -> dict:
+    """Add ``scene``'s objects to ``bl_scene`` (default: the context scene) and set its camera,
+    resolution, world and TFM settings. A heterogeneous medium's grid is written to
+    ``directory``/<name>_density.vdb. Returns the created objects by role."""
+    import bpy
+
+    bl_scene = bl_scene or bpy.context.scene
+    collection = bl_scene.collection
+    made: dict = {"lights": [], "meshes": []}
+
+    cam = scene.camera
+    cam_data = bpy.data.cameras.new(f"{name} Camera")
+    cam_data.type = cam.projection
+    cam_data.lens = cam.lens_mm
+    cam_data.sensor_width = cam.sensor_width_mm
+    cam_data.sensor_height = cam.sensor_height_mm
+    cam_data.sensor_fit = cam.sensor_fit
+    cam_data.shift_x, cam_data.shift_y = cam.shift_x, cam.shift_y
+    cam_data.ortho_scale = cam.ortho_scale
+    cam_data.clip_start, cam_data.clip_end = cam.clip_start, cam.clip_end
+    cam_ob = _link(bpy.data.objects.new(f"{name} Camera", cam_data), collection)
+    cam_ob.matrix_world = _matrix(cam.matrix_world)
+    bl_scene.camera = cam_ob
+    made["camera"] = cam_ob
+    r = bl_scene.render
+    r.resolution_x, r.resolution_y, r.resolution_percentage = cam.width_px, cam.height_px, 100
+    r.pixel_aspect_x = r.pixel_aspect_y = 1.0
+
+    for i, light in enumerate(scene.lights):
+        data = bpy.data.lights.new(light.name or f"{name} Spot {i}", 'SPOT')
+        data.energy = light.power_w
+        data.color = light.color
+        data.spot_size = light.spot_size_rad
+        data.spot_blend = light.spot_blend
+        data.shadow_soft_size = 0.0
+        if light.gobo is not None:
+            img = bpy.data.images.new(f"{data.name} Gobo", light.gobo.shape[1], light.gobo.shape[0],
+                                      float_buffer=True)
+            rgba = np.ones((*light.gobo.shape[:2], 4), np.float32)
+            rgba[:, :, :3] = light.gobo[::-1]
+            img.pixels.foreach_set(rgba.ravel())
+            data.tfm.gobo = img
+        data.tfm.use_tfm = light.use_tfm
+        ob = _link(bpy.data.objects.new(data.name, data), collection)
+        ob.matrix_world = _matrix(light.matrix_world)
+        made["lights"].append(ob)
+
+    for i, mesh in enumerate(scene.meshes):
+        data = bpy.data.meshes.new(mesh.name or f"{name} Mesh {i}")
+        data.from_pydata(mesh.vertices.tolist(), [], mesh.triangles.tolist())
+        data.update()
+        data.materials.append(diffuse_material(f"{data.name} Diffuse", mesh.color))
+        ob = _link(bpy.data.objects.new(data.name, data), collection)
+        ob.matrix_world = _matrix(mesh.matrix_world)
+        ob.color = (*mesh.color, 1.0)
+        made["meshes"].append(ob)
+
+    if scene.medium is not None:
+        made["medium"] = _build_medium(scene.medium, directory, collection, name, use_node_material)
+
+    world = bl_scene.world or bpy.data.worlds.new(f"{name} World")
+    bl_scene.world = world
+    world.color = scene.ambient
+    nt = world.node_tree if world.node_tree is not None else _use_nodes(world)
+    nt.nodes.clear()
+    out = nt.nodes.new('ShaderNodeOutputWorld')
+    bg = nt.nodes.new('ShaderNodeBackground')
+    bg.inputs["Color"].default_value = (*scene.ambient, 1.0)
+    bg.inputs["Strength"].default_value = 1.0
+    nt.links.new(bg.outputs[0], out.inputs["Surface"])
+
+    bl_scene.render.engine = 'TFM'
+    if settings is not None:
+        apply_settings(bl_scene.tfm, settings)
+    return made
+
+
+def _build_medium(medium: Medium, directory: str, collection, name: str, use_node_material: bool):
+    import bpy
+
+    if medium.density is None:
+        box = bpy.data.meshes.new(f"{name} Fog")
+        corners = [(x, y, z) for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)]
+        faces = [(0, 1, 3, 2), (4, 6, 7, 5), (0, 4, 5, 1), (2, 3, 7, 6), (0, 2, 6, 4), (1, 5, 7, 3)]
+        box.from_pydata(corners, [], faces)
+        box.materials.append(volume_material(f"{name} Fog", medium.sigma_a, medium.sigma_s,
+                                             medium.anisotropy, grid=""))
+        ob = _link(bpy.data.objects.new(box.name, box), collection)
+        ob.matrix_world = _matrix(medium.box_to_world if medium.box_to_world is not None
+                                  else np.diag([50.0, 50.0, 50.0, 1.0]))
+        return ob
+
+    m = np.asarray(medium.index_to_world, dtype=np.float64)
+    voxel = float(abs(np.linalg.det(m[:3, :3])) ** (1.0 / 3.0))
+    path = write_vdb(os.path.join(directory, f"{name}_density.vdb"), medium.density, voxel)
+    data = bpy.data.volumes.new(f"{name} Smoke")
+    data.filepath = path
+    data.render.precision = 'FULL'
+    data.render.clipping = 0.0
+    data.tfm.use_node_material = use_node_material
+    data.tfm.sigma_a, data.tfm.sigma_s = medium.sigma_a, medium.sigma_s
+    data.tfm.density_scale, data.tfm.anisotropy = 1.0, medium.anisotropy
+    data.materials.append(volume_material(f"{name} Smoke", medium.sigma_a, medium.sigma_s,
+                                          medium.anisotropy))
+    ob = _link(bpy.data.objects.new(data.name, data), collection)
+    ob.matrix_world = _matrix(m @ np.diag([1.0 / voxel] * 3 + [1.0]))
+    return ob
+
+
+def cycles_single_scattering(bl_scene, samples: int = 256) -> None:
+    """Cycles settings that render what TFM renders (BLENDER.md): single scattering, no filter."""
+    bl_scene.render.engine = 'CYCLES'
+    c = bl_scene.cycles
+    c.device = 'CPU'
+    c.samples = samples
+    c.use_adaptive_sampling = False
+    c.use_denoising = False
+    c.max_bounces = 0
+    c.volume_bounces = 0
+    c.diffuse_bounces = c.glossy_bounces = c.transmission_bounces = c.transparent_max_bounces = 0
+    c.sample_clamp_direct = c.sample_clamp_indirect = 0.0
+    c.use_guiding = False
+    c.volume_biased = True
+    c.pixel_filter_type = 'BOX'
+    c.filter_width = 1.0
+    c.seed = 0
+    bl_scene.render.film_transparent = True
+    bl_scene.view_settings.view_transform = 'Standard'
+

@@ -1,0 +1,153 @@
+"""The add-on's settings stored in .blend files: ``scene.tfm``, ``volume.tfm``, ``light.tfm``."""
+
+import bpy
+from bpy.props import (
+    BoolProperty,
+    EnumProperty,
+    FloatProperty,
+    FloatVectorProperty,
+    IntProperty,
+    PointerProperty,
+    StringProperty,
+)
+
+
+class TFM_SceneSettings(bpy.types.PropertyGroup):
+    """Render settings of the TFM engine (Render Properties)."""
+
+    view_steps: IntProperty(
+        name="View Steps", default=100, min=1, soft_max=512, max=4096,
+        description="Samples along each view ray through the medium",
+    )
+    light_steps: IntProperty(
+        name="Light Steps", default=100, min=1, soft_max=512, max=4096,
+        description="Samples along each light ray when a transmittance map is built",
+    )
+    coefficients: IntProperty(
+        name="Coefficients", default=8, min=1, max=16,
+        description="Cosine coefficients stored per transmittance map texel",
+    )
+    density_weight_auto: BoolProperty(
+        name="Automatic Density Weight", default=True,
+        description="Choose the density weight from the thickest light ray of the medium",
+    )
+    density_weight: FloatProperty(
+        name="Density Weight", default=10.0, min=1.0, soft_max=100.0,
+        description="Alpha: the transmittance map stores T to the power 1/alpha, which rings less "
+                    "in thick media; at least the optical depth along the light rays",
+    )
+    map_resolution: IntProperty(
+        name="Map Resolution", default=512, min=16, soft_max=2048, max=8192, subtype='PIXEL',
+        description="Side of the shadow and transmittance maps, texels",
+    )
+    sampling: EnumProperty(
+        name="Sampling",
+        items=(
+            ('WORLD', "World", "Space view samples evenly along the view ray", 0),
+            ('PROJECTIVE', "Projective", "Space view samples evenly in the light's shadow map, "
+                                         "following its texel density", 1),
+        ),
+        default='WORLD',
+        description="How view samples are spaced in a homogeneous medium",
+    )
+    method: EnumProperty(
+        name="Method",
+        items=(
+            ('TFM', "Transmittance Maps", "Transmittance function mapping (fast)", 0),
+            ('BRUTE_FORCE', "Brute Force", "March toward the light at every view sample "
+                                           "(slow reference)", 1),
+        ),
+        default='TFM',
+        description="How the transmittance toward the lights is found",
+    )
+    tfm_filter: EnumProperty(
+        name="Map Filter",
+        items=(
+            ('EXACT', "Exact", "Reconstruct the four nearest map texels, each over its own light "
+                               "ray, and blend the results", 0),
+            ('LINEAR', "Linear", "Let the GPU blend neighbouring coefficients (faster; blurs the "
+                                 "medium's edges as seen from the light)", 1),
+        ),
+        default='EXACT',
+        description="How transmittance maps are filtered between texels",
+    )
+    ambient: BoolProperty(
+        name="Ambient", default=True,
+        description="Light the medium and the solids with the world colour",
+    )
+    viewport_scale: FloatProperty(
+        name="Viewport Resolution", default=0.5, min=0.1, max=1.0, subtype='FACTOR',
+        description="Resolution of the viewport image relative to the viewport",
+    )
+
+    @classmethod
+    def register(cls):
+        bpy.types.Scene.tfm = PointerProperty(type=cls, name="TFM", description="TFM engine settings")
+
+    @classmethod
+    def unregister(cls):
+        del bpy.types.Scene.tfm
+
+
+class TFM_VolumeSettings(bpy.types.PropertyGroup):
+    """How a Volume data-block becomes the medium (Volume Data Properties)."""
+
+    density_grid: StringProperty(
+        name="Density Grid", default="density",
+        description="Float grid that gives the density; when absent the first float grid is used",
+    )
+    use_node_material: BoolProperty(
+        name="Use Node Material", default=True,
+        description="Take absorption, scattering and anisotropy from the volume's node material "
+                    "(Principled Volume, Volume Scatter, Volume Absorption) when it can be read",
+    )
+    sigma_a: FloatVectorProperty(
+        name="Absorption", subtype='COLOR', size=3, default=(0.1, 0.1, 0.1), min=0.0, soft_max=1.0,
+        description="Absorption coefficient per unit density, per metre",
+    )
+    sigma_s: FloatVectorProperty(
+        name="Scattering", subtype='COLOR', size=3, default=(1.0, 1.0, 1.0), min=0.0, soft_max=1.0,
+        description="Scattering coefficient per unit density, per metre",
+    )
+    density_scale: FloatProperty(
+        name="Density Scale", default=1.0, min=0.0, soft_max=100.0,
+        description="Multiplies the absorption and scattering colours above",
+    )
+    anisotropy: FloatProperty(
+        name="Anisotropy", default=0.0, min=-0.99, max=0.99, subtype='FACTOR',
+        description="Henyey-Greenstein g: negative scatters backward, positive forward",
+    )
+
+    @classmethod
+    def register(cls):
+        bpy.types.Volume.tfm = PointerProperty(type=cls, name="TFM", description="TFM engine settings")
+
+    @classmethod
+    def unregister(cls):
+        del bpy.types.Volume.tfm
+
+
+class TFM_LightSettings(bpy.types.PropertyGroup):
+    """Per spot light settings (Light Data Properties)."""
+
+    use_tfm: BoolProperty(
+        name="Transmittance Map", default=True,
+        description="Shadow the medium by itself along this light's rays with a transmittance map",
+    )
+    gobo: PointerProperty(
+        name="Projected Texture", type=bpy.types.Image,
+        description="Image projected by the light over the square that bounds its cone",
+    )
+
+    @classmethod
+    def register(cls):
+        bpy.types.Light.tfm = PointerProperty(type=cls, name="TFM", description="TFM engine settings")
+
+    @classmethod
+    def unregister(cls):
+        del bpy.types.Light.tfm
+
+
+classes = (TFM_SceneSettings, TFM_VolumeSettings, TFM_LightSettings)
+
+register, unregister = bpy.utils.register_classes_factory(classes)
