@@ -115,8 +115,7 @@ def main(argv=None) -> int:
     engine_api = importlib.import_module(addon.__name__ + ".engine")
 
     bpy.ops.wm.read_homefile(use_empty=True)
-    demo = scenes.smoke_scene(width=args.width, height=args.height, n=args.grid,
-                              ambient=(0.03, 0.035, 0.045))
+    demo = scenes.demo_scene(width=args.width, height=args.height, n=args.grid)
     settings = engine_api.RenderSettings(
         view_steps=args.view_steps, light_steps=args.light_steps, coefficients=args.coefficients,
         map_resolution=args.map_resolution)
@@ -149,7 +148,7 @@ def main(argv=None) -> int:
     for level, message in final_render.last_messages:
         print(f"{level}: {message}")
     print(f"add-on: {how}")
-    print(f"scene: {args.width}x{args.height}, smoke {args.grid}^3 "
+    print(f"scene: {args.width}x{args.height}, smoke plume {args.grid}x{args.grid}x{3 * args.grid // 2} "
           f"({os.path.join(out_dir, 'Demo_density.vdb')})")
     print(f"PNG: {png}")
     print(f"EXR: {exr}")
