@@ -21,10 +21,14 @@ vec2 box_interval(vec3 o, vec3 d) {
     return vec2(max(max(tmin.x, tmin.y), tmin.z), min(min(tmax.x, tmax.y), tmax.z));
 }
 
-// Density at a world point: trilinear between voxel centres (integer index coordinates).
-float density_at(vec3 p) {
-    vec3 idx = (u_world_to_box * vec4(p, 1.0)).xyz;
+// Density at a point given in box (grid index) space: trilinear between voxel centres.
+float density_at_index(vec3 idx) {
     return texture(u_density, (idx + 1.5) / u_grid_size).r;
+}
+
+// Density at a world point.
+float density_at(vec3 p) {
+    return density_at_index((u_world_to_box * vec4(p, 1.0)).xyz);
 }
 
 // ---- the spot light ----

@@ -25,9 +25,9 @@ layout(location = 1) out vec4 o_surface;
 layout(location = 2) out vec4 o_transmittance;
 
 #if HAS_LIGHT
-// Radiance arriving at p from the light, past solids and medium; q, r as above.
-vec3 light_arriving(vec3 p, out vec3 q, out float r) {
-    q = light_space(p);
+// Radiance arriving at p (q in light space) from the light, past solids and medium; r is set to
+// the distance to the light.
+vec3 light_arriving(vec3 p, vec3 q, out float r) {
     r = length(q);
     float spot = q.z < 0.0 ? spot_falloff(q) : 0.0;
     if (spot <= 0.0) return vec3(0.0);
@@ -100,9 +100,8 @@ void main() {
         vec3 l = u_light_pos - P;
         float ndl = dot(n, normalize(l));
         if (ndl > 0.0) {
-            vec3 q;
             float r;
-            surface += albedo / PI * ndl * light_arriving(P, q, r);
+            surface += albedo / PI * ndl * light_arriving(P, light_space(P), r);
         }
 #endif
     }
@@ -120,9 +119,16 @@ void main() {
         float dt = (seg.y - seg.x) / float(u_view_steps);
         float tau = 0.0;
         float sigma_t_min = min(min(u_sigma_t.r, u_sigma_t.g), u_sigma_t.b);
+        // Positions along the ray, incrementally in box and light space.
+        vec3 ob = (u_world_to_box * vec4(o, 1.0)).xyz;
+        vec3 db = (u_world_to_box * vec4(d, 0.0)).xyz;
+#if HAS_LIGHT
+        vec3 oq = light_space(o);
+        vec3 dq = mat3(u_world_to_light) * d;
+#endif
         for (int i = 0; i < u_view_steps; ++i) {
-            vec3 p = o + d * (seg.x + (float(i) + 0.5) * dt);
-            float D = density_at(p);
+            float t = seg.x + (float(i) + 0.5) * dt;
+            float D = density_at_index(ob + db * t);
             if (D > 0.0) {
                 vec3 tv = exp(-u_sigma_t * (tau + 0.5 * D * dt));
                 vec3 src = vec3(0.0);
@@ -130,10 +136,10 @@ void main() {
                 src += u_ambient;
 #endif
 #if HAS_LIGHT
-                vec3 q;
+                vec3 q = oq + dq * t;
                 float r;
-                vec3 li = light_arriving(p, q, r);
-                if (any(greaterThan(li, vec3(0.0)))) src += li * hg_phase(dot(q / r, mat3(u_world_to_light) * -d), phase_g);
+                vec3 li = light_arriving(o + d * t, q, r);
+                if (any(greaterThan(li, vec3(0.0)))) src += li * hg_phase(-dot(q, dq) / r, phase_g);
 #endif
                 scatter += tv * u_sigma_s * D * dt * src;
                 tau += D * dt;
@@ -152,6 +158,8 @@ void main() {
 #endif
 #if HAS_LIGHT
         vec2 cs = frustum_interval(o, d, seg);
+        vec3 oq = light_space(o);
+        vec3 dq = mat3(u_world_to_light) * d;
         if (cs.y > cs.x) {
             int n = u_view_steps;
             bool projective = false;
@@ -179,13 +187,12 @@ void main() {
                 float dt = (u_next - s_prev) * span;
                 s_prev = u_next;
                 float t = cs.x + u_mid * span;
-                vec3 p = o + d * t;
-                vec3 q;
+                vec3 q = oq + dq * t;
                 float r;
-                vec3 li = light_arriving(p, q, r);
+                vec3 li = light_arriving(o + d * t, q, r);
                 if (any(greaterThan(li, vec3(0.0)))) {
                     vec3 tv = exp(-u_sigma_t * (t - seg.x));
-                    scatter += tv * u_sigma_s * dt * li * hg_phase(dot(q / r, mat3(u_world_to_light) * -d), phase_g);
+                    scatter += tv * u_sigma_s * dt * li * hg_phase(-dot(q, dq) / r, phase_g);
                 }
             }
         }

@@ -116,8 +116,10 @@ vec3 light_transmittance(vec3 p, vec3 q, float r) {
     float b = min(k.y, r);
     if (b <= a) return vec3(1.0);
     float dt = (b - a) / float(u_light_steps);
+    vec3 pb = (u_world_to_box * vec4(p + dir * (a + 0.5 * dt), 1.0)).xyz;
+    vec3 step = (u_world_to_box * vec4(dir * dt, 0.0)).xyz;
     float tau = 0.0;
-    for (int i = 0; i < u_light_steps; ++i) tau += density_at(p + dir * (a + (float(i) + 0.5) * dt));
+    for (int i = 0; i < u_light_steps; ++i) tau += density_at_index(pb + step * float(i));
     return exp(-u_sigma_t * tau * dt);
 #elif LIGHT_T == 2
 #if MEDIUM == 2
