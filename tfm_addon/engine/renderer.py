@@ -164,7 +164,7 @@ class Renderer:
                 t0 = time.perf_counter()
                 run_light_pass(gl, first=(i == 0), light_t=plan.light_t, tfm=plan.tfm,
                                light=(plan.frame, plan.light.intensity_w_per_sr,
-                                      plan.shadow.texture if plan.shadow else None, plan.gobo),
+                                      plan.shadow, plan.gobo),
                                **common)
                 self.counters["light_passes"] += 1
                 step("scattering", t0)
@@ -206,7 +206,7 @@ class Renderer:
         plan = self._plan_light(scene, settings, scene.lights[light_index], medium_gpu, solids)
         out = probe_light_transmittance(
             gl, points, medium=scene.medium, medium_gpu=medium_gpu, settings=settings,
-            light=(plan.frame, plan.light.intensity_w_per_sr, plan.shadow.texture if plan.shadow else None,
+            light=(plan.frame, plan.light.intensity_w_per_sr, plan.shadow,
                    None), light_t=plan.light_t, tfm=plan.tfm)
         for cache in self._caches:
             cache.used.clear()          # a probe keeps every map for the next render
@@ -279,7 +279,7 @@ class Renderer:
 
         def build():
             self.counters["tfms"] += 1
-            return TransmittanceMap(self.gl, frame, medium_gpu, shadow.texture if shadow else None,
+            return TransmittanceMap(self.gl, frame, medium_gpu, shadow,
                                     res, settings.light_steps, n, alpha_d)
 
         return self._tfms.get(key, build)[0]

@@ -241,6 +241,9 @@ class RenderSettings:
     quarter of the lookups; mixes domains at the medium's edges as seen from the light).
     ``ambient``: whether the world colour lights the medium and the surfaces.
     ``max_grid_bytes``: memory budget for the density texture; larger grids are downsampled.
+    ``quality``: 'CUSTOM' renders with the fields above; 'AUTO' lets
+    ``quality.auto_settings(scene, settings)`` choose the coefficient count, density weighting,
+    steps and sampling for the scene (the rule of docs/benchmark.md).
     """
 
     view_steps: int = 100
@@ -253,6 +256,7 @@ class RenderSettings:
     tfm_filter: Literal["EXACT", "LINEAR"] = "EXACT"
     ambient: bool = True
     max_grid_bytes: int = 512 * 1024 * 1024
+    quality: Literal["CUSTOM", "AUTO"] = "CUSTOM"
 
 
 @dataclass(frozen=True, eq=False)

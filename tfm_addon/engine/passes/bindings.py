@@ -11,7 +11,7 @@ from ..scene import Medium
 
 # Texture units, fixed for every program.
 UNIT = {"u_gb0": 0, "u_gb1": 1, "u_density": 2, "u_shadow": 3, "u_gobo": 4, "u_krange": 5,
-        "u_coef0": 6, "u_coef1": 7, "u_coef2": 8, "u_coef3": 9}
+        "u_coef0": 6, "u_coef1": 7, "u_coef2": 8, "u_coef3": 9, "u_shadow_depth": 14}
 
 MEDIUM_NONE, MEDIUM_BOX, MEDIUM_EVERYWHERE, MEDIUM_GRID = 0, 1, 2, 3
 
@@ -63,14 +63,16 @@ class MediumGPU:
 
 
 def bind_light(prog, frame: LightFrame, intensity, map_res: int, shadow, gobo) -> None:
-    """A light's uniforms; ``shadow`` and ``gobo`` are textures or None."""
+    """A light's uniforms; ``shadow`` is a ShadowMap or None, ``gobo`` a texture or None."""
     set_matrix(prog, "u_world_to_light", frame.world_to_light)
     set_uniforms(prog, u_light_pos=tuple(frame.position), u_intensity=tuple(float(x) for x in intensity),
                  u_cos_half=frame.cos_half, u_spot_smooth=frame.spot_smooth, u_tan_half=frame.tan_half,
                  u_map_res=float(map_res), u_has_shadow=int(shadow is not None),
                  u_has_gobo=int(gobo is not None))
     if shadow is not None:
-        shadow.use(UNIT["u_shadow"])
+        shadow.texture.use(UNIT["u_shadow"])
+        shadow.depth.use(UNIT["u_shadow_depth"])
+        set_uniforms(prog, u_shadow_far=shadow.far)
     if gobo is not None:
         gobo.use(UNIT["u_gobo"])
 

@@ -23,7 +23,7 @@ def probe_light_transmittance(
     tfm,
 ) -> np.ndarray:
     """(n, 3) float32 transmittance per channel from the light to world ``points`` (n, 3);
-    ``light`` is (frame, intensity, shadow texture or None, gobo or None)."""
+    ``light`` is (frame, intensity, ShadowMap or None, gobo or None)."""
     pts = np.ascontiguousarray(np.asarray(points, dtype=np.float32).reshape(-1, 3))
     n = len(pts)
     src = gl.ctx.texture((n, 1), 3, pts.tobytes(), dtype="f4")

@@ -76,8 +76,8 @@ def camera_uniforms(prog, camera: Camera, plane: ViewPlane) -> None:
 def run_light_pass(gl: GLContext, *, camera: Camera, plane: ViewPlane, medium: Medium | None,
                    medium_gpu: MediumGPU, settings: RenderSettings, ambient, first: bool,
                    light=None, light_t: int = LIGHT_T_NONE, tfm=None) -> None:
-    """Add one pass into the bound ScatteringTargets. ``light`` is (frame, intensity, shadow
-    texture or None, gobo texture or None) or None for the ambient-only first pass."""
+    """Add one pass into the bound ScatteringTargets. ``light`` is (frame, intensity, ShadowMap
+    or None, gobo texture or None) or None for the ambient-only first pass."""
     medium_kind = medium_gpu.kind
     if light is not None and light_t == LIGHT_T_NONE and not first:
         medium_kind = MEDIUM_NONE          # this light never reaches the medium

@@ -10,14 +10,18 @@ from .solids import POSITION_ONLY, SolidsBuffer
 
 
 class ShadowMap:
-    """An R32F texture of distances in metres (1e30 where no solid is seen)."""
+    """An R32F texture of distances in metres (1e30 where no solid is seen), and the same as a
+    depth texture (distance / ``far``) that the light passes sample with hardware comparison."""
 
     def __init__(self, gl: GLContext, frame: LightFrame, solids: SolidsBuffer, resolution: int):
         ctx = gl.ctx
         self.texture = ctx.texture((resolution, resolution), 1, dtype="f4")
         self.texture.filter = (ctx.NEAREST, ctx.NEAREST)
-        depth = ctx.depth_renderbuffer((resolution, resolution))
-        fbo = ctx.framebuffer([self.texture], depth)
+        self.depth = ctx.depth_texture((resolution, resolution))
+        self.depth.compare_func = "<="
+        self.depth.filter = (ctx.LINEAR, ctx.LINEAR)
+        self.depth.repeat_x = self.depth.repeat_y = False
+        fbo = ctx.framebuffer([self.texture], self.depth)
         fbo.use()
         ctx.enable(ctx.DEPTH_TEST)
         fbo.clear(1e30, 0, 0, 0, depth=1.0)
@@ -25,15 +29,16 @@ class ShadowMap:
         box = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
         far = float(np.linalg.norm(box - frame.position, axis=1).max()) * 1.01 + 1e-3
         near = max(far * 1e-5, 1e-4)
+        self.far = far
         prog = gl.program("shadow_map.vert", "shadow_map.frag")
         set_matrix(prog, "u_light_clip", frame.clip_matrix(near, far))
-        set_uniforms(prog, u_light_pos=tuple(frame.position))
+        set_uniforms(prog, u_light_pos=tuple(frame.position), u_shadow_far=far)
         vao = ctx.vertex_array(prog, [(solids.vbo, POSITION_ONLY, "in_position")])
         vao.render(vertices=solids.vertex_count)
         ctx.disable(ctx.DEPTH_TEST)
         vao.release()
         fbo.release()
-        depth.release()
 
     def release(self) -> None:
         self.texture.release()
+        self.depth.release()

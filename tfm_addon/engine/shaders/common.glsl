@@ -41,6 +41,8 @@ uniform float u_tan_half;        // half-width of the map frustum at unit distan
 uniform float u_map_res;         // texels per side of the shadow map and TFM
 uniform int u_has_shadow;
 uniform sampler2D u_shadow;      // distance from the light to the nearest solid, metres
+uniform sampler2DShadow u_shadow_depth;   // the same as depth, distance / u_shadow_far
+uniform float u_shadow_far;     // metres; the depth texture holds distance / far (linear)
 uniform int u_has_gobo;
 uniform sampler2D u_gobo;
 
@@ -57,24 +59,12 @@ float spot_falloff(vec3 q) {
     return x * x * (3.0 - 2.0 * x);
 }
 
-// Fraction of the light reaching distance r along the map direction uv past the solids
-// (2x2 percentage-closer filter).
+// Fraction of the light reaching distance r along the map direction uv past the solids:
+// the hardware's 2x2 percentage-closer filter on the linear depth (distance / far).
 float solid_visibility(vec2 uv, float r) {
     if (u_has_shadow == 0) return 1.0;
-    int res = int(u_map_res);
-    vec2 f = uv * u_map_res - 0.5;
-    ivec2 i0 = ivec2(floor(f));
-    vec2 w = f - floor(f);
     float bias = r * (3.0 * u_tan_half / u_map_res) + 2e-3;
-    float v = 0.0;
-    for (int dy = 0; dy < 2; ++dy) {
-        for (int dx = 0; dx < 2; ++dx) {
-            ivec2 c = clamp(i0 + ivec2(dx, dy), ivec2(0), ivec2(res - 1));
-            float lit = r <= texelFetch(u_shadow, c, 0).r + bias ? 1.0 : 0.0;
-            v += lit * (dx == 1 ? w.x : 1.0 - w.x) * (dy == 1 ? w.y : 1.0 - w.y);
-        }
-    }
-    return v;
+    return texture(u_shadow_depth, vec3(uv, (r - bias) / u_shadow_far));
 }
 
 vec3 gobo(vec2 uv) {

@@ -1,0 +1,245 @@
+"""The 'AUTO' quality setting: the cheapest settings that the benchmark found to reach SSIM >= 0.99
+against the ground truth, chosen from a few numbers measured on the scene (numpy only, no GL).
+
+The rule and the sweeps it comes from are written down in ``docs/benchmark.md``:
+
+- heterogeneous medium: density weighting on (automatic alpha); the coefficient count from the
+  largest optical depth tau along the lights' rays (``AUTO_COEFFICIENTS``); view and light steps
+  from the number of voxels the longest view / light ray crosses through the non-zero density,
+  times the steps per voxel the density's sharpness asks for (``sharpness``: one step per
+  "feature", the distance over which the density changes by its maximum, clamped to
+  ``STEPS_PER_VOXEL``), clamped to ``MIN_STEPS``..``MAX_STEPS``;
+- homogeneous medium: no TFM (analytic transmittance), projective-space sampling,
+  ``HOMOGENEOUS_VIEW_STEPS`` view steps;
+- map resolution, filter, method and ambient are the user's.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections import OrderedDict
+from dataclasses import dataclass
+
+import numpy as np
+
+from .light import LightFrame, is_dark
+from .medium_grid import downsample
+from .scene import RenderSettings, Scene
+
+# (largest optical depth, coefficients): the first row whose depth is >= tau applies.
+AUTO_COEFFICIENTS: tuple[tuple[float, int], ...] = ((4.0, 4), (16.0, 8), (math.inf, 16))
+STEPS_PER_VOXEL = (0.1, 0.5)        # the range the sharpness may ask for
+MIN_STEPS = 32
+MAX_STEPS = 256
+HOMOGENEOUS_VIEW_STEPS = 32
+
+_COARSE_SIDE = 64                   # the optical depth is marched on a grid this coarse
+_LIGHT_RAYS = 48                    # per side of the light's map
+_VIEW_RAYS = 24                     # along the longer image side
+_SHARPNESS_SAMPLES = 200_000        # voxels looked at for the sharpness
+_cache: OrderedDict = OrderedDict()
+
+
+@dataclass(frozen=True)
+class MediumStats:
+    """What the rule reads from a scene.
+
+    ``optical_depth``: the largest optical depth (most extinguishing channel, dimensionless)
+    along the rays of the lights whose cone reaches the medium, solids ignored (0 when none).
+    ``light_voxels``: voxels crossed by the longest light ray between the first and the last
+    non-zero density it meets; ``view_voxels``: by the longest camera ray through the grid's
+    bounds (a homogeneous medium: its box, in units of the box's half side).
+    ``sharpness``: the 99th percentile, over the non-zero voxels, of the largest change of
+    density to a neighbour, divided by the largest density (1 for a step from 0 to the maximum in
+    one voxel, ~0.1 for a smoke whose features span ten voxels); 0 for a homogeneous medium.
+    """
+
+    optical_depth: float
+    light_voxels: float
+    view_voxels: float
+    sharpness: float
+
+
+def _slab(o, d, lo, hi):
+    with np.errstate(divide="ignore", invalid="ignore"):
+        inv = 1.0 / d
+        ta, tb = (lo - o) * inv, (hi - o) * inv
+    t0 = np.nan_to_num(np.minimum(ta, tb), nan=-np.inf).max(axis=-1)
+    t1 = np.nan_to_num(np.maximum(ta, tb), nan=np.inf).min(axis=-1)
+    return t0, t1
+
+
+def _bounds(scene: Scene):
+    """(world -> local matrix, lo, hi, local units per voxel): the medium's box in its own space."""
+    m = scene.medium
+    if m.density is not None:
+        to_local = np.linalg.inv(np.asarray(m.index_to_world, dtype=np.float64))
+        return to_local, np.full(3, -1.0), np.asarray(m.density.shape, dtype=np.float64), 1.0
+    if m.box_to_world is not None:
+        return np.linalg.inv(np.asarray(m.box_to_world, dtype=np.float64)), -np.ones(3), np.ones(3), None
+    return None, None, None, None
+
+
+def _light_rays(frame: LightFrame, n: int) -> np.ndarray:
+    """Unit world directions of an n x n grid over the light's map, inside its cone."""
+    s = (np.arange(n) + 0.5) / n * 2.0 - 1.0
+    u, v = np.meshgrid(s, s)
+    local = np.stack([u.ravel() * frame.tan_half, v.ravel() * frame.tan_half, -np.ones(n * n)], axis=1)
+    local /= np.linalg.norm(local, axis=1, keepdims=True)
+    local = local[-local[:, 2] >= frame.cos_half - 1e-9]
+    to_world = np.linalg.inv(frame.world_to_light)
+    return local @ to_world[:3, :3].T
+
+
+def _camera_rays(scene: Scene, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Origins and unit directions of a coarse grid of camera rays (perspective or ortho)."""
+    from .camera import view_plane
+
+    cam = scene.camera
+    plane = view_plane(cam)
+    w, h = plane.width_px, plane.height_px
+    k = max(w, h) / n
+    xs = (np.arange(max(2, round(w / k))) + 0.5) / max(2, round(w / k)) * w
+    ys = (np.arange(max(2, round(h / k))) + 0.5) / max(2, round(h / k)) * h
+    X, Y = np.meshgrid(xs, ys)
+    px = plane.x0 + X.ravel() * plane.pixel_size
+    py = plane.y0 + Y.ravel() * plane.pixel_size
+    m = np.asarray(cam.matrix_world, dtype=np.float64)
+    rot = m[:3, :3] / np.linalg.norm(m[:3, :3], axis=0, keepdims=True)
+    if cam.projection == "ORTHO":
+        o = np.stack([px, py, np.zeros_like(px)], axis=1) @ rot.T + m[:3, 3]
+        d = np.broadcast_to(-rot[:, 2], o.shape).copy()
+    else:
+        d = np.stack([px, py, -np.ones_like(px)], axis=1)
+        d = (d / np.linalg.norm(d, axis=1, keepdims=True)) @ rot.T
+        o = np.broadcast_to(m[:3, 3], d.shape).copy()
+    return o, d
+
+
+def medium_stats(scene: Scene) -> MediumStats | None:
+    """The numbers the rule reads, or None without a medium. Cached by the scene's content."""
+    m = scene.medium
+    if m is None:
+        return None
+    lights = [light for light in scene.lights if not is_dark(light)]
+    key = (m.key, scene.camera.key, tuple(light.key for light in lights))
+    if key in _cache:
+        _cache.move_to_end(key)
+        return _cache[key]
+    stats = _measure(scene, lights)
+    _cache[key] = stats
+    while len(_cache) > 8:
+        _cache.popitem(last=False)
+    return stats
+
+
+def _measure(scene: Scene, lights) -> MediumStats:
+    from scipy import ndimage
+
+    m = scene.medium
+    to_local, lo, hi, _ = _bounds(scene)
+    sigma = float(m.sigma_t.max())
+    tau_max, light_len = 0.0, 0.0
+    coarse = None
+    f = 1
+    if m.density is not None:
+        f = max(1, math.ceil(max(m.density.shape) / _COARSE_SIDE))
+        coarse = np.pad(downsample(np.asarray(m.density, np.float32), f) if f > 1 else m.density, 1)
+    for light in lights:
+        frame = LightFrame.of(light)
+        d_world = _light_rays(frame, _LIGHT_RAYS)
+        if to_local is None:                  # fog everywhere: no bounds, no chord to speak of
+            continue
+        o = to_local[:3, :3] @ frame.position + to_local[:3, 3]
+        d = d_world @ to_local[:3, :3].T      # local units per world metre
+        t0, t1 = _slab(o[None, :], d, lo, hi)
+        t0 = np.maximum(t0, 0.0)
+        hit = t1 > t0
+        if not hit.any():
+            continue
+        o_h, d_h, t0, t1 = np.broadcast_to(o, d.shape)[hit], d[hit], t0[hit], t1[hit]
+        chord = (t1 - t0) * np.linalg.norm(d_h, axis=1)     # local units (voxels for a grid)
+        if coarse is None:
+            light_len = max(light_len, float(chord.max()))
+            tau_max = max(tau_max, sigma * float((t1 - t0).max()))
+            continue
+        steps = int(min(512, max(16, math.ceil(2.0 * chord.max() / f))))
+        s = (np.arange(steps) + 0.5) / steps
+        t = t0[:, None] + s[None, :] * (t1 - t0)[:, None]
+        p = o_h[:, None, :] + t[:, :, None] * d_h[:, None, :]     # fine index space
+        c = (p - (f - 1) / 2.0) / f + 1.0                        # padded coarse index space
+        dens = ndimage.map_coordinates(coarse, c.reshape(-1, 3).T, order=1, mode="constant",
+                                       cval=0.0).reshape(p.shape[:2])
+        integral = dens.sum(axis=1) * (t1 - t0) / steps          # world metres x density
+        tau_max = max(tau_max, sigma * float(integral.max()))
+        nonzero = dens > 0
+        if nonzero.any():
+            first = np.where(nonzero.any(axis=1), nonzero.argmax(axis=1), steps)
+            last = np.where(nonzero.any(axis=1), steps - 1 - nonzero[:, ::-1].argmax(axis=1), -1)
+            span = np.clip(last - first + 1, 0, None) / steps * chord
+            light_len = max(light_len, float(span.max()))
+
+    view_len = 0.0
+    if to_local is not None:
+        o_w, d_w = _camera_rays(scene, _VIEW_RAYS)
+        o = o_w @ to_local[:3, :3].T + to_local[:3, 3]
+        d = d_w @ to_local[:3, :3].T
+        t0, t1 = _slab(o, d, lo, hi)
+        t0 = np.maximum(t0, scene.camera.clip_start)
+        hit = t1 > t0
+        if hit.any():
+            view_len = float(((t1 - t0) * np.linalg.norm(d, axis=1))[hit].max())
+    sharp = 0.0 if m.density is None else sharpness(m.density)
+    return MediumStats(optical_depth=tau_max, light_voxels=light_len, view_voxels=view_len,
+                       sharpness=sharp)
+
+
+def sharpness(density: np.ndarray) -> float:
+    """See ``MediumStats.sharpness``; from a fixed sample of the non-zero voxels (deterministic)."""
+    d = np.asarray(density)
+    top = float(d.max()) if d.size else 0.0
+    if top <= 0.0 or min(d.shape) < 3:
+        return 0.0
+    nonzero = np.flatnonzero(d.reshape(-1) > 0)
+    if len(nonzero) > _SHARPNESS_SAMPLES:
+        nonzero = np.random.default_rng(0).choice(nonzero, _SHARPNESS_SAMPLES, replace=False)
+    idx = np.clip(np.array(np.unravel_index(nonzero, d.shape)).T, 1, np.array(d.shape) - 2)
+    centre = d[tuple(idx.T)]
+    jump = np.zeros(len(idx), dtype=np.float32)
+    for axis in range(3):
+        step = np.zeros(3, dtype=np.int64)
+        step[axis] = 1
+        for sign in (1, -1):
+            jump = np.maximum(jump, np.abs(d[tuple((idx + sign * step).T)] - centre))
+    return float(np.percentile(jump, 99)) / top
+
+
+def auto_coefficients(optical_depth: float) -> int:
+    """The coefficient count for the largest optical depth along the lights' rays."""
+    for depth, n in AUTO_COEFFICIENTS:
+        if optical_depth <= depth:
+            return n
+    return AUTO_COEFFICIENTS[-1][1]
+
+
+def auto_steps(voxels: float, sharpness: float) -> int:
+    """Steps along a ray that crosses ``voxels`` voxels of a density of this sharpness."""
+    per_voxel = min(max(sharpness, STEPS_PER_VOXEL[0]), STEPS_PER_VOXEL[1])
+    return int(min(MAX_STEPS, max(MIN_STEPS, math.ceil(per_voxel * voxels))))
+
+
+def auto_settings(scene: Scene, settings: RenderSettings | None = None) -> RenderSettings:
+    """``settings`` (default: RenderSettings()) with the quality knobs chosen for ``scene`` by
+    the rule above. A pure function of the scene's content; the same scene gives the same
+    settings."""
+    settings = settings or RenderSettings()
+    stats = medium_stats(scene)
+    if stats is None:
+        return settings
+    if scene.medium.density is None:
+        return dataclasses.replace(settings, sampling="PROJECTIVE", view_steps=HOMOGENEOUS_VIEW_STEPS)
+    return dataclasses.replace(settings, coefficients=auto_coefficients(stats.optical_depth),
+                               density_weight=None,
+                               light_steps=auto_steps(stats.light_voxels, stats.sharpness),
+                               view_steps=auto_steps(stats.view_voxels, stats.sharpness))
