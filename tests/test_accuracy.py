@@ -9,8 +9,14 @@ import pytest
 from tfm_addon.engine import Camera, Medium, RenderSettings, Scene, SpotLight
 from tfm_addon.engine.metrics import brightness_ratio, psnr, ssim
 from tfm_addon.engine.reference import render_reference
-from tfm_addon.scenes import (grid_to_world, homogeneous_box_scene, look_at, smoke_density, smoke_scene,
-                              stripes_gobo)
+from tfm_addon.scenes import (
+    grid_to_world,
+    homogeneous_box_scene,
+    look_at,
+    smoke_density,
+    smoke_scene,
+    stripes_gobo,
+)
 
 STEPS = dict(view_steps=128, light_steps=128)
 

@@ -1,26 +1,129 @@
-"""``python -m tfm_addon.bench [--quick] [--out DIR]``: run the benchmarks, print and save tables."""
+"""``python -m tfm_addon.bench [--quick | --gpu] [--out DIR] [--only SECTION ...] [--no-blender]``
+
+Runs the benchmark of issue 4 and writes everything under one folder (default out/bench):
+summary.md, the method table (results.md/.csv) with its speed-accuracy charts, the paper's
+Table 1, the stability sweeps, Cycles and EEVEE, the issue-2 table, and EXR/PNG images of every
+render and of its error. A progress bar runs on stderr; the summary is printed at the end.
+
+--quick: small sizes, for the tests (about 3 minutes on 2 cores with llvmpipe).
+--gpu (alias --paper): the renderer part only, at the paper's 1280x720 with 1024^2 maps, no
+Blender and no numpy reference (the ground truth is the GPU brute force at one step per voxel).
+"""
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import sys
+import time
 from pathlib import Path
 
-from . import renderer_bench
+SECTIONS = ("methods", "table1", "sweeps", "blender", "issue2")
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m tfm_addon.bench", description=__doc__)
-    parser.add_argument("--quick", action="store_true", help="tiny sizes, for the tests")
-    parser.add_argument("--paper", action="store_true",
-                        help="the paper's 1280x720 with 1024^2 maps, against brute force (for a GPU)")
+    parser = argparse.ArgumentParser(prog="python -m tfm_addon.bench", description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    size = parser.add_mutually_exclusive_group()
+    size.add_argument("--quick", action="store_true", help="tiny sizes, for the tests")
+    size.add_argument("--gpu", "--paper", dest="gpu", action="store_true",
+                      help="the paper's 1280x720 with 1024^2 maps, renderer only (for a GPU machine)")
     parser.add_argument("--out", type=Path, default=Path("out/bench"), help="output folder")
+    parser.add_argument("--only", nargs="+", choices=SECTIONS, help="run these sections only")
+    parser.add_argument("--scenes", nargs="+", choices=("smoke", "suzanne", "cloud", "gobo", "dense"),
+                        help="method-table scenes (default: all five)")
+    parser.add_argument("--size", metavar="WxH",
+                        help="override the image size of the method table and Table 1 (e.g. to try a "
+                             "--gpu run on a slow machine)")
+    parser.add_argument("--no-blender", action="store_true", help="skip Cycles and EEVEE")
+    parser.add_argument("--no-cache", action="store_true",
+                        help="recompute ground truths even if <out>/cache holds them")
     args = parser.parse_args(argv)
-    args.out.mkdir(parents=True, exist_ok=True)
-    size = renderer_bench.QUICK if args.quick else renderer_bench.PAPER if args.paper else renderer_bench.FULL
-    rows = renderer_bench.run(size, log=lambda m: print(m, file=sys.stderr))
-    text = renderer_bench.report(rows)
-    (args.out / "renderer.md").write_text(text + "\n")
+
+    from ..engine import Renderer
+    from . import blender_bench, methods_table, paper_table, renderer_bench, scene_set, summary, sweeps
+    from . import config as configs
+    from .charts import have_matplotlib, speed_accuracy
+    from .common import machine_line
+    from .progress import Progress
+
+    config = configs.QUICK if args.quick else configs.GPU if args.gpu else configs.FULL
+    if args.size:
+        w, h = (int(v) for v in args.size.lower().split("x"))
+        config = dataclasses.replace(config, width=w, height=h, cloud_width=w, cloud_height=h,
+                                     caps=config.caps + (f"images {w}x{h} (--size)",))
+    sections = set(args.only or SECTIONS)
+    if args.no_blender or not config.blender:
+        sections.discard("blender")
+    if "blender" in sections and not blender_bench.blender_available():
+        print("bpy is not installed: Cycles and EEVEE are skipped", file=sys.stderr)
+        sections.discard("blender")
+    out = args.out
+    out.mkdir(parents=True, exist_ok=True)
+    cache = None if args.no_cache else out / "cache"
+    t_start = time.perf_counter()
+
+    renderer = Renderer()
+    machine = machine_line(renderer)
+    print(f"{config.name} run on {machine}; sections: {', '.join(s for s in SECTIONS if s in sections)}; "
+          f"output: {out}", file=sys.stderr)
+    bench_scenes = []
+    if sections & {"methods", "table1"}:
+        only = set(args.scenes) if args.scenes else None
+        if "methods" not in sections:
+            only = {"smoke", "suzanne", "dense"}
+        bench_scenes = scene_set.build(config, only)
+    total = 0
+    if "methods" in sections:
+        total += methods_table.count(config, bench_scenes) + len(bench_scenes)
+    if "table1" in sections:
+        total += paper_table.count(bench_scenes)
+    if "sweeps" in sections:
+        total += sweeps.count(config)
+    if "blender" in sections:
+        total += blender_bench.count(config)
+    if "issue2" in sections:
+        total += 1
+    progress = Progress(total)
+
+    rows, checks, table1_rows, blender_res, blender_targets, issue2_text = [], [], [], None, [], ""
+    if "methods" in sections:
+        rows, _ = methods_table.run(config, bench_scenes, renderer, out, progress, cache)
+        checks = methods_table.counter_checks(config, bench_scenes, renderer)
+        progress.step("counters", n=len(bench_scenes))
+        methods_table.write(rows, checks, bench_scenes, out, config, machine)
+        title = f"{config.name} run, {machine.split(' (')[0]}"
+        if have_matplotlib():
+            speed_accuracy(rows, out / "speed_accuracy_ssim.png", "ssim", title=title)
+            speed_accuracy(rows, out / "speed_accuracy_psnr.png", "psnr", title=title)
+        else:
+            progress.log("matplotlib is not installed: no charts, no PNG images")
+    if "table1" in sections:
+        table1_rows = paper_table.run(config, bench_scenes, renderer, out, progress)
+        paper_table.write(table1_rows, out, config, machine)
+    if "sweeps" in sections and config.sweep and have_matplotlib():
+        sweep_rows = sweeps.run(config, renderer, out, progress, cache)
+        sweeps.write(sweep_rows, out, config)
+    if "blender" in sections:
+        try:
+            blender_res = blender_bench.run(config, renderer, out, progress, cache)
+            blender_bench.write(blender_res, out, config, machine)
+            blender_targets = blender_bench.targets(blender_res)
+        except Exception as ex:  # the renderer's figures stay useful without Blender's
+            progress.log(f"Blender part failed: {ex}")
+    renderer.release()
+    if "issue2" in sections:
+        size = (renderer_bench.QUICK if args.quick else renderer_bench.PAPER if args.gpu
+                else renderer_bench.FULL)
+        issue2_rows = renderer_bench.run(size, log=progress.log)
+        issue2_text = renderer_bench.report(issue2_rows)
+        (out / "renderer.md").write_text(issue2_text + "\n")
+        progress.step("issue 2 table")
+    progress.close()
+    text = summary.write(out / "summary.md", config=config, machine=machine,
+                         seconds=time.perf_counter() - t_start, rows=rows, checks=checks, table1=table1_rows,
+                         blender_res=blender_res, blender_targets=blender_targets,
+                         sweeps_done="sweeps" in sections, issue2_text=issue2_text)
     print(text)
     return 0
 

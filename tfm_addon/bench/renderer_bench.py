@@ -45,7 +45,7 @@ def run(size: Size, log=print) -> list[dict]:
     def full(settings):
         def go():
             renderer.clear_maps()
-            return renderer.render(scene, settings)
+            return renderer.render(scene, settings, passes=False)
         return go
 
     images = {name: full(s)() for name, s in methods.items()}           # compiles the shaders
@@ -70,7 +70,7 @@ def run(size: Size, log=print) -> list[dict]:
 
     def camera_only():
         state["k"] ^= 1
-        return renderer.render(cams[state["k"]], tfm8)
+        return renderer.render(cams[state["k"]], tfm8, passes=False)
 
     renderer.render(cams[0], tfm8)
     t = time_side_by_side({"full": full(tfm8), "camera-only": camera_only}, max(size.repeats, 3))

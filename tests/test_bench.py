@@ -1,0 +1,163 @@
+"""The benchmark (issue 4) runs end to end at its quick size, and its outputs hold numbers that can
+fail: one row per scene and method, density weighting beating a truncated series where it rings,
+no TFM for homogeneous media or lights that miss the medium, Cycles converging.
+
+One run of ``python -m tfm_addon.bench --quick`` in a subprocess (its own GL context and, for
+Cycles/EEVEE, its own Blender process), about a minute on 2 cores with llvmpipe."""
+
+from __future__ import annotations
+
+import csv
+import math
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from tfm_addon.bench import config as configs
+from tfm_addon.bench.blender_bench import blender_available
+from tfm_addon.bench.common import methods_for, safe_name
+from tfm_addon.bench.scene_set import build
+
+ROOT = Path(__file__).resolve().parents[1]
+SCENES = ("smoke", "suzanne", "cloud", "gobo", "dense")
+
+
+def _csv(path: Path) -> list[dict]:
+    with open(path, newline="") as f:
+        return list(csv.DictReader(f))
+
+
+@pytest.fixture(scope="module")
+def bench(tmp_path_factory) -> Path:
+    out = tmp_path_factory.mktemp("bench")
+    proc = subprocess.run([sys.executable, "-m", "tfm_addon.bench", "--quick", "--out", str(out)],
+                          cwd=ROOT, capture_output=True, text=True, timeout=900)
+    assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
+    assert "[####" in proc.stderr, "the progress bar is missing"
+    return out
+
+
+@pytest.fixture(scope="module")
+def results(bench) -> list[dict]:
+    return _csv(bench / "results.csv")
+
+
+def _row(rows, scene, method) -> dict:
+    found = [r for r in rows if r["scene"] == scene and r["method"] == method]
+    assert len(found) == 1, (scene, method)
+    return found[0]
+
+
+def test_outputs_exist(bench):
+    for name in ("summary.md", "results.md", "results.csv", "counters.csv", "speed_accuracy_ssim.png",
+                 "speed_accuracy_psnr.png", "table1.md", "table1.csv", "renderer.md",
+                 "sweeps/sweeps.csv", "sweeps/sweeps.md", "sweeps/a_optical_depth_ssim.png",
+                 "sweeps/b_alpha_ssim.png", "sweeps/c_angle_ssim.png", "sweeps/d_inside_ssim.png",
+                 "sweeps/e_steps_ssim.png"):
+        path = bench / name
+        assert path.is_file() and path.stat().st_size > 0, name
+    summary = (bench / "summary.md").read_text()
+    assert "x15" in summary and "auto" in summary
+
+
+def test_one_row_per_scene_and_method_with_its_images(bench, results):
+    expected = {s.key: [m.name for m in methods_for(s.scene, configs.QUICK)] for s in build(configs.QUICK)}
+    assert set(expected) == set(SCENES)
+    for scene, names in expected.items():
+        got = [r["method"] for r in results if r["scene"] == scene]
+        assert got == names, scene
+        for name in names:
+            for suffix in (".exr", ".png", "_error.exr", "_error.png"):
+                path = bench / "images" / scene / (safe_name(name) + suffix)
+                assert path.is_file(), (scene, name, suffix)
+    assert len(results) == sum(len(v) for v in expected.values())
+    for r in results:
+        seconds, ssim, psnr = float(r["seconds"]), float(r["ssim"]), float(r["psnr"])
+        assert 0 < seconds < 60, r
+        assert 0 < ssim <= 1, r
+        assert psnr > 10 or math.isinf(psnr), r
+
+
+def test_density_weighting_beats_a_short_series_where_it_rings(results):
+    """The dense smoke (the paper's Fig. 7): 16 coefficients with alpha against 2 without."""
+    weighted = float(_row(results, "dense", "TFM-16 α")["ssim"])
+    ringing = float(_row(results, "dense", "TFM-2 no α")["ssim"])
+    assert weighted >= ringing
+    assert weighted >= 0.99
+    # and on the sharp-edged volume, weighting helps at every coefficient count
+    for n in (2, 4, 8):
+        assert float(_row(results, "suzanne", f"TFM-{n} α")["ssim"]) > float(
+            _row(results, "suzanne", f"TFM-{n} no α")["ssim"]), n
+
+
+def test_what_was_built(bench, results):
+    for r in results:
+        if r["scene"] == "gobo":
+            assert int(r["tfms_built"]) == 0, r          # homogeneous: analytic, no TFM
+        elif r["method"].startswith("brute force"):
+            assert int(r["tfms_built"]) == 0, r
+        else:
+            assert int(r["tfms_built"]) == 1, r
+    checks = _csv(bench / "counters.csv")
+    away = [c for c in checks if "aimed away" in c["scene"]]
+    assert len(away) == 4
+    for c in away:                                       # two lights, one misses the medium
+        assert (int(c["lights"]), int(c["tfms"])) == (2, 1), c
+    gobo = [c for c in checks if c["scene"].startswith("gobo")]
+    assert [int(c["tfms"]) for c in gobo] == [0]
+
+
+def test_auto_row_reaches_its_target_on_the_smoke(results):
+    auto = [r for r in results if r["family"] == "auto quality"]
+    assert len(auto) == len(SCENES)
+    smoke = next(r for r in auto if r["scene"] == "smoke")
+    assert float(smoke["ssim"]) >= 0.99
+    bf = _row(results, "smoke", "brute force 100x100")
+    assert float(smoke["seconds"]) < float(bf["seconds"])
+
+
+def test_paper_table(bench):
+    rows = _csv(bench / "table1.csv")
+    for scene in ("smoke", "suzanne"):
+        tfm = [r for r in rows if r["scene"] == scene and r["coefficients"]]
+        assert sorted((int(r["coefficients"]), r["alpha"]) for r in tfm) == sorted(
+            (n, a) for n in (4, 8, 16) for a in ("10", "auto", "1"))
+    paper = next(r for r in rows if r["scene"] == "smoke" and r["coefficients"] == "8" and r["alpha"] == "10")
+    assert float(paper["paper_ssim_pct"]) == pytest.approx(99.74)
+    suz = {r["alpha"]: float(r["ssim_pct"]) for r in rows
+           if r["scene"] == "suzanne" and r["coefficients"] == "4"}
+    assert suz["auto"] > suz["1"]
+
+
+def test_sweeps(bench):
+    rows = _csv(bench / "sweeps" / "sweeps.csv")
+    assert {r["sweep"] for r in rows} == {"a_optical_depth", "b_alpha", "c_angle", "d_inside", "e_steps"}
+    # (a) at the thickest point the weighted series is at least as good as the plain one
+    thick = max(float(r["x"]) for r in rows if r["sweep"] == "a_optical_depth")
+    for n in (4, 8, 16):
+        def at(label):
+            return next(float(r["ssim"]) for r in rows if r["sweep"] == "a_optical_depth"
+                        and r["scene"] == "Suzanne" and r["series"] == label and float(r["x"]) == thick)
+        assert at(f"TFM-{n} α") >= at(f"TFM-{n} no α"), n
+    # (c) homogeneous media build no TFM at any angle
+    assert all(r["note"] == "TFMs built 0" for r in rows if r["sweep"] == "c_angle")
+    # (d) every inside case renders close to the numpy reference with the brute force
+    inside = [r for r in rows if r["sweep"] == "d_inside" and r["series"] == "brute force 100x100"]
+    assert len(inside) == 4 and all(float(r["ssim"]) >= 0.99 for r in inside)
+
+
+@pytest.mark.skipif(not blender_available(), reason="bpy is not installed")
+def test_cycles_and_eevee(bench):
+    rows = _csv(bench / "blender" / "blender.csv")
+    cycles = {int(r["method"].split()[1]): float(r["ssim"]) for r in rows
+              if r["family"] == "Cycles single scattering" and "ground truth" not in r["method"]}
+    counts = sorted(cycles)
+    assert counts == list(configs.QUICK.cycles_samples)
+    assert cycles[counts[-1]] > cycles[counts[0]], "Cycles does not converge toward its ground truth"
+    assert sum(r["family"] == "EEVEE, volume shadows" for r in rows) == len(configs.QUICK.eevee_runs)
+    tfm8 = next(r for r in rows if r["method"] == "TFM-8 α")
+    assert float(tfm8["ssim"]) >= 0.97            # against converged Cycles: the same physics
+    assert abs(float(tfm8["brightness"]) - 1) <= 0.03
+    assert (bench / "blender" / "images" / "TFM-8_alpha_error.png").is_file()
