@@ -167,3 +167,15 @@ def test_fog_filling_the_scene_with_two_spots_matches_reference(renderer):
     out = renderer.render(scene, RenderSettings(view_steps=256, map_resolution=512))
     assert ssim(out.rgb, ref.rgb) >= 0.99
     assert abs(brightness_ratio(out.rgb, ref.rgb) - 1) <= 0.02
+
+
+def test_auto_quality_is_what_the_renderer_uses_and_reaches_ssim_099(renderer, smoke):
+    from tfm_addon.engine.quality import auto_settings
+
+    scene, ref = smoke
+    auto = renderer.render(scene, RenderSettings(quality="AUTO", map_resolution=256))
+    chosen = auto_settings(scene, RenderSettings(map_resolution=256))
+    explicit = renderer.render(scene, chosen)
+    np.testing.assert_array_equal(auto.combined, explicit.combined)
+    assert chosen.density_weight is None and 1 <= chosen.coefficients <= 16
+    assert ssim(auto.rgb, ref.rgb) >= 0.99

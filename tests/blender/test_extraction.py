@@ -336,10 +336,12 @@ def test_render_settings_come_from_the_panel(blank):
     tfm.view_steps, tfm.light_steps, tfm.coefficients, tfm.map_resolution = 33, 44, 12, 256
     tfm.density_weight_auto, tfm.density_weight = False, 7.5
     tfm.sampling, tfm.method, tfm.ambient = 'PROJECTIVE', 'BRUTE_FORCE', False
+    assert tfm.quality == 'AUTO', "the add-on's default quality is automatic"
+    tfm.quality, tfm.tfm_filter = 'CUSTOM', 'LINEAR'
     settings = _mod("extract").render_settings(blank)
     expected = RenderSettings(view_steps=33, light_steps=44, coefficients=12, density_weight=7.5,
                               map_resolution=256, sampling='PROJECTIVE', method='BRUTE_FORCE',
-                              ambient=False)
+                              ambient=False, quality='CUSTOM', tfm_filter='LINEAR')
     assert vars(settings) == vars(expected)
     tfm.density_weight_auto = True
     assert _mod("extract").render_settings(blank).density_weight is None

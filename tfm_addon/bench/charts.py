@@ -65,12 +65,14 @@ def _logit(ax) -> None:
     ax.yaxis.set_minor_formatter(NullFormatter())
 
 
-def _log_seconds(ax) -> None:
-    """A log axis labelled 0.01, 0.02, 0.05, 0.1 ... (no minor labels)."""
+def _log_seconds(ax, xs=None) -> None:
+    """A log axis labelled 0.01, 0.02, 0.05, 0.1 ... (powers of ten only over a wide range)."""
     from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
 
     ax.set_xscale("log")
-    ax.xaxis.set_major_locator(LogLocator(base=10.0, subs=(1.0, 2.0, 5.0)))
+    lo, hi = ax.get_xlim() if xs is None else (min(xs), max(xs))
+    wide = lo > 0 and hi / lo > 1e3
+    ax.xaxis.set_major_locator(LogLocator(base=10.0, subs=(1.0,) if wide else (1.0, 2.0, 5.0)))
     ax.xaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
     ax.xaxis.set_minor_formatter(NullFormatter())
 
@@ -101,7 +103,9 @@ def speed_accuracy(rows: list[dict], path: Path, metric: str = "ssim", title: st
     scenes = list(dict.fromkeys(r["scene_title"] for r in rows))
     cols = min(3, len(scenes))
     nrows = math.ceil(len(scenes) / cols)
-    fig, axes = plt.subplots(nrows, cols, figsize=(6.2 * cols, 4.6 * nrows), squeeze=False)
+    single = cols == 1
+    fig, axes = plt.subplots(nrows, cols, figsize=(6.2 * cols + 2.0 * single, 4.6 * nrows + 1.2 * single),
+                             squeeze=False)
     for ax, scene in zip(axes.ravel(), scenes, strict=False):
         srows = [r for r in rows if r["scene_title"] == scene and math.isfinite(r.get("seconds", math.nan))]
         for family in dict.fromkeys(r["family"] for r in srows):
@@ -110,7 +114,8 @@ def speed_accuracy(rows: list[dict], path: Path, metric: str = "ssim", title: st
             ax.plot([r["seconds"] for r in fr], [_accuracy(r, metric) for r in fr], label=family,
                     linestyle="-" if len(fr) > 1 else "none", alpha=0.9, **style)
             for r in fr:
-                if r["family"] in (AUTO, BRUTE, CYCLES, EEVEE, TFM_SSAA) or r["method"].startswith("TFM-8"):
+                if (r["family"] in (AUTO, BRUTE, CYCLES, EEVEE) or r["method"].startswith("TFM-8")
+                        or "maps" in r["method"]):
                     ax.annotate(r["method"].replace(" (builds none)", ""),
                                 (r["seconds"], _accuracy(r, metric)),
                                 fontsize=6, xytext=(3, 3), textcoords="offset points")
@@ -135,10 +140,13 @@ def speed_accuracy(rows: list[dict], path: Path, metric: str = "ssim", title: st
     for ax in axes.ravel():
         for h, label in zip(*ax.get_legend_handles_labels(), strict=False):
             handles.setdefault(label, h)
-    fig.legend(handles.values(), handles.keys(), loc="lower center", ncol=4, fontsize=8)
+    ncol = 4 if cols > 1 else 2
+    fig.legend(handles.values(), handles.keys(), loc="lower center", ncol=ncol, fontsize=8)
     if title:
         fig.suptitle(title, fontsize=11)
-    fig.tight_layout(rect=(0, 0.08 + 0.02 * (len(handles) > 8), 1, 0.97))
+    legend_rows = math.ceil(len(handles) / ncol)
+    bottom = (0.24 * legend_rows + 0.25) / fig.get_figheight()        # the legend's height, inches
+    fig.tight_layout(rect=(0, min(0.45, bottom), 1, 0.97))
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=110)
     plt.close(fig)
@@ -158,7 +166,7 @@ def lines(series: dict[str, tuple[list[float], list[float]]], path: Path, xlabel
             ls = "--" if "no α" in label or "world" in label else "-"
             ax.plot(xs, y, marker="o", linestyle=ls, label=label)
         if xlog:
-            _log_seconds(ax)
+            _log_seconds(ax, [x for xs, _ in pseries.values() for x in xs if x > 0])
         if ylogit:
             _logit(ax)
         for name, x in (marks or {}).items():
@@ -178,15 +186,19 @@ def lines(series: dict[str, tuple[list[float], list[float]]], path: Path, xlabel
     return path
 
 
-def bars(groups: list[str], series: dict[str, list[float]], path: Path, ylabel: str, title: str,
+def dots(groups: list[str], series: dict[str, list[float]], path: Path, ylabel: str, title: str,
          ylogit: bool = False) -> Path:
+    """Grouped markers: one group per category, one marker per series (bars cannot start at 0 on
+    a logit axis)."""
     plt = _plt()
-    fig, ax = plt.subplots(figsize=(max(6.0, 1.3 * len(groups) * max(1, len(series)) / 2), 4.4))
+    fig, ax = plt.subplots(figsize=(max(7.0, 2.2 * len(groups)), 4.6))
     width = 0.8 / max(len(series), 1)
     x = np.arange(len(groups))
+    markers = "osD^v<>Ph*"
     for k, (label, ys) in enumerate(series.items()):
         y = [min(v, SSIM_CEILING) if ylogit else v for v in ys]
-        ax.bar(x + (k - (len(series) - 1) / 2) * width, y, width, label=label)
+        ax.plot(x + (k - (len(series) - 1) / 2) * width, y, linestyle="none",
+                marker=markers[k % len(markers)], markersize=8, label=label)
     ax.set_xticks(x, groups, fontsize=8, rotation=10)
     if ylogit:
         _logit(ax)

@@ -237,7 +237,7 @@ def write(rows: list[dict], out: Path, config: Config) -> str:
             if r["sweep"] == "d_inside":
                 values = ser.setdefault(f"{r['scene']}: {r['series']}", [math.nan] * len(cases))
                 values[cases.index(r["x"])] = r["ssim"]
-        charts.bars(cases, ser, folder / "d_inside_ssim.png", "SSIM (logit axis)",
+        charts.dots(cases, ser, folder / "d_inside_ssim.png", "SSIM (logit axis)",
                     "light / camera inside the medium (against the numpy reference)", ylogit=True)
         lines += ["## (d) Light inside, camera inside", "", "![](d_inside_ssim.png)", ""]
         lines += _table(rows, "d_inside", "case", by_scene=True)

@@ -49,11 +49,8 @@ class Extraction:
 def render_settings(scene) -> RenderSettings:
     """RenderSettings from the scene's TFM properties."""
     tfm = scene.tfm
-    optional = {}
-    if "tfm_filter" in RenderSettings.__dataclass_fields__:
-        optional["tfm_filter"] = tfm.tfm_filter
     return RenderSettings(
-        **optional,
+        tfm_filter=tfm.tfm_filter,
         view_steps=tfm.view_steps,
         light_steps=tfm.light_steps,
         coefficients=tfm.coefficients,
@@ -62,6 +59,7 @@ def render_settings(scene) -> RenderSettings:
         sampling=tfm.sampling,
         method=tfm.method,
         ambient=tfm.ambient,
+        quality=tfm.quality,
     )
 
 

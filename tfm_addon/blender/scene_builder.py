@@ -107,8 +107,8 @@ def apply_settings(scene_settings, settings: RenderSettings) -> None:
     scene_settings.sampling = settings.sampling
     scene_settings.method = settings.method
     scene_settings.ambient = settings.ambient
-    if hasattr(settings, "tfm_filter"):
-        scene_settings.tfm_filter = settings.tfm_filter
+    scene_settings.tfm_filter = settings.tfm_filter
+    scene_settings.quality = settings.quality
 
 
 def build(scene: Scene, directory: str, *, bl_scene=None, settings: RenderSettings | None = None,

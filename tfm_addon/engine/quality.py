@@ -71,8 +71,11 @@ def _slab(o, d, lo, hi):
 
 
 def _bounds(scene: Scene):
+    return _bounds_of(scene.medium)
+
+
+def _bounds_of(m):
     """(world -> local matrix, lo, hi, local units per voxel): the medium's box in its own space."""
-    m = scene.medium
     if m.density is not None:
         to_local = np.linalg.inv(np.asarray(m.index_to_world, dtype=np.float64))
         return to_local, np.full(3, -1.0), np.asarray(m.density.shape, dtype=np.float64), 1.0
@@ -118,68 +121,19 @@ def _camera_rays(scene: Scene, n: int) -> tuple[np.ndarray, np.ndarray]:
 
 
 def medium_stats(scene: Scene) -> MediumStats | None:
-    """The numbers the rule reads, or None without a medium. Cached by the scene's content."""
+    """The numbers the rule reads, or None without a medium. Each part is cached by what it
+    depends on: the grid's (coarse copy, sharpness) by the density, the optical depth and light
+    chord by the density, sigma and light, so that a camera or light move costs milliseconds."""
     m = scene.medium
     if m is None:
         return None
     lights = [light for light in scene.lights if not is_dark(light)]
-    key = (m.key, scene.camera.key, tuple(light.key for light in lights))
-    if key in _cache:
-        _cache.move_to_end(key)
-        return _cache[key]
-    stats = _measure(scene, lights)
-    _cache[key] = stats
-    while len(_cache) > 8:
-        _cache.popitem(last=False)
-    return stats
-
-
-def _measure(scene: Scene, lights) -> MediumStats:
-    from scipy import ndimage
-
-    m = scene.medium
     to_local, lo, hi, _ = _bounds(scene)
-    sigma = float(m.sigma_t.max())
+    grid = _cached(("grid", m.density_key), lambda: _grid_summary(m)) if m.density is not None else None
     tau_max, light_len = 0.0, 0.0
-    coarse = None
-    f = 1
-    if m.density is not None:
-        f = max(1, math.ceil(max(m.density.shape) / _COARSE_SIDE))
-        coarse = np.pad(downsample(np.asarray(m.density, np.float32), f) if f > 1 else m.density, 1)
     for light in lights:
-        frame = LightFrame.of(light)
-        d_world = _light_rays(frame, _LIGHT_RAYS)
-        if to_local is None:                  # fog everywhere: no bounds, no chord to speak of
-            continue
-        o = to_local[:3, :3] @ frame.position + to_local[:3, 3]
-        d = d_world @ to_local[:3, :3].T      # local units per world metre
-        t0, t1 = _slab(o[None, :], d, lo, hi)
-        t0 = np.maximum(t0, 0.0)
-        hit = t1 > t0
-        if not hit.any():
-            continue
-        o_h, d_h, t0, t1 = np.broadcast_to(o, d.shape)[hit], d[hit], t0[hit], t1[hit]
-        chord = (t1 - t0) * np.linalg.norm(d_h, axis=1)     # local units (voxels for a grid)
-        if coarse is None:
-            light_len = max(light_len, float(chord.max()))
-            tau_max = max(tau_max, sigma * float((t1 - t0).max()))
-            continue
-        steps = int(min(512, max(16, math.ceil(2.0 * chord.max() / f))))
-        s = (np.arange(steps) + 0.5) / steps
-        t = t0[:, None] + s[None, :] * (t1 - t0)[:, None]
-        p = o_h[:, None, :] + t[:, :, None] * d_h[:, None, :]     # fine index space
-        c = (p - (f - 1) / 2.0) / f + 1.0                        # padded coarse index space
-        dens = ndimage.map_coordinates(coarse, c.reshape(-1, 3).T, order=1, mode="constant",
-                                       cval=0.0).reshape(p.shape[:2])
-        integral = dens.sum(axis=1) * (t1 - t0) / steps          # world metres x density
-        tau_max = max(tau_max, sigma * float(integral.max()))
-        nonzero = dens > 0
-        if nonzero.any():
-            first = np.where(nonzero.any(axis=1), nonzero.argmax(axis=1), steps)
-            last = np.where(nonzero.any(axis=1), steps - 1 - nonzero[:, ::-1].argmax(axis=1), -1)
-            span = np.clip(last - first + 1, 0, None) / steps * chord
-            light_len = max(light_len, float(span.max()))
-
+        tau, chord = _cached(("light", m.key, light.key), lambda light=light: _light_part(m, light, grid))
+        tau_max, light_len = max(tau_max, tau), max(light_len, chord)
     view_len = 0.0
     if to_local is not None:
         o_w, d_w = _camera_rays(scene, _VIEW_RAYS)
@@ -190,9 +144,66 @@ def _measure(scene: Scene, lights) -> MediumStats:
         hit = t1 > t0
         if hit.any():
             view_len = float(((t1 - t0) * np.linalg.norm(d, axis=1))[hit].max())
-    sharp = 0.0 if m.density is None else sharpness(m.density)
     return MediumStats(optical_depth=tau_max, light_voxels=light_len, view_voxels=view_len,
-                       sharpness=sharp)
+                       sharpness=0.0 if grid is None else grid[2])
+
+
+def _cached(key, build):
+    if key in _cache:
+        _cache.move_to_end(key)
+        return _cache[key]
+    value = build()
+    _cache[key] = value
+    while len(_cache) > 16:
+        _cache.popitem(last=False)
+    return value
+
+
+def _grid_summary(m) -> tuple[np.ndarray, int, float]:
+    """(the grid block-averaged to <= _COARSE_SIDE a side and padded by one voxel, the factor,
+    the sharpness)."""
+    f = max(1, math.ceil(max(m.density.shape) / _COARSE_SIDE))
+    coarse = np.pad(downsample(np.asarray(m.density, np.float32), f) if f > 1 else m.density, 1)
+    return coarse, f, sharpness(m.density)
+
+
+def _light_part(m, light, grid) -> tuple[float, float]:
+    """(the largest optical depth along the light's rays, the longest light chord in voxels
+    between the first and last non-zero density; for a box: through the box, in its units)."""
+    from scipy import ndimage
+
+    to_local, lo, hi, _ = _bounds_of(m)
+    if to_local is None:                      # fog everywhere: no bounds, no chord to speak of
+        return 0.0, 0.0
+    frame = LightFrame.of(light)
+    o = to_local[:3, :3] @ frame.position + to_local[:3, 3]
+    d = _light_rays(frame, _LIGHT_RAYS) @ to_local[:3, :3].T      # local units per world metre
+    t0, t1 = _slab(o[None, :], d, lo, hi)
+    t0 = np.maximum(t0, 0.0)
+    hit = t1 > t0
+    if not hit.any():
+        return 0.0, 0.0
+    o_h, d_h, t0, t1 = np.broadcast_to(o, d.shape)[hit], d[hit], t0[hit], t1[hit]
+    chord = (t1 - t0) * np.linalg.norm(d_h, axis=1)     # local units (voxels for a grid)
+    sigma = float(m.sigma_t.max())
+    if grid is None:
+        return sigma * float((t1 - t0).max()), float(chord.max())
+    coarse, f, _ = grid
+    steps = int(min(512, max(16, math.ceil(2.0 * chord.max() / f))))
+    s = (np.arange(steps) + 0.5) / steps
+    t = t0[:, None] + s[None, :] * (t1 - t0)[:, None]
+    p = o_h[:, None, :] + t[:, :, None] * d_h[:, None, :]     # fine index space
+    c = (p - (f - 1) / 2.0) / f + 1.0                        # padded coarse index space
+    dens = ndimage.map_coordinates(coarse, c.reshape(-1, 3).T, order=1, mode="constant",
+                                   cval=0.0).reshape(p.shape[:2])
+    tau = sigma * float((dens.sum(axis=1) * (t1 - t0) / steps).max())   # world metres x density
+    nonzero = dens > 0
+    if not nonzero.any():
+        return tau, 0.0
+    first = np.where(nonzero.any(axis=1), nonzero.argmax(axis=1), steps)
+    last = np.where(nonzero.any(axis=1), steps - 1 - nonzero[:, ::-1].argmax(axis=1), -1)
+    span = np.clip(last - first + 1, 0, None) / steps * chord
+    return tau, float(span.max())
 
 
 def sharpness(density: np.ndarray) -> float:

@@ -29,7 +29,14 @@ from .passes.scattering import (
 from .passes.shadow_map import ShadowMap
 from .passes.solids import SolidsBuffer
 from .passes.tfm import TransmittanceMap, largest_density_integral
+from .quality import auto_settings
 from .scene import RenderSettings, Scene, SpotLight
+
+
+def effective_settings(scene: Scene, settings: RenderSettings | None) -> RenderSettings:
+    """The settings a frame renders with: ``quality='AUTO'`` lets quality.auto_settings choose."""
+    settings = settings or RenderSettings()
+    return auto_settings(scene, settings) if settings.quality == "AUTO" else settings
 
 
 class _Cache:
@@ -105,8 +112,9 @@ class Renderer:
         ``passes=False`` reads back the combined image alone (the viewport's case)."""
         gl = self.gl
         gl.check_thread()
+        settings = effective_settings(scene, settings)
         with gl.ctx:     # current for the call, whatever other context the thread made current
-            return self._render(scene, settings or RenderSettings(), cancel, progress, passes)
+            return self._render(scene, settings, cancel, progress, passes)
 
     def _render(self, scene, settings, cancel, progress, want_passes) -> RenderOutput:
         gl = self.gl
@@ -196,7 +204,8 @@ class Renderer:
         gl = self.gl
         gl.check_thread()
         with gl.ctx:
-            return self._light_transmittance_at(scene, settings or RenderSettings(), light_index, points)
+            return self._light_transmittance_at(scene, effective_settings(scene, settings), light_index,
+                                                points)
 
     def _light_transmittance_at(self, scene, settings, light_index, points) -> np.ndarray:
         gl = self.gl

@@ -86,9 +86,12 @@ class TFM_PT_render(_TFMPanel, bpy.types.Panel):
         tfm = context.scene.tfm
         col = layout.column()
         col.prop(tfm, "method")
-        col.prop(tfm, "view_steps")
-        col.prop(tfm, "light_steps")
-        col.prop(tfm, "sampling")
+        col.prop(tfm, "quality")
+        custom = col.column()
+        custom.active = tfm.quality == 'CUSTOM'
+        custom.prop(tfm, "view_steps")
+        custom.prop(tfm, "light_steps")
+        custom.prop(tfm, "sampling")
         col.prop(tfm, "ambient")
         col.prop(tfm, "viewport_scale")
 
@@ -106,11 +109,13 @@ class TFM_PT_render_maps(_TFMPanel, bpy.types.Panel):
         layout.active = tfm.method == 'TFM'
         col = layout.column()
         col.prop(tfm, "map_resolution")
-        col.prop(tfm, "coefficients")
         col.prop(tfm, "tfm_filter")
-        col.prop(tfm, "density_weight_auto", text="Automatic Weight")
-        sub = col.column()
-        sub.active = not tfm.density_weight_auto
+        custom = col.column()
+        custom.active = tfm.quality == 'CUSTOM'
+        custom.prop(tfm, "coefficients")
+        custom.prop(tfm, "density_weight_auto", text="Automatic Weight")
+        sub = custom.column()
+        sub.active = tfm.quality == 'CUSTOM' and not tfm.density_weight_auto
         sub.prop(tfm, "density_weight")
 
 
