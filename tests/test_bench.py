@@ -13,6 +13,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from tfm_addon.bench import config as configs
@@ -161,3 +162,36 @@ def test_cycles_and_eevee(bench):
     assert float(tfm8["ssim"]) >= 0.97            # against converged Cycles: the same physics
     assert abs(float(tfm8["brightness"]) - 1) <= 0.03
     assert (bench / "blender" / "images" / "TFM-8_alpha_error.png").is_file()
+
+
+# The auto rule itself (tfm_addon.engine.quality): pure numpy, no GL.
+
+def test_auto_rule_follows_optical_depth_sharpness_and_medium_kind():
+    import dataclasses
+
+    from tfm_addon import scenes
+    from tfm_addon.engine import RenderSettings
+    from tfm_addon.engine.quality import auto_settings, medium_stats
+
+    thin = scenes.paper_smoke_scene(64, 36, 32)
+    dense = scenes.dense_smoke_scene(64, 36, 32, thickness=30.0)
+    assert medium_stats(dense).optical_depth == pytest.approx(30 * medium_stats(thin).optical_depth, rel=1e-6)
+    base = RenderSettings(map_resolution=64, quality="AUTO")
+    a_thin, a_dense = auto_settings(thin, base), auto_settings(dense, base)
+    assert (a_thin.coefficients, a_dense.coefficients) == (4, 16)
+    assert a_thin.density_weight is None and a_dense.density_weight is None
+    assert a_thin.map_resolution == 64 and a_thin == auto_settings(thin, base)      # pure, repeatable
+
+    # A block of constant density: sharpness 1, half a step per voxel crossed.
+    d = np.zeros((40, 40, 40), np.float32)
+    d[4:36, 4:36, 4:36] = 1.0
+    block = dataclasses.replace(thin, medium=dataclasses.replace(thin.medium, density=d))
+    stats = medium_stats(block)
+    assert stats.sharpness == pytest.approx(1.0)
+    assert auto_settings(block, base).view_steps == max(32, math.ceil(0.5 * stats.view_voxels))
+
+    fog = scenes.gobo_box_scene(64, 36)
+    a_fog = auto_settings(fog, base)
+    assert (a_fog.sampling, a_fog.view_steps) == ("PROJECTIVE", 32)
+    empty = dataclasses.replace(thin, medium=None)
+    assert auto_settings(empty, base) == base
