@@ -13,13 +13,8 @@ import os
 
 import numpy as np
 
+from ..blender.scene_builder import diffuse_material, to_blender_matrix, write_vdb
 from ..engine.scene import Medium, Scene
-
-
-def _matrix(m):
-    from mathutils import Matrix
-
-    return Matrix([list(map(float, row)) for row in np.asarray(m).reshape(4, 4)])
 
 
 def reset() -> None:
@@ -81,24 +76,9 @@ def volume_material(name: str, medium: Medium, grid: str | None):
     return mat
 
 
-def diffuse_material(name: str, color):
-    import bpy
-
-    mat = bpy.data.materials.new(name)
-    nt = _nodes(mat)
-    out = nt.nodes.new("ShaderNodeOutputMaterial")
-    node = nt.nodes.new("ShaderNodeBsdfDiffuse")
-    node.inputs["Color"].default_value = (*color, 1.0)
-    node.inputs["Roughness"].default_value = 0.0
-    nt.links.new(node.outputs[0], out.inputs["Surface"])
-    return mat
-
-
 def build(scene: Scene, directory: str, name: str = "bench") -> dict:
     """Add ``scene`` to the context scene (call ``reset()`` first). Returns the objects made."""
     import bpy
-
-    from ..blender.scene_builder import write_vdb  # numpy + Blender's openvdb only
 
     bl = bpy.context.scene
     col = bl.collection
@@ -114,7 +94,7 @@ def build(scene: Scene, directory: str, name: str = "bench") -> dict:
     cd.clip_start, cd.clip_end = cam.clip_start, cam.clip_end
     co = bpy.data.objects.new(cd.name, cd)
     col.objects.link(co)
-    co.matrix_world = _matrix(cam.matrix_world)
+    co.matrix_world = to_blender_matrix(cam.matrix_world)
     bl.camera = co
     made["camera"] = co
     r = bl.render
@@ -133,7 +113,7 @@ def build(scene: Scene, directory: str, name: str = "bench") -> dict:
         ld.shadow_soft_size = 0.0
         lo = bpy.data.objects.new(ld.name, ld)
         col.objects.link(lo)
-        lo.matrix_world = _matrix(light.matrix_world)
+        lo.matrix_world = to_blender_matrix(light.matrix_world)
         made["lights"].append(lo)
 
     for i, mesh in enumerate(scene.meshes):
@@ -143,7 +123,7 @@ def build(scene: Scene, directory: str, name: str = "bench") -> dict:
         md.materials.append(diffuse_material(md.name, mesh.color))
         mo = bpy.data.objects.new(md.name, md)
         col.objects.link(mo)
-        mo.matrix_world = _matrix(mesh.matrix_world)
+        mo.matrix_world = to_blender_matrix(mesh.matrix_world)
         made["meshes"].append(mo)
 
     medium = scene.medium
@@ -157,7 +137,7 @@ def build(scene: Scene, directory: str, name: str = "bench") -> dict:
         bd.materials.append(volume_material(bd.name, medium, None))
         bo = bpy.data.objects.new(bd.name, bd)
         col.objects.link(bo)
-        bo.matrix_world = _matrix(medium.box_to_world)
+        bo.matrix_world = to_blender_matrix(medium.box_to_world)
         made["medium"] = bo
     elif medium is not None:
         m = np.asarray(medium.index_to_world, dtype=np.float64)
@@ -170,7 +150,7 @@ def build(scene: Scene, directory: str, name: str = "bench") -> dict:
         vd.materials.append(volume_material(vd.name, medium, "density"))
         vo = bpy.data.objects.new(vd.name, vd)
         col.objects.link(vo)
-        vo.matrix_world = _matrix(m @ np.diag([1.0 / voxel] * 3 + [1.0]))
+        vo.matrix_world = to_blender_matrix(m @ np.diag([1.0 / voxel] * 3 + [1.0]))
         made["medium"] = vo
 
     world = bl.world or bpy.data.worlds.new(f"{name} world")

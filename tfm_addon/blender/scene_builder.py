@@ -34,7 +34,7 @@ def write_vdb(path: str, density: np.ndarray, voxel_size_m: float = 1.0, name: s
     return path
 
 
-def _matrix(m):
+def to_blender_matrix(m):
     from mathutils import Matrix
 
     return Matrix([list(map(float, row)) for row in np.asarray(m).reshape(4, 4)])
@@ -133,7 +133,7 @@ def build(scene: Scene, directory: str, *, bl_scene=None, settings: RenderSettin
     cam_data.ortho_scale = cam.ortho_scale
     cam_data.clip_start, cam_data.clip_end = cam.clip_start, cam.clip_end
     cam_ob = _link(bpy.data.objects.new(f"{name} Camera", cam_data), collection)
-    cam_ob.matrix_world = _matrix(cam.matrix_world)
+    cam_ob.matrix_world = to_blender_matrix(cam.matrix_world)
     bl_scene.camera = cam_ob
     made["camera"] = cam_ob
     r = bl_scene.render
@@ -156,7 +156,7 @@ def build(scene: Scene, directory: str, *, bl_scene=None, settings: RenderSettin
             data.tfm.gobo = img
         data.tfm.use_tfm = light.use_tfm
         ob = _link(bpy.data.objects.new(data.name, data), collection)
-        ob.matrix_world = _matrix(light.matrix_world)
+        ob.matrix_world = to_blender_matrix(light.matrix_world)
         made["lights"].append(ob)
 
     for i, mesh in enumerate(scene.meshes):
@@ -165,7 +165,7 @@ def build(scene: Scene, directory: str, *, bl_scene=None, settings: RenderSettin
         data.update()
         data.materials.append(diffuse_material(f"{data.name} Diffuse", mesh.color))
         ob = _link(bpy.data.objects.new(data.name, data), collection)
-        ob.matrix_world = _matrix(mesh.matrix_world)
+        ob.matrix_world = to_blender_matrix(mesh.matrix_world)
         ob.color = (*mesh.color, 1.0)
         made["meshes"].append(ob)
 
@@ -200,7 +200,7 @@ def _build_medium(medium: Medium, directory: str, collection, name: str, use_nod
         box.materials.append(volume_material(f"{name} Fog", medium.sigma_a, medium.sigma_s,
                                              medium.anisotropy, grid=""))
         ob = _link(bpy.data.objects.new(box.name, box), collection)
-        ob.matrix_world = _matrix(medium.box_to_world if medium.box_to_world is not None
+        ob.matrix_world = to_blender_matrix(medium.box_to_world if medium.box_to_world is not None
                                   else np.diag([50.0, 50.0, 50.0, 1.0]))
         return ob
 
@@ -217,7 +217,7 @@ def _build_medium(medium: Medium, directory: str, collection, name: str, use_nod
     data.materials.append(volume_material(f"{name} Smoke", medium.sigma_a, medium.sigma_s,
                                           medium.anisotropy))
     ob = _link(bpy.data.objects.new(data.name, data), collection)
-    ob.matrix_world = _matrix(m @ np.diag([1.0 / voxel] * 3 + [1.0]))
+    ob.matrix_world = to_blender_matrix(m @ np.diag([1.0 / voxel] * 3 + [1.0]))
     return ob
 
 

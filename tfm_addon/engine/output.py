@@ -6,8 +6,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-PASS_NAMES = ("scattering", "surfaces", "transmittance")
-
 
 @dataclass
 class RenderOutput:
