@@ -138,21 +138,21 @@ class Renderer:
             t0 = time.perf_counter()
             medium_gpu, medium_warnings = self._medium(scene, settings)
             warnings += medium_warnings
-            solids = self._solids.get(tuple(m.key for m in scene.meshes),
-                                      lambda: SolidsBuffer(gl.ctx, scene.meshes))[0]
+            casters = self._solid_set(scene.shadow_casters)
+            seen = self._solid_set(scene.camera_meshes)
             step("scene", t0)
 
             plans = []
             for light in lights:
                 t0 = time.perf_counter()
-                plans.append(self._plan_light(scene, settings, light, medium_gpu, solids))
+                plans.append(self._plan_light(scene, settings, light, medium_gpu, casters))
                 step("light_maps", t0)
 
             t0 = time.perf_counter()
             plane = view_plane(scene.camera)
             gbuffer, built = self._gbuffers.get(
-                (scene.camera.key, tuple(m.key for m in scene.meshes)),
-                lambda: GBuffer(gl, scene.camera, plane, solids))
+                (scene.camera.key, tuple(m.key for m in scene.camera_meshes)),
+                lambda: GBuffer(gl, scene.camera, plane, seen))
             self.counters["gbuffers"] += built
             step("gbuffer", t0)
 
@@ -210,9 +210,8 @@ class Renderer:
     def _light_transmittance_at(self, scene, settings, light_index, points) -> np.ndarray:
         gl = self.gl
         medium_gpu, _ = self._medium(scene, settings)
-        solids = self._solids.get(tuple(m.key for m in scene.meshes),
-                                  lambda: SolidsBuffer(gl.ctx, scene.meshes))[0]
-        plan = self._plan_light(scene, settings, scene.lights[light_index], medium_gpu, solids)
+        casters = self._solid_set(scene.shadow_casters)
+        plan = self._plan_light(scene, settings, scene.lights[light_index], medium_gpu, casters)
         out = probe_light_transmittance(
             gl, points, medium=scene.medium, medium_gpu=medium_gpu, settings=settings,
             light=(plan.frame, plan.light.intensity_w_per_sr, plan.shadow,
@@ -220,6 +219,11 @@ class Renderer:
         for cache in self._caches:
             cache.used.clear()          # a probe keeps every map for the next render
         return out
+
+    def _solid_set(self, meshes) -> SolidsBuffer:
+        """The vertex buffer of these meshes (the camera's and the lights' sets are one buffer
+        when every mesh is in both)."""
+        return self._solids.get(tuple(m.key for m in meshes), lambda: SolidsBuffer(self.gl.ctx, meshes))[0]
 
     def _medium(self, scene: Scene, settings: RenderSettings) -> tuple[MediumGPU, list[str]]:
         medium = scene.medium

@@ -191,13 +191,22 @@ class Medium:
 @dataclass(frozen=True, eq=False)
 class Mesh:
     """A solid diffuse object: ``vertices`` (n, 3) float in object space, ``triangles`` (m, 3)
-    int vertex indices, placed by ``matrix_world``; ``color`` is the diffuse albedo."""
+    int vertex indices, placed by ``matrix_world``; ``color`` is the diffuse albedo.
+
+    Visibility, as Cycles' object settings: ``visible_camera`` False hides it from the camera
+    (it still casts shadows); ``cast_shadow`` False keeps it out of the shadow maps (no shadow
+    on surfaces, no shaft in the medium); ``holdout`` makes it a hole: seen by the camera, it
+    hides what is behind it, has no radiance and leaves alpha as the medium in front of it does.
+    """
 
     vertices: np.ndarray
     triangles: np.ndarray
     matrix_world: np.ndarray = field(default_factory=lambda: np.eye(4))
     color: RGB = (0.8, 0.8, 0.8)
     name: str = "Mesh"
+    visible_camera: bool = True
+    cast_shadow: bool = True
+    holdout: bool = False
 
     def __post_init__(self):
         v = np.ascontiguousarray(self.vertices, dtype=np.float32).reshape(-1, 3)
@@ -210,7 +219,8 @@ class Mesh:
 
     @cached_property
     def key(self) -> str:
-        return _digest(self.vertices, self.triangles, self.matrix_world, self.color)
+        return _digest(self.vertices, self.triangles, self.matrix_world, self.color,
+                       self.visible_camera, self.cast_shadow, self.holdout)
 
     @cached_property
     def shape_key(self) -> str:
@@ -275,5 +285,15 @@ class Scene:
 
     @cached_property
     def solids_key(self) -> str:
-        """What shadow maps depend on."""
-        return _digest(*[m.shape_key for m in self.meshes])
+        """What shadow maps depend on: the shapes of the meshes that cast shadows."""
+        return _digest(*[m.shape_key for m in self.shadow_casters])
+
+    @property
+    def camera_meshes(self) -> tuple[Mesh, ...]:
+        """The meshes the camera sees (holdouts included)."""
+        return tuple(m for m in self.meshes if m.visible_camera)
+
+    @property
+    def shadow_casters(self) -> tuple[Mesh, ...]:
+        """The meshes in the lights' shadow maps."""
+        return tuple(m for m in self.meshes if m.cast_shadow)

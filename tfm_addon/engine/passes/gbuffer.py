@@ -10,7 +10,7 @@ from .solids import FORMAT, SolidsBuffer
 
 class GBuffer:
     """Two RGBA32F textures the size of the pixel window: (albedo, distance along the view ray
-    in metres) and (world normal, 1 where a solid is seen)."""
+    in metres) and (world normal, 1 where a solid is seen, 2 where a holdout is seen)."""
 
     def __init__(self, gl: GLContext, camera: Camera, plane: ViewPlane, solids: SolidsBuffer):
         ctx = gl.ctx
@@ -30,7 +30,8 @@ class GBuffer:
             set_matrix(prog, "u_camera_clip", clip_matrix(camera))
             set_uniforms(prog, u_camera_pos=tuple(c2w[:3, 3]),
                          u_camera_forward=tuple(-c2w[:3, 2]), u_ortho=int(plane.ortho))
-            vao = ctx.vertex_array(prog, [(solids.vbo, FORMAT, "in_position", "in_normal", "in_albedo")])
+            vao = ctx.vertex_array(prog, [(solids.vbo, FORMAT, "in_position", "in_normal", "in_albedo",
+                                            "in_holdout")])
             vao.render(vertices=solids.vertex_count)
             ctx.disable(ctx.DEPTH_TEST)
             vao.release()

@@ -1,4 +1,4 @@
-"""The solids as one vertex buffer: world positions, face normals, albedo."""
+"""The solids as one vertex buffer: world positions, face normals, albedo, holdout flag."""
 
 from __future__ import annotations
 
@@ -6,12 +6,13 @@ import numpy as np
 
 from ..scene import Mesh
 
-FORMAT = "3f 3f 3f"
-POSITION_ONLY = "3f 24x"
+FORMAT = "3f 3f 3f 1f"
+POSITION_ONLY = "3f 28x"
 
 
 def solids_vertices(meshes: tuple[Mesh, ...]) -> np.ndarray:
-    """(3 * triangles, 9) float32: position, face normal, albedo per vertex, world space."""
+    """(3 * triangles, 10) float32: position, face normal, albedo, holdout (1 or 0) per vertex,
+    world space."""
     rows = []
     for mesh in meshes:
         if len(mesh.triangles) == 0:
@@ -21,12 +22,13 @@ def solids_vertices(meshes: tuple[Mesh, ...]) -> np.ndarray:
         length = np.linalg.norm(n, axis=1, keepdims=True)
         keep = length[:, 0] > 0
         v, n = v[keep], n[keep] / length[keep]
-        block = np.empty((len(v), 3, 9), dtype=np.float32)
+        block = np.empty((len(v), 3, 10), dtype=np.float32)
         block[:, :, 0:3] = v
         block[:, :, 3:6] = n[:, None, :]
         block[:, :, 6:9] = np.asarray(mesh.color, dtype=np.float32)
-        rows.append(block.reshape(-1, 9))
-    return np.concatenate(rows) if rows else np.zeros((0, 9), np.float32)
+        block[:, :, 9] = float(mesh.holdout)
+        rows.append(block.reshape(-1, 10))
+    return np.concatenate(rows) if rows else np.zeros((0, 10), np.float32)
 
 
 class SolidsBuffer:

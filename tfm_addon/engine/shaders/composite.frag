@@ -1,6 +1,7 @@
 // The combined image from the light passes' sums: scattered light plus the solids' radiance
-// seen through the medium; alpha 1 on solids, else 1 - mean view transmittance.
-uniform sampler2D u_gb1;          // normal, hit
+// seen through the medium; alpha 1 on solids, else (background, holdouts) 1 - mean view
+// transmittance.
+uniform sampler2D u_gb1;          // normal, hit (1 solid, 2 holdout)
 uniform sampler2D u_scatter;
 uniform sampler2D u_surface;
 uniform sampler2D u_transmittance;
@@ -9,6 +10,7 @@ void main() {
     ivec2 px = ivec2(gl_FragCoord.xy);
     vec3 t = texelFetch(u_transmittance, px, 0).rgb;
     vec3 rgb = texelFetch(u_scatter, px, 0).rgb + t * texelFetch(u_surface, px, 0).rgb;
-    bool hit = texelFetch(u_gb1, px, 0).w > 0.5;
+    float hit_flag = texelFetch(u_gb1, px, 0).w;
+    bool hit = hit_flag > 0.5 && hit_flag < 1.5;
     o_combined = vec4(rgb, hit ? 1.0 : 1.0 - (t.r + t.g + t.b) / 3.0);
 }

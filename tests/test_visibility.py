@@ -1,0 +1,71 @@
+"""Mesh visibility (Cycles' object settings): hidden from the camera, casting no shadow, holdout.
+
+Each case is checked against renders of the same scene without the mesh or with it as usual, so
+that the numbers can only agree if the flag changes exactly the passes it should. The smoke
+scene's bar (above the frame) casts the shaft; its ground is what the camera sees.
+"""
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from tfm_addon.engine import RenderSettings
+from tfm_addon.scenes import smoke_scene
+
+SETTINGS = RenderSettings(view_steps=48, light_steps=48, map_resolution=128)
+
+
+def _with(scene, name, **flags):
+    meshes = tuple(dataclasses.replace(m, **flags) if m.name == name else m for m in scene.meshes)
+    return dataclasses.replace(scene, meshes=meshes)
+
+
+def _without(scene, name):
+    return dataclasses.replace(scene, meshes=tuple(m for m in scene.meshes if m.name != name))
+
+
+@pytest.fixture(scope="module")
+def renders(renderer):
+    scene = smoke_scene(width=80, height=48, n=32)
+    assert {m.name for m in scene.meshes} == {"Bar", "Ground"}
+    cases = {"full": scene, "no_bar": _without(scene, "Bar"), "no_ground": _without(scene, "Ground"),
+             "bar_no_shadow": _with(scene, "Bar", cast_shadow=False),
+             "bar_neither": _with(scene, "Bar", cast_shadow=False, visible_camera=False),
+             "ground_unseen": _with(scene, "Ground", visible_camera=False),
+             "ground_holdout": _with(scene, "Ground", holdout=True)}
+    out = {name: renderer.render(s, SETTINGS) for name, s in cases.items()}
+    # Where the camera sees the ground.
+    out["ground_px"] = out["full"].combined[:, :, 3] == 1.0
+    return out
+
+
+def test_the_scene_has_a_shaft_and_a_ground(renders):
+    assert 0.2 < renders["ground_px"].mean() < 0.9
+    full, no_bar = renders["full"].passes["scattering"], renders["no_bar"].passes["scattering"]
+    assert np.abs(full - no_bar).max() > 0.05 * full.max()
+
+
+def test_no_shadow_removes_the_bar_shaft(renders):
+    assert np.abs(renders["bar_no_shadow"].combined - renders["no_bar"].combined).max() <= 1e-6
+    assert np.array_equal(renders["bar_neither"].combined, renders["no_bar"].combined)
+
+
+def test_hidden_from_camera_is_seen_through(renders):
+    unseen, none = renders["ground_unseen"], renders["no_ground"]
+    assert np.abs(unseen.combined - none.combined).max() <= 1e-6
+    assert unseen.combined[:, :, 3][renders["ground_px"]].max() < 1.0
+
+
+def test_holdout_cuts_alpha_and_radiance(renders):
+    holdout, full = renders["ground_holdout"], renders["full"]
+    ground, sky = renders["ground_px"], ~renders["ground_px"]
+    assert np.abs(holdout.combined - full.combined)[sky].max() <= 1e-6
+    assert np.abs(holdout.passes["surfaces"][ground]).max() == 0.0
+    assert full.passes["surfaces"][ground].max() > 0.0
+    t = holdout.passes["transmittance"][ground].mean(axis=-1)
+    assert t.min() < 0.99                       # some of the ground lies behind the smoke
+    np.testing.assert_allclose(holdout.combined[:, :, 3][ground], 1.0 - t, atol=1e-6)
+    np.testing.assert_allclose(holdout.combined[:, :, :3], holdout.passes["scattering"], atol=1e-6)
+    # The medium in front of the ground is the same as with a seen ground.
+    np.testing.assert_allclose(holdout.passes["scattering"], full.passes["scattering"], atol=1e-6)
