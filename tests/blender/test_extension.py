@@ -35,6 +35,18 @@ def _tfm_classes():
     return sorted(names)
 
 
+def _panel_engines() -> dict[str, frozenset]:
+    """Every registered panel's COMPAT_ENGINES (those that have one), by class."""
+    found, stack = {}, list(bpy.types.Panel.__subclasses__())
+    while stack:
+        panel = stack.pop()
+        stack.extend(panel.__subclasses__())
+        engines = getattr(panel, "COMPAT_ENGINES", None)
+        if getattr(panel, "is_registered", False) and isinstance(engines, set):
+            found[f"{panel.__module__}.{panel.__qualname__}"] = frozenset(engines)
+    return found
+
+
 def _gl_threads():
     return [t for t in threading.enumerate() if t.name == "tfm-gl" and t.is_alive()]
 
@@ -78,6 +90,8 @@ def test_enable_disable_twenty_times_leaves_nothing(addon, tmp_path):
     addon_utils.disable(MODULE, default_set=True)
     assert running is None or not running.alive
     baseline_threads = len(_gl_threads())  # other GL threads of this process (not the add-on's)
+    baseline_panels = _panel_engines()
+    assert len(baseline_panels) > 300
     addon_utils.enable(MODULE, default_set=True, handle_error=_raise)
     for i in range(20):
         addon_utils.disable(MODULE, default_set=True)
@@ -85,6 +99,7 @@ def test_enable_disable_twenty_times_leaves_nothing(addon, tmp_path):
         assert _tfm_classes() == []
         assert not hasattr(bpy.types.Scene, "tfm")
         assert [p for p in OPTED_IN if 'TFM' in getattr(bpy.types, p).COMPAT_ENGINES] == []
+        assert _panel_engines() == baseline_panels, f"panels changed after disable #{i + 1}"
         assert len(_gl_threads()) == baseline_threads, f"GL thread left after disable #{i + 1}"
         addon_utils.enable(MODULE, default_set=True, handle_error=_raise)
         assert _tfm_engine_registered()

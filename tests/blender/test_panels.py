@@ -75,3 +75,15 @@ def test_light_and_world_panels(context):
     assert "default_value" in _draw("TFM_PT_world", context)
     context.light.type = 'POINT'
     assert _draw("TFM_PT_light", context) == ["label:Only spot lights light the medium"]
+
+
+def test_visibility_and_passes_panels(context):
+    import bpy
+
+    ground = next(ob for ob in bpy.context.scene.objects if ob.type == 'MESH')
+    context.object = ground
+    context.view_layer = bpy.context.scene.view_layers[0]
+    assert {"hide_render", "visible_camera", "visible_shadow", "is_holdout"} <= set(
+        _draw("TFM_PT_object_visibility", context))
+    assert _draw("TFM_PT_view_layer_passes", context) == [
+        "use_pass_scattering", "use_pass_surfaces", "use_pass_transmittance"]

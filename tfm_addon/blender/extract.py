@@ -6,10 +6,12 @@ extraction, so the viewport re-reads only what an edit touched.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from ..engine.medium_grid import downsample
 from ..engine.scene import Camera, Medium, Mesh, RenderSettings, Scene, SpotLight
 from . import lights as lights_module
 from . import materials, meshes
@@ -122,9 +124,47 @@ def extract(depsgraph, *, parts: Change = Change.ALL, previous: Extraction | Non
 
 def _settings_warnings(scene) -> list[str]:
     r = scene.render
+    notes = []
     if r.pixel_aspect_x != r.pixel_aspect_y:
-        return ["Non-square pixel aspect is not supported; rendering square pixels"]
-    return []
+        notes.append("Non-square pixel aspect is not supported; rendering square pixels")
+    ignored = []
+    if r.use_multiview:
+        ignored.append("stereoscopy (every view renders from the camera's centre)")
+    if ignored:
+        notes.append("Not rendered by TFM: " + "; ".join(ignored))
+    return notes
+
+
+def volume_simplify_level(depsgraph) -> int:
+    """Blender's volume simplify level: the grid is halved this many times. Simplify's Volume
+    Resolution is a viewport setting (Render Properties ▸ Simplify ▸ Viewport): a final render's
+    depsgraph reads full grids, as in Blender (``BKE_volume_simplify_level``)."""
+    r = depsgraph.scene.render
+    if depsgraph.mode == 'RENDER' or not r.use_simplify:
+        return 0
+    factor = float(r.simplify_volumes)
+    return 16 if factor <= 0.0 else max(0, math.ceil(-math.log2(min(factor, 1.0))))
+
+
+_simplified: dict = {}  # (id of the full grid, level) -> (the full grid, simplified grid, matrix)
+
+
+def simplify_grid(density: np.ndarray, index_to_object: np.ndarray, level: int):
+    """The grid at 1/2^level of its resolution (means of 2^level-voxel blocks) and its matrix;
+    the last result is kept, so viewport edits that keep the grid do not redo it."""
+    if level <= 0:
+        return density, index_to_object
+    key = (id(density), level)
+    hit = _simplified.get(key)
+    if hit is None or hit[0] is not density:
+        f = 2 ** level
+        scale = np.diag([float(f)] * 3 + [1.0])
+        scale[:3, 3] = (f - 1) / 2.0   # block i's centre sits at index i f + (f - 1) / 2
+        small = downsample(density, f)
+        small.setflags(write=False)
+        _simplified.clear()
+        hit = _simplified[key] = (density, small, scale)
+    return hit[1], np.asarray(index_to_object) @ hit[2]
 
 
 def _label(instance) -> str:
@@ -143,10 +183,17 @@ def _walk_instances(depsgraph, parts: Change, cache: GridCache) -> dict:
     medium = None
     notes = {Change.LIGHTS: [], Change.SOLIDS: [], Change.MEDIUM: []}
     arrays: dict = {}  # evaluated mesh data -> (vertices, triangles), shared by its instances
+    simplify = volume_simplify_level(depsgraph) if Change.MEDIUM in parts else 0
+    unrendered: dict[str, list[str]] = {}   # kind of object TFM does not render -> names
 
     for instance in depsgraph.object_instances:
         ob = instance.object
         kind = ob.type
+        if not instance.show_self:
+            continue   # a particle or instancing emitter set not to show itself
+        if kind in UNRENDERED_TYPES and parts & Change.SOLIDS:
+            unrendered.setdefault(UNRENDERED_TYPES[kind], []).append(_label(instance))
+            continue
         if kind == 'LIGHT' and Change.LIGHTS in parts:
             if ob.data.type == 'SPOT':
                 spots.append(lights_module.spot_light(ob, np.array(instance.matrix_world),
@@ -156,7 +203,8 @@ def _walk_instances(depsgraph, parts: Change, cache: GridCache) -> dict:
         elif kind == 'VOLUME' and Change.MEDIUM in parts:
             media.append(_label(instance))
             if medium is None and len(media) == 1:
-                medium = _volume_medium(instance, cache, notes[Change.MEDIUM])
+                medium = _volume_medium(instance, cache, notes[Change.MEDIUM], simplify)
+                _medium_visibility_notes(depsgraph, instance, notes[Change.MEDIUM])
         elif kind in meshes.MESH_TYPES and parts & (Change.SOLIDS | Change.MEDIUM):
             material = meshes.first_material(ob)
             if materials.has_volume_only(material):
@@ -164,6 +212,7 @@ def _walk_instances(depsgraph, parts: Change, cache: GridCache) -> dict:
                     media.append(_label(instance))
                     if medium is None and len(media) == 1:
                         medium = _mesh_medium(instance, material, notes[Change.MEDIUM])
+                        _medium_visibility_notes(depsgraph, instance, notes[Change.MEDIUM])
                 continue
             if Change.SOLIDS not in parts:
                 continue
@@ -175,18 +224,36 @@ def _walk_instances(depsgraph, parts: Change, cache: GridCache) -> dict:
             vertices, tris = arrays[key]
             solids.append(Mesh(vertices=vertices, triangles=tris,
                                matrix_world=np.array(instance.matrix_world),
-                               color=meshes.diffuse_color(ob), name=_label(instance)))
+                               color=meshes.diffuse_color(ob), name=_label(instance),
+                               **meshes.visibility(instance, depsgraph.view_layer)))
 
     if Change.LIGHTS in parts:
         if skipped_lights:
             notes[Change.LIGHTS].append(
                 "Only spot lights are rendered; skipped " + ", ".join(skipped_lights))
         # A scene without spot lights is the renderer's to explain (it says so in its warnings).
+    for what, names in unrendered.items():
+        notes[Change.SOLIDS].append(f"{what} are not rendered by TFM: " + ", ".join(names))
     if len(media) > 1:
         notes[Change.MEDIUM].append(
             f"One medium is rendered: using {media[0]}, skipping " + ", ".join(media[1:]))
     return {"lights": spots, "meshes": solids, "medium": medium,
             "medium_source": media[0] if media else None, "warnings": notes}
+
+
+# Object types TFM does not render, and how the render report names them.
+UNRENDERED_TYPES = {'CURVES': "Hair curves", 'POINTCLOUD': "Point clouds"}
+
+
+def _medium_visibility_notes(depsgraph, instance, notes: list[str]) -> None:
+    """The medium is always seen and always shadows: say so when its object asks otherwise."""
+    flags = meshes.visibility(instance, depsgraph.view_layer)
+    ignored = [what for what, on in (("hidden from the camera", not flags["visible_camera"]),
+                                     ("casting no shadow", not flags["cast_shadow"]),
+                                     ("holdout", flags["holdout"])) if on]
+    if ignored:
+        notes.append(f"Medium '{_label(instance)}': " + ", ".join(ignored)
+                     + " is not rendered by TFM (the medium is seen and shadows)")
 
 
 def _box_matrix(lo, hi) -> np.ndarray:
@@ -214,7 +281,7 @@ def _sigma(material, settings, label: str, notes: list[str]):
             settings.anisotropy, None, False)
 
 
-def _volume_medium(instance, cache: GridCache, notes: list[str]) -> Medium | None:
+def _volume_medium(instance, cache: GridCache, notes: list[str], simplify: int = 0) -> Medium | None:
     ob = instance.object
     volume = ob.data
     label = f"Volume '{_label(instance)}'"
@@ -241,8 +308,9 @@ def _volume_medium(instance, cache: GridCache, notes: list[str]) -> Medium | Non
         n = np.asarray(grid.density.shape, dtype=np.float64)
         box = to_world @ _box_matrix(-0.5 * np.ones(3), n - 0.5)
         return Medium(sigma_a=sigma_a, sigma_s=sigma_s, anisotropy=g, box_to_world=box)
-    return Medium(sigma_a=sigma_a, sigma_s=sigma_s, anisotropy=g, density=grid.density,
-                  index_to_world=to_world)
+    density, index_to_object = simplify_grid(grid.density, grid.index_to_object, simplify)
+    return Medium(sigma_a=sigma_a, sigma_s=sigma_s, anisotropy=g, density=density,
+                  index_to_world=np.array(instance.matrix_world) @ index_to_object)
 
 
 def _mesh_medium(instance, material, notes: list[str]) -> Medium:

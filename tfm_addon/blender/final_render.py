@@ -24,10 +24,19 @@ last_messages: list[tuple[str, str]] = []
 last_timings: dict[str, float] = {}
 
 
+def enabled_passes(view_layer) -> tuple[tuple[str, str], ...]:
+    """The PASSES entries the view layer's Passes panel turns on (all of them without one)."""
+    settings = getattr(view_layer, "tfm", None)
+    if settings is None:
+        return PASSES
+    return tuple((blender_name, name) for blender_name, name in PASSES
+                 if getattr(settings, f"use_pass_{name}", True))
+
+
 def register_passes(engine, scene, view_layer) -> None:
     """Declare the passes this engine writes (for the compositor and the image editor)."""
     engine.register_pass(scene, view_layer, "Combined", 4, "RGBA", 'COLOR')
-    for name, _ in PASSES:
+    for name, _ in enabled_passes(view_layer):
         engine.register_pass(scene, view_layer, name, 3, "RGB", 'COLOR')
 
 
@@ -76,18 +85,20 @@ def render(engine, depsgraph) -> None:
             if message not in extraction.all_warnings:
                 _tell(engine, 'WARNING', message)
     last_timings.update(output.timings_s)
-    write_result(engine, output, depsgraph.view_layer.name, width, height)
+    write_result(engine, output, depsgraph.view_layer.name, width, height,
+                 passes=enabled_passes(depsgraph.view_layer))
 
 
-def write_result(engine, output, layer_name: str, width: int, height: int) -> None:
-    """Copy a RenderOutput (top row first) into Blender's render result (bottom row first)."""
-    for name, _ in PASSES:
+def write_result(engine, output, layer_name: str, width: int, height: int, passes=PASSES) -> None:
+    """Copy a RenderOutput (top row first) into Blender's render result (bottom row first):
+    Combined and ``passes`` (pairs of Blender and RenderOutput pass names)."""
+    for name, _ in passes:
         engine.add_pass(name, 3, "RGB", layer=layer_name)
     result = engine.begin_result(0, 0, width, height, layer=layer_name)
     try:
         layer = result.layers[0]
         images = {"Combined": output.combined}
-        for blender_name, name in PASSES:
+        for blender_name, name in passes:
             images[blender_name] = output.passes[name]
         for render_pass in layer.passes:
             image = images.get(render_pass.name)

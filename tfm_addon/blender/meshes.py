@@ -43,3 +43,23 @@ def diffuse_color(evaluated_object) -> tuple[float, float, float]:
     if color is None:
         color = tuple(evaluated_object.color[:3])
     return tuple(float(min(max(c, 0.0), 1.0)) for c in color)
+
+
+def visibility(instance, view_layer) -> dict[str, bool]:
+    """Mesh visibility flags of an object instance, as Cycles reads them: the object's camera and
+    shadow ray visibility (and its instancer's, for an instance) and its holdout, set on the
+    object or by a holdout collection of the view layer."""
+    ob = instance.object
+    owners = [ob]
+    if instance.is_instance and instance.parent is not None:
+        owners.append(instance.parent)
+    holdout = False
+    for owner in owners:
+        original = owner.original
+        try:
+            holdout = holdout or bool(original.holdout_get(view_layer=view_layer))
+        except (RuntimeError, TypeError, ValueError):
+            holdout = holdout or bool(original.is_holdout)
+    return {"visible_camera": all(o.visible_camera for o in owners),
+            "cast_shadow": all(o.visible_shadow for o in owners),
+            "holdout": holdout}

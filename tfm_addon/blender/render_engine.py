@@ -12,8 +12,17 @@ from .viewport import DrawTexture, ViewportSession, view_size
 class TFMRenderEngine(bpy.types.RenderEngine):
     bl_idname = 'TFM'
     bl_label = "TFM"
-    bl_use_preview = True
-    bl_use_postprocess = True
+    # What Blender should expect of this engine (docs/blender.md, "Engine flags"):
+    bl_use_preview = True                # renders material, light and world previews
+    bl_use_postprocess = True            # Blender composites and sequences the result
+    bl_use_shading_nodes_custom = False  # reads Blender's shader nodes: keep the Shader Editor
+    bl_use_eevee_viewport = True         # Material Preview is EEVEE's look-dev, Rendered is TFM
+    bl_use_gpu_context = False           # renders in its own OpenGL context on its own thread
+    bl_use_image_save = True             # Blender writes the frames of an animation
+    bl_use_custom_freestyle = False      # Freestyle strokes are Blender's, drawn over the result
+    bl_use_spherical_stereo = False      # no panoramic stereo cameras
+    bl_use_stereo_viewport = False       # one view in the viewport
+    bl_use_materialx = False             # not a Hydra delegate
 
     def __init__(self, *args, **kwargs):
         super().__init__(*args, **kwargs)

@@ -1,68 +1,15 @@
 """Panels in the Properties editor, shown only when the render engine is TFM.
 
-Our own panels draw the add-on's settings; Blender's panels that fit this engine as they are
-(dimensions, output, colour management, camera, light, volume file and grids, material slots) are
-opted in by adding 'TFM' to their ``COMPAT_ENGINES`` and opted out again on unregister.
+Our own panels draw the add-on's settings and replace the few Blender panels that do not say
+what TFM honours (object visibility, view layer passes); every other generic Blender panel is
+opened to TFM by ``blender.panel_compat`` on register and closed again on unregister.
 """
 
 import bpy
 
+from ..blender import panel_compat
+
 ENGINE = 'TFM'
-
-BUILTIN_PANELS = (
-    # Render and Output properties.
-    "RENDER_PT_color_management",
-    "RENDER_PT_color_management_advanced",
-    "RENDER_PT_color_management_curves",
-    "RENDER_PT_color_management_white_balance",
-    "RENDER_PT_color_management_working_space",
-    "RENDER_PT_format",
-    "RENDER_PT_frame_range",
-    "RENDER_PT_time_stretching",
-    "RENDER_PT_output",
-    "RENDER_PT_output_color_management",
-    "RENDER_PT_encoding",
-    "RENDER_PT_encoding_video",
-    "RENDER_PT_encoding_audio",
-    "RENDER_PT_stamp",
-    "RENDER_PT_stamp_note",
-    "RENDER_PT_stamp_burn",
-    "RENDER_PT_post_processing",
-    # Camera.
-    "DATA_PT_context_camera",
-    "DATA_PT_lens",
-    "DATA_PT_camera",
-    "CAMERA_PT_presets",
-    "DATA_PT_camera_display",
-    "DATA_PT_camera_display_composition_guides",
-    "DATA_PT_camera_safe_areas",
-    "DATA_PT_camera_safe_areas_center_cut",
-    "DATA_PT_camera_background_image",
-    "DATA_PT_custom_props_camera",
-    # Light: type, colour, power, then the cone.
-    "DATA_PT_context_light",
-    "DATA_PT_EEVEE_light",
-    "DATA_PT_spot",
-    "DATA_PT_custom_props_light",
-    # Volume.
-    "DATA_PT_context_volume",
-    "DATA_PT_volume_file",
-    "DATA_PT_volume_grids",
-    "DATA_PT_volume_viewport_display",
-    "DATA_PT_custom_props_volume",
-    # Material and world.
-    "MATERIAL_PT_preview",
-    "EEVEE_MATERIAL_PT_context_material",
-    "EEVEE_MATERIAL_PT_surface",
-    "EEVEE_MATERIAL_PT_volume",
-    "MATERIAL_PT_custom_props",
-    "WORLD_PT_context_world",
-    "WORLD_PT_custom_props",
-    # Object.
-    "OBJECT_PT_visibility",
-)
-
-_opted_in: list[type] = []
 
 
 class _TFMPanel:
@@ -199,12 +146,64 @@ class TFM_PT_world(_TFMPanel, bpy.types.Panel):
         layout.prop(context.scene.tfm, "ambient", text="Light the Medium")
 
 
+GEOMETRY_TYPES = {'MESH', 'CURVE', 'SURFACE', 'META', 'FONT', 'VOLUME'}
+
+
+class TFM_PT_object_visibility(_TFMPanel, bpy.types.Panel):
+    """Replaces OBJECT_PT_visibility (which shows ray visibility to EEVEE only)."""
+
+    bl_label = "Visibility"
+    bl_context = "object"
+    bl_options = {'DEFAULT_CLOSED'}
+
+    @classmethod
+    def poll(cls, context):
+        return context.object is not None and super().poll(context)
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        ob = context.object
+        col = layout.column()
+        col.prop(ob, "hide_select", text="Selectable", toggle=False, invert_checkbox=True)
+        col = layout.column(heading="Show In")
+        col.prop(ob, "hide_viewport", text="Viewports", toggle=False, invert_checkbox=True)
+        col.prop(ob, "hide_render", text="Renders", toggle=False, invert_checkbox=True)
+        if ob.type in GEOMETRY_TYPES:
+            layout.separator()
+            col = layout.column(heading="Ray Visibility")
+            col.prop(ob, "visible_camera", text="Camera", toggle=False)
+            col.prop(ob, "visible_shadow", text="Shadow", toggle=False)
+            layout.separator()
+            col = layout.column(heading="Mask")
+            col.prop(ob, "is_holdout")
+
+
+class TFM_PT_view_layer_passes(_TFMPanel, bpy.types.Panel):
+    """The engine's passes for the compositor (Combined is always written)."""
+
+    bl_label = "Passes"
+    bl_context = "view_layer"
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+        settings = context.view_layer.tfm
+        col = layout.column(heading="Include", align=True)
+        col.prop(settings, "use_pass_scattering")
+        col.prop(settings, "use_pass_surfaces")
+        col.prop(settings, "use_pass_transmittance")
+
+
 classes = (
     TFM_PT_render,
     TFM_PT_render_maps,
     TFM_PT_volume_medium,
     TFM_PT_light,
     TFM_PT_world,
+    TFM_PT_object_visibility,
+    TFM_PT_view_layer_passes,
 )
 
 _register_classes, _unregister_classes = bpy.utils.register_classes_factory(classes)
@@ -212,16 +211,14 @@ _register_classes, _unregister_classes = bpy.utils.register_classes_factory(clas
 
 def register():
     _register_classes()
-    for name in BUILTIN_PANELS:
-        panel = getattr(bpy.types, name, None)
-        if panel is None or ENGINE in panel.COMPAT_ENGINES:
-            continue
-        panel.COMPAT_ENGINES.add(ENGINE)
-        _opted_in.append(panel)
+    try:
+        panel_compat.open_panels()
+    except Exception:
+        panel_compat.close_panels()
+        _unregister_classes()
+        raise
 
 
 def unregister():
-    for panel in _opted_in:
-        panel.COMPAT_ENGINES.discard(ENGINE)
-    _opted_in.clear()
+    panel_compat.close_panels()
     _unregister_classes()

@@ -158,6 +158,38 @@ class TFM_LightSettings(bpy.types.PropertyGroup):
         del bpy.types.Light.tfm
 
 
-classes = (TFM_SceneSettings, TFM_VolumeSettings, TFM_LightSettings)
+def _passes_changed(self, context):
+    """Tell Blender the pass list changed (the compositor's Render Layers node follows)."""
+    view_layer = getattr(context, "view_layer", None)
+    if view_layer is not None:
+        view_layer.update_render_passes()
+
+
+class TFM_ViewLayerSettings(bpy.types.PropertyGroup):
+    """The engine's passes written for a view layer (View Layer Properties ▸ Passes)."""
+
+    use_pass_scattering: BoolProperty(
+        name="Scattering", default=True, update=_passes_changed,
+        description="Light scattered toward the camera by the medium (spot lights and ambient)",
+    )
+    use_pass_surfaces: BoolProperty(
+        name="Surfaces", default=True, update=_passes_changed,
+        description="Radiance of the solids as seen through the medium",
+    )
+    use_pass_transmittance: BoolProperty(
+        name="Transmittance", default=True, update=_passes_changed,
+        description="Transmittance of the medium along each view ray, to the solid or through",
+    )
+
+    @classmethod
+    def register(cls):
+        bpy.types.ViewLayer.tfm = PointerProperty(type=cls, name="TFM", description="TFM engine passes")
+
+    @classmethod
+    def unregister(cls):
+        del bpy.types.ViewLayer.tfm
+
+
+classes = (TFM_SceneSettings, TFM_VolumeSettings, TFM_LightSettings, TFM_ViewLayerSettings)
 
 register, unregister = bpy.utils.register_classes_factory(classes)
