@@ -69,3 +69,20 @@ def test_holdout_cuts_alpha_and_radiance(renders):
     np.testing.assert_allclose(holdout.combined[:, :, :3], holdout.passes["scattering"], atol=1e-6)
     # The medium in front of the ground is the same as with a seen ground.
     np.testing.assert_allclose(holdout.passes["scattering"], full.passes["scattering"], atol=1e-6)
+
+
+def test_visibility_matches_the_reference(renderer):
+    """The numpy reference, which shares no code with the GPU passes, with a bar that casts no
+    shadow and a holdout ground."""
+    from tfm_addon.engine.metrics import ssim
+    from tfm_addon.engine.reference import render_reference
+
+    scene = _with(_with(smoke_scene(width=64, height=40, n=32), "Bar", cast_shadow=False),
+                  "Ground", holdout=True)
+    steps = dict(view_steps=64, light_steps=64)
+    ref = render_reference(scene, **steps)
+    out = renderer.render(scene, RenderSettings(map_resolution=256, **steps))
+    alpha = lambda image: np.repeat(image.combined[..., 3:4], 3, axis=-1)  # noqa: E731
+    assert ssim(out.rgb, ref.rgb) >= 0.99
+    assert ssim(alpha(out), alpha(ref)) >= 0.99
+    assert (ref.combined[..., 3] < 1.0).all()      # no pixel is a seen solid

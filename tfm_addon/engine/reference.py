@@ -124,7 +124,7 @@ class _Solids:
     """All mesh triangles in world space, for first hits and shadow tests."""
 
     def __init__(self, meshes: tuple[Mesh, ...]):
-        v0s, e1s, e2s, albedo = [], [], [], []
+        v0s, e1s, e2s, albedo, holdout = [], [], [], [], []
         for mesh in meshes:
             if len(mesh.triangles) == 0:
                 continue
@@ -134,6 +134,7 @@ class _Solids:
             e1s.append(tri[:, 1] - tri[:, 0])
             e2s.append(tri[:, 2] - tri[:, 0])
             albedo.append(np.broadcast_to(np.asarray(mesh.color, np.float64), (len(tri), 3)))
+            holdout.append(np.full(len(tri), bool(mesh.holdout)))
         if v0s:
             v0, e1, e2 = np.concatenate(v0s), np.concatenate(e1s), np.concatenate(e2s)
             alb = np.concatenate(albedo)
@@ -142,8 +143,10 @@ class _Solids:
             keep = area > 0
             self.v0, self.e1, self.e2, self.albedo = v0[keep], e1[keep], e2[keep], alb[keep]
             self.normal = normal[keep] / area[keep, None]
+            self.holdout = np.concatenate(holdout)[keep]
         else:
             self.v0 = self.e1 = self.e2 = self.albedo = self.normal = np.zeros((0, 3))
+            self.holdout = np.zeros(0, dtype=bool)
 
     def __len__(self) -> int:
         return len(self.v0)
@@ -373,8 +376,10 @@ def _henyey_greenstein(cos_theta: np.ndarray, g: float) -> np.ndarray:
 
 def _shade_surfaces(p: np.ndarray, view_dir: np.ndarray, tri: np.ndarray, solids: _Solids,
                     lights: list[_Spot], field: _Field | None, sigma_t: np.ndarray,
-                    ambient: np.ndarray) -> np.ndarray:
-    """Outgoing Lambert radiance (n, 3) of the solid points p seen along view_dir."""
+                    ambient: np.ndarray, casters: _Solids | None = None) -> np.ndarray:
+    """Outgoing Lambert radiance (n, 3) of the solid points p seen along view_dir (triangles
+    ``tri`` of ``solids``), shadowed by ``casters`` (default: ``solids``)."""
+    casters = solids if casters is None else casters
     normal = solids.normal[tri]
     facing = np.einsum("nk,nk->n", normal, view_dir) > 0
     normal[facing] *= -1.0
@@ -387,7 +392,7 @@ def _shade_surfaces(p: np.ndarray, view_dir: np.ndarray, tri: np.ndarray, solids
         if len(live) == 0:
             continue
         offset = p[live] + _SURFACE_OFFSET_M * normal[live]
-        live = live[~solids.blocked(light.position, offset)]
+        live = live[~casters.blocked(light.position, offset)]
         if len(live) == 0:
             continue
         trans = np.ones((len(live), 3))
@@ -452,7 +457,8 @@ def render_reference(scene: Scene, settings: RenderSettings | None = None, *,
     w, h = int(cam.width_px), int(cam.height_px)
     origins, dirs, t_near, t_far = _camera_rays(cam)
     n_pix = len(origins)
-    solids = _Solids(scene.meshes)
+    solids = _Solids(scene.camera_meshes)        # what the camera sees (holdouts included)
+    casters = _Solids(scene.shadow_casters)      # what shadows the lights
     lights = [_Spot(light) for light in scene.lights if _Spot.usable(light)]
     medium = scene.medium
     sigma_t = medium.sigma_t if medium is not None else np.zeros(3)
@@ -479,14 +485,15 @@ def render_reference(scene: Scene, settings: RenderSettings | None = None, *,
                 seg = np.flatnonzero(t1 > t0)
                 if len(seg):
                     scat, trans_seg = _march_view(o[seg], d[seg], t0[seg], t1[seg], medium, field,
-                                                  solids, lights, ambient, view_steps)
+                                                  casters, lights, ambient, view_steps)
                     trans[seg] = trans_seg
                     scattering[k + seg] = scat
             transmittance[sl] = trans
+            hit = hit[~solids.holdout[tri[hit]]]   # a holdout: no radiance, alpha left open
             if len(hit):
                 p = o[hit] + t_hit[hit, None] * d[hit]
                 radiance = _shade_surfaces(p, d[hit], tri[hit], solids, lights, field, sigma_t,
-                                           ambient)
+                                           ambient, casters)
                 surfaces[k + hit] = trans[hit] * radiance
                 mask[k + hit] = True
 
