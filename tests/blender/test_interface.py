@@ -182,4 +182,22 @@ def test_view_layer_passes_reach_the_compositor_from_the_command_line(blank, tmp
 @pytest.fixture(autouse=True)
 def _reset_simplify_state(addon):
     yield
-    _module("blender.extract")._simplified.clear()
+    _module("blender.extract").clear_simplified()
+
+
+def test_visibility_flags_reach_the_meshes(blank, tmp_path):
+    builder, extract = _module("blender.scene_builder"), _module("blender.extract")
+    made = builder.build(smoke(width=32, height=24, n=16), str(tmp_path), settings=SETTINGS)
+    bar, ground = sorted(made["meshes"], key=lambda ob: ob.name)
+    bar.visible_shadow = False
+    ground.visible_camera = False
+    masks = bpy.data.collections.new("Masks")
+    blank.collection.children.link(masks)
+    blank.collection.objects.unlink(ground)
+    masks.objects.link(ground)
+    blank.view_layers[0].layer_collection.children["Masks"].holdout = True
+    ground.modifiers.new("Hair", 'PARTICLE_SYSTEM').particle_system.settings.type = 'HAIR'
+    found = extract.extract(bpy.context.evaluated_depsgraph_get())
+    flags = {m.name.split(".")[0]: (m.visible_camera, m.cast_shadow, m.holdout) for m in found.meshes}
+    assert flags == {"Bar": (True, False, False), "Ground": (False, True, True)}
+    assert any(w.startswith("Hair particles are not rendered") for w in found.all_warnings)

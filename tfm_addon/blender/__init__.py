@@ -6,7 +6,7 @@ Imports ``bpy`` (through ``render_engine``); only ``tfm_addon.register`` imports
 
 import bpy
 
-from . import render_engine
+from . import extract, render_engine
 from .render_worker import close_worker
 from .volumes import grid_cache
 
@@ -21,3 +21,4 @@ def unregister():
     _unregister_classes()
     close_worker()
     grid_cache.clear()
+    extract.clear_simplified()

@@ -149,6 +149,11 @@ def volume_simplify_level(depsgraph) -> int:
 _simplified: dict = {}  # (id of the full grid, level) -> (the full grid, simplified grid, matrix)
 
 
+def clear_simplified() -> None:
+    """Drop the kept simplified grid (on unregister)."""
+    _simplified.clear()
+
+
 def simplify_grid(density: np.ndarray, index_to_object: np.ndarray, level: int):
     """The grid at 1/2^level of its resolution (means of 2^level-voxel blocks) and its matrix;
     the last result is kept, so viewport edits that keep the grid do not redo it."""
@@ -216,6 +221,9 @@ def _walk_instances(depsgraph, parts: Change, cache: GridCache) -> dict:
                 continue
             if Change.SOLIDS not in parts:
                 continue
+            if any(ps.settings.type == 'HAIR' and ps.settings.render_type == 'PATH'
+                   for ps in getattr(ob, "particle_systems", ())):
+                unrendered.setdefault("Hair particles", []).append(_label(instance))
             key = ob.data.as_pointer() if kind == 'MESH' else ob.as_pointer()
             if key not in arrays:
                 arrays[key] = meshes.triangles(ob)
