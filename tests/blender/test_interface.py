@@ -201,3 +201,18 @@ def test_visibility_flags_reach_the_meshes(blank, tmp_path):
     flags = {m.name.split(".")[0]: (m.visible_camera, m.cast_shadow, m.holdout) for m in found.meshes}
     assert flags == {"Bar": (True, False, False), "Ground": (False, True, True)}
     assert any(w.startswith("Hair particles are not rendered") for w in found.all_warnings)
+
+
+def test_a_pass_toggle_updates_its_own_view_layer(blank):
+    blank.render.engine = 'TFM'
+    second = blank.view_layers.new("Second")
+    assert bpy.context.view_layer != second
+    tree = bpy.data.node_groups.new("Layers", 'CompositorNodeTree')
+    render_layers = tree.nodes.new('CompositorNodeRLayers')
+    render_layers.layer = "Second"
+    blank.compositing_node_group = tree
+    second.update_render_passes()
+    assert "Scattering" in {s.name for s in render_layers.outputs if s.enabled}
+    second.tfm.use_pass_scattering = False      # the update callback re-registers Second's passes
+    offered = {s.name for s in render_layers.outputs if s.enabled}
+    assert "Scattering" not in offered and {"Surfaces", "Transmittance"} <= offered

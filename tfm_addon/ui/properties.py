@@ -159,8 +159,12 @@ class TFM_LightSettings(bpy.types.PropertyGroup):
 
 
 def _passes_changed(self, context):
-    """Tell Blender the pass list changed (the compositor's Render Layers node follows)."""
-    view_layer = getattr(context, "view_layer", None)
+    """Tell Blender the pass list of this settings' view layer changed (the compositor's Render
+    Layers node follows)."""
+    try:   # 'view_layers["Name"].tfm' -> that view layer, whichever is active
+        view_layer = self.id_data.path_resolve(self.path_from_id().rsplit(".", 1)[0])
+    except (ValueError, AttributeError):
+        view_layer = getattr(context, "view_layer", None)
     if view_layer is not None:
         view_layer.update_render_passes()
 
