@@ -86,3 +86,26 @@ def test_visibility_matches_the_reference(renderer):
     assert ssim(out.rgb, ref.rgb) >= 0.99
     assert ssim(alpha(out), alpha(ref)) >= 0.99
     assert (ref.combined[..., 3] < 1.0).all()      # no pixel is a seen solid
+
+
+def test_camera_visibility_rebuilds_no_light_map():
+    from tfm_addon.engine import Renderer
+
+    renderer = Renderer()
+    try:
+        scene = smoke_scene(width=32, height=24, n=16)
+        renderer.render(scene, SETTINGS)
+
+        def rebuilt(s):
+            renderer.render(scene, SETTINGS)      # from the usual scene's maps each time
+            before = dict(renderer.counters)
+            renderer.render(s, SETTINGS)
+            return {k: renderer.counters[k] - before.get(k, 0)
+                    for k in ("shadow_maps", "tfms", "gbuffers")}
+
+        assert rebuilt(_with(scene, "Ground", visible_camera=False)) == dict(shadow_maps=0, tfms=0,
+                                                                             gbuffers=1)
+        assert rebuilt(_with(scene, "Ground", holdout=True)) == dict(shadow_maps=0, tfms=0, gbuffers=1)
+        assert rebuilt(_with(scene, "Bar", cast_shadow=False)) == dict(shadow_maps=1, tfms=1, gbuffers=0)
+    finally:
+        renderer.release()

@@ -219,8 +219,8 @@ class Mesh:
 
     @cached_property
     def key(self) -> str:
-        return _digest(self.vertices, self.triangles, self.matrix_world, self.color,
-                       self.visible_camera, self.cast_shadow, self.holdout)
+        """What its vertex buffer holds (the visibility flags choose the sets it is in)."""
+        return _digest(self.vertices, self.triangles, self.matrix_world, self.color, self.holdout)
 
     @cached_property
     def shape_key(self) -> str:
