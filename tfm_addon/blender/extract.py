@@ -41,7 +41,8 @@ class Extraction:
         if cam is None:
             raise ValueError("no camera")
         return Scene(camera=cam, lights=self.lights, medium=self.medium, meshes=self.meshes,
-                     ambient=self.ambient if self.settings.ambient else (0.0, 0.0, 0.0))
+                     ambient=self.ambient if self.settings.ambient else (0.0, 0.0, 0.0),
+                     world=self.ambient)
 
     @property
     def all_warnings(self) -> list[str]:
@@ -62,6 +63,7 @@ def render_settings(scene) -> RenderSettings:
         method=tfm.method,
         ambient=tfm.ambient,
         quality=tfm.quality,
+        film_transparent=bool(scene.render.film_transparent),
     )
 
 

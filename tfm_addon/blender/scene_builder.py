@@ -184,6 +184,7 @@ def build(scene: Scene, directory: str, *, bl_scene=None, settings: RenderSettin
     nt.links.new(bg.outputs[0], out.inputs["Surface"])
 
     bl_scene.render.engine = 'TFM'
+    bl_scene.render.film_transparent = True if settings is None else settings.film_transparent
     if settings is not None:
         apply_settings(bl_scene.tfm, settings)
     return made
@@ -222,7 +223,8 @@ def _build_medium(medium: Medium, directory: str, collection, name: str, use_nod
 
 
 def cycles_single_scattering(bl_scene, samples: int = 256) -> None:
-    """Cycles settings that render what TFM renders (BLENDER.md): single scattering, no filter."""
+    """Cycles settings that render what TFM renders (BLENDER.md): single scattering, no filter,
+    transparent film."""
     bl_scene.render.engine = 'CYCLES'
     c = bl_scene.cycles
     c.device = 'CPU'

@@ -445,7 +445,8 @@ def render_reference(scene: Scene, settings: RenderSettings | None = None, *,
     """Render ``scene`` by brute force on the CPU (the ground truth for the GPU renderer).
 
     ``view_steps`` midpoint samples per view ray through the medium and ``light_steps`` per light
-    ray from each of them. Only ``settings.ambient`` is read (None: ambient on). Returns
+    ray from each of them. Only ``settings.ambient`` and ``settings.film_transparent`` are read
+    (None: ambient on, transparent film). Returns
     scene-linear radiance (W/(sr m^2)) passes of camera.width_px x height_px pixels, top row
     first: 'scattering', 'surfaces' (already attenuated by the medium), 'transmittance'
     (dimensionless), composed by :meth:`RenderOutput.compose`.
@@ -467,6 +468,7 @@ def render_reference(scene: Scene, settings: RenderSettings | None = None, *,
     surfaces = np.zeros((n_pix, 3))
     transmittance = np.ones((n_pix, 3))
     mask = np.zeros(n_pix, dtype=bool)
+    background = np.zeros(n_pix, dtype=bool)     # no solid seen (holdouts are solids here)
     per = max(1, _SAMPLES_PER_CHUNK // max(1, int(view_steps)))
     workers = max(1, min(8, os.cpu_count() or 1))
     with ThreadPoolExecutor(max_workers=workers) as pool:
@@ -489,6 +491,7 @@ def render_reference(scene: Scene, settings: RenderSettings | None = None, *,
                     trans[seg] = trans_seg
                     scattering[k + seg] = scat
             transmittance[sl] = trans
+            background[sl] = tri < 0
             hit = hit[~solids.holdout[tri[hit]]]   # a holdout: no radiance, alpha left open
             if len(hit):
                 p = o[hit] + t_hit[hit, None] * d[hit]
@@ -500,6 +503,8 @@ def render_reference(scene: Scene, settings: RenderSettings | None = None, *,
     def image(a: np.ndarray) -> np.ndarray:
         return a.reshape(h, w, 3).astype(np.float32)
 
+    transparent = True if settings is None else bool(settings.film_transparent)
     return RenderOutput.compose(image(scattering), image(surfaces), image(transmittance),
-                                mask.reshape(h, w),
+                                mask.reshape(h, w), world=None if transparent else scene.background,
+                                background_mask=background.reshape(h, w),
                                 timings_s={"reference": time.perf_counter() - start_time})

@@ -177,7 +177,7 @@ class Renderer:
                 self.counters["light_passes"] += 1
                 step("scattering", t0)
             t0 = time.perf_counter()
-            targets.compose(gl)
+            targets.compose(gl, settings.film_transparent, scene.background)
             combined = targets.read_combined()
             passes = targets.read_passes() if want_passes else {}
             timings["readback"] = time.perf_counter() - t0

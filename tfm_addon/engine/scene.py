@@ -254,6 +254,10 @@ class RenderSettings:
     ``quality``: 'CUSTOM' renders with the fields above; 'AUTO' lets
     ``quality.auto_settings(scene, settings)`` choose the coefficient count, density weighting,
     steps and sampling for the scene (the rule of docs/benchmark.md).
+    ``film_transparent``: Blender's Film > Transparent. True: alpha is 1 where a solid is seen,
+    else 1 - mean view transmittance, and the world is not seen (premultiplied RGB over a
+    transparent background, as Cycles writes it). False (Blender's default): alpha is 1 and where
+    no solid is seen the world (``Scene.world``) shows behind the medium, attenuated by it.
     """
 
     view_steps: int = 100
@@ -267,17 +271,21 @@ class RenderSettings:
     ambient: bool = True
     max_grid_bytes: int = 512 * 1024 * 1024
     quality: Literal["CUSTOM", "AUTO"] = "CUSTOM"
+    film_transparent: bool = True
 
 
 @dataclass(frozen=True, eq=False)
 class Scene:
-    """Everything to render one frame. ``ambient`` is the world colour (radiance, W/(sr m^2))."""
+    """Everything to render one frame. ``ambient`` is the world colour (radiance, W/(sr m^2))
+    that lights the medium and the solids; ``world`` the radiance seen behind everything with an
+    opaque film (None: ``ambient``)."""
 
     camera: Camera
     lights: tuple[SpotLight, ...] = ()
     medium: Medium | None = None
     meshes: tuple[Mesh, ...] = ()
     ambient: RGB = (0.0, 0.0, 0.0)
+    world: RGB | None = None
 
     def __post_init__(self):
         object.__setattr__(self, "lights", tuple(self.lights))
@@ -287,6 +295,11 @@ class Scene:
     def solids_key(self) -> str:
         """What shadow maps depend on: the shapes of the meshes that cast shadows."""
         return _digest(*[m.shape_key for m in self.shadow_casters])
+
+    @property
+    def background(self) -> RGB:
+        """The world radiance seen where no solid is (with an opaque film)."""
+        return tuple(float(c) for c in (self.ambient if self.world is None else self.world))
 
     @property
     def camera_meshes(self) -> tuple[Mesh, ...]:

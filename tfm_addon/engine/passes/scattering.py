@@ -33,8 +33,10 @@ class ScatteringTargets:
         ctx.blend_func = ctx.ONE, ctx.ONE
         ctx.blend_equation = ctx.FUNC_ADD
 
-    def compose(self, gl: GLContext) -> None:
-        """Write the combined image (blending off)."""
+    def compose(self, gl: GLContext, film_transparent: bool = True,
+                world=(0.0, 0.0, 0.0)) -> None:
+        """Write the combined image (blending off); ``world`` is the radiance seen behind
+        everything when the film is opaque."""
         gl.ctx.disable(gl.ctx.BLEND)
         self.combined_fbo.use()
         prog = gl.program("fullscreen.vert", "composite.frag")
@@ -43,6 +45,8 @@ class ScatteringTargets:
             tex.use(unit)
             prog[name].value = unit
         prog["u_gb1"].value = 1
+        set_uniforms(prog, u_film_transparent=int(bool(film_transparent)),
+                     u_world=tuple(float(c) for c in world))
         gl.draw_fullscreen(prog)
 
     def read_combined(self) -> np.ndarray:

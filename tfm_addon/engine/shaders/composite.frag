@@ -1,10 +1,13 @@
 // The combined image from the light passes' sums: scattered light plus the solids' radiance
-// seen through the medium; alpha 1 on solids, else (background, holdouts) 1 - mean view
-// transmittance.
+// seen through the medium. Transparent film: alpha 1 on solids, else (background, holdouts)
+// 1 - mean view transmittance. Opaque film: the world's radiance behind the medium, attenuated
+// by it, where no solid is seen, and alpha 1 (holdouts keep their alpha, as in Cycles).
 uniform sampler2D u_gb1;          // normal, hit (1 solid, 2 holdout)
 uniform sampler2D u_scatter;
 uniform sampler2D u_surface;
 uniform sampler2D u_transmittance;
+uniform int u_film_transparent;
+uniform vec3 u_world;             // radiance seen behind everything (opaque film)
 out vec4 o_combined;
 void main() {
     ivec2 px = ivec2(gl_FragCoord.xy);
@@ -12,5 +15,11 @@ void main() {
     vec3 rgb = texelFetch(u_scatter, px, 0).rgb + t * texelFetch(u_surface, px, 0).rgb;
     float hit_flag = texelFetch(u_gb1, px, 0).w;
     bool hit = hit_flag > 0.5 && hit_flag < 1.5;
-    o_combined = vec4(rgb, hit ? 1.0 : 1.0 - (t.r + t.g + t.b) / 3.0);
+    bool holdout = hit_flag > 1.5;
+    float alpha = hit ? 1.0 : 1.0 - (t.r + t.g + t.b) / 3.0;
+    if (u_film_transparent == 0 && !holdout) {
+        if (!hit) rgb += t * u_world;
+        alpha = 1.0;
+    }
+    o_combined = vec4(rgb, alpha);
 }
