@@ -368,3 +368,29 @@ def inside_scene(homogeneous: bool, light_inside: bool, camera_inside: bool, wid
         camera = Camera(matrix_world=look_at((0.0, -6.5, 1.6), (0, 0, 1.1)), width_px=width,
                         height_px=height, lens_mm=40.0)
     return Scene(camera=camera, lights=(light,), medium=medium, meshes=(plane_mesh((0, 0, 0), 8.0),))
+
+
+def uv_sphere(radius: float = 1.0, segments: int = 32, rings: int = 16, center=(0.0, 0.0, 0.0)):
+    """A closed UV sphere as Blender's ``primitive_uv_sphere_add`` makes it: (vertices (n, 3),
+    triangles (m, 3)), outward-facing."""
+    c = np.asarray(center, dtype=np.float64)
+    verts = [c + (0.0, 0.0, radius), c - (0.0, 0.0, radius)]
+    for i in range(1, rings):
+        theta = math.pi * i / rings
+        for j in range(segments):
+            phi = 2.0 * math.pi * j / segments
+            verts.append(c + radius * np.array([math.sin(theta) * math.cos(phi),
+                                                math.sin(theta) * math.sin(phi), math.cos(theta)]))
+
+    def idx(i, j):
+        return 2 + (i - 1) * segments + (j % segments)
+
+    tris = []
+    for j in range(segments):
+        tris.append((0, idx(1, j), idx(1, j + 1)))
+        tris.append((1, idx(rings - 1, j + 1), idx(rings - 1, j)))
+    for i in range(1, rings - 1):
+        for j in range(segments):
+            a, b, c2, d = idx(i, j), idx(i, j + 1), idx(i + 1, j), idx(i + 1, j + 1)
+            tris += [(a, c2, b), (b, c2, d)]
+    return np.array(verts), np.array(tris, dtype=np.int64)

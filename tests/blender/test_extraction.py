@@ -288,7 +288,8 @@ def test_world_colour_is_ambient(blank):
     assert _extract().ambient == pytest.approx((0.1, 0.15, 0.2))
 
 
-def test_mesh_with_volume_material_is_a_homogeneous_box(blank):
+def test_box_mesh_with_volume_material_is_a_homogeneous_box(blank):
+    """A closed mesh that fills its bounding box holds the exact homogeneous box (no grid)."""
     builder = _mod("scene_builder")
     mesh = bpy.data.meshes.new("Box")
     mesh.from_pydata([(x, y, z) for x in (-1, 1) for y in (-1, 1) for z in (0, 2)], [],
@@ -341,7 +342,10 @@ def test_render_settings_come_from_the_panel(blank):
     settings = _mod("extract").render_settings(blank)
     expected = RenderSettings(view_steps=33, light_steps=44, coefficients=12, density_weight=7.5,
                               map_resolution=256, sampling='PROJECTIVE', method='BRUTE_FORCE',
-                              ambient=False, quality='CUSTOM', tfm_filter='LINEAR')
+                              ambient=False, quality='CUSTOM', tfm_filter='LINEAR',
+                              film_transparent=False)   # Blender's default film is opaque
     assert vars(settings) == vars(expected)
+    blank.render.film_transparent = True
+    assert _mod("extract").render_settings(blank).film_transparent
     tfm.density_weight_auto = True
     assert _mod("extract").render_settings(blank).density_weight is None

@@ -11,6 +11,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from ..engine import mesh_volume
 from ..engine.medium_grid import downsample
 from ..engine.scene import Camera, Medium, Mesh, RenderSettings, Scene, SpotLight
 from . import lights as lights_module
@@ -111,7 +112,8 @@ def extract(depsgraph, *, parts: Change = Change.ALL, previous: Extraction | Non
 
     geometry = parts & Change.GEOMETRY
     if geometry:
-        found = _walk_instances(depsgraph, geometry, cache)
+        found = _walk_instances(depsgraph, geometry, cache,
+                                mesh_volume_resolution(size if size is not None else render_size(scene)))
         for part, key in ((Change.LIGHTS, "lights"), (Change.SOLIDS, "meshes")):
             if part in geometry:
                 changes[key] = tuple(found[key])
@@ -181,7 +183,17 @@ def _label(instance) -> str:
     return ob.name
 
 
-def _walk_instances(depsgraph, parts: Change, cache: GridCache) -> dict:
+def mesh_volume_resolution(size: tuple[int, int]) -> int:
+    """Voxels along a mesh medium's longest side, from the image size only (so that no camera
+    move changes it): about one voxel per pixel of the longer image side, rounded down to 32, 48,
+    64, 96 or 128 (docs/architecture.md, "Media shaped by their mesh", has the measurements)."""
+    want = max(size)
+    steps = (32, 48, 64, 96, 128)
+    return max([n for n in steps if n <= want], default=steps[0])
+
+
+def _walk_instances(depsgraph, parts: Change, cache: GridCache,
+                    volume_resolution: int = mesh_volume.DEFAULT_RESOLUTION) -> dict:
     """Lights, meshes and the medium among the depsgraph's object instances."""
     spots: list[SpotLight] = []
     solids: list[Mesh] = []
@@ -218,7 +230,7 @@ def _walk_instances(depsgraph, parts: Change, cache: GridCache) -> dict:
                 if Change.MEDIUM in parts:
                     media.append(_label(instance))
                     if medium is None and len(media) == 1:
-                        medium = _mesh_medium(instance, material, notes[Change.MEDIUM])
+                        medium = _mesh_medium(instance, material, notes[Change.MEDIUM], volume_resolution)
                         _medium_visibility_notes(depsgraph, instance, notes[Change.MEDIUM])
                 continue
             if Change.SOLIDS not in parts:
@@ -323,12 +335,22 @@ def _volume_medium(instance, cache: GridCache, notes: list[str], simplify: int =
                   index_to_world=np.array(instance.matrix_world) @ index_to_object)
 
 
-def _mesh_medium(instance, material, notes: list[str]) -> Medium:
-    """A mesh with a volume-only material: a homogeneous medium filling its bounding box."""
+def _mesh_medium(instance, material, notes: list[str],
+                 resolution: int = mesh_volume.DEFAULT_RESOLUTION) -> Medium | None:
+    """A mesh with a volume-only material: the medium inside its surface, a coverage grid
+    voxelised once per shape (engine/mesh_volume.py) and placed by the instance's matrix."""
     ob = instance.object
-    corners = np.array([tuple(c) for c in ob.bound_box], dtype=np.float64)
-    sigma_a, sigma_s, g, _grid, _constant = _sigma(material, None, f"Object '{_label(instance)}'",
-                                                   notes)
-    notes.append(f"Object '{_label(instance)}': a mesh medium fills its bounding box")
-    box = np.array(instance.matrix_world) @ _box_matrix(corners.min(axis=0), corners.max(axis=0))
-    return Medium(sigma_a=sigma_a, sigma_s=sigma_s, anisotropy=g, box_to_world=box)
+    label = f"Object '{_label(instance)}'"
+    sigma_a, sigma_s, g, grid, _constant = _sigma(material, None, label, notes)
+    if grid:
+        notes.append(f"{label}: a mesh has no grid '{grid}'; its medium has the material's constant "
+                     f"density")
+    arrays = meshes.triangles(ob)
+    if arrays is None:
+        notes.append(f"{label}: the mesh has no faces, so it holds no medium")
+        return None
+    medium, mesh_notes = mesh_volume.mesh_medium(
+        arrays[0], arrays[1], np.array(instance.matrix_world), sigma_a=sigma_a, sigma_s=sigma_s,
+        anisotropy=g, resolution=resolution, label=label)
+    notes.extend(mesh_notes)
+    return medium
