@@ -15,7 +15,7 @@ from .gl_context import GLContext
 from .light import LightFrame, cone_meets_box, is_dark
 from .medium_grid import prepare_grid
 from .output import RenderOutput
-from .passes.bindings import MEDIUM_GRID, MediumGPU, gobo_texture
+from .passes.bindings import MEDIUM_GRID, MediumGPU, gobo_texture, pass_state
 from .passes.gbuffer import GBuffer
 from .passes.probe import probe_light_transmittance
 from .passes.scattering import (
@@ -40,18 +40,30 @@ def effective_settings(scene: Scene, settings: RenderSettings | None) -> RenderS
 
 
 class _Cache:
-    """GPU resources by the key of what they depend on; what a frame did not use is released."""
+    """GPU resources by the key of what they depend on; what a frame did not use is released.
+    An entry is stored only once its build returned (complete); ``fresh`` holds the keys built by
+    the frame in flight, which ``drop_fresh`` releases when that frame fails."""
 
     def __init__(self):
         self.items: dict = {}
         self.used: set = set()
+        self.fresh: set = set()
 
     def get(self, key, build: Callable):
         self.used.add(key)
         if key not in self.items:
-            self.items[key] = build()
-            return self.items[key], True
+            item = build()
+            self.items[key] = item
+            self.fresh.add(key)
+            return item, True
         return self.items[key], False
+
+    def drop_fresh(self) -> None:
+        for key in self.fresh:
+            item = self.items.pop(key, None)
+            if hasattr(item, "release"):
+                item.release()
+        self.fresh.clear()
 
     def sweep(self) -> None:
         for key in list(self.items):
@@ -60,6 +72,7 @@ class _Cache:
                 if hasattr(item, "release"):
                     item.release()
         self.used.clear()
+        self.fresh.clear()
 
     def clear(self) -> None:
         self.used.clear()
@@ -181,10 +194,21 @@ class Renderer:
             combined = targets.read_combined()
             passes = targets.read_passes() if want_passes else {}
             timings["readback"] = time.perf_counter() - t0
-        except BaseException:
+        except RenderCancelled:
+            # Every pass finished (ctx.finish) before the check that cancelled: what the frame
+            # cached is complete and kept for the next frame; nothing is swept.
             for cache in self._caches:
                 cache.used.clear()
+                cache.fresh.clear()
             raise
+        except BaseException:
+            # A pass failed midway: drop whatever this frame built, it may be partial.
+            for cache in self._caches:
+                cache.drop_fresh()
+                cache.used.clear()
+            raise
+        finally:
+            pass_state(gl.ctx)
         for cache in self._caches:
             cache.sweep()
         self.counters["renders"] += 1
@@ -229,7 +253,7 @@ class Renderer:
 
         def build():
             grid = prepare_grid(medium.density, medium.index_to_world, self.gl.max_3d_texture_size,
-                                settings.max_grid_bytes)
+                                settings.max_grid_bytes, medium.clipping)
             warnings = list(grid.warnings)
             if grid.is_empty:
                 warnings.append("The density grid is empty: only the surfaces are rendered.")

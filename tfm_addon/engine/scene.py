@@ -146,6 +146,10 @@ class Medium:
     Homogeneous (``density`` is None): D = 1 inside ``box_to_world``'s image of the cube
     [-1, 1]^3, or everywhere when ``box_to_world`` is None (fog filling the scene, up to the
     camera's clip_end).
+
+    ``clipping``: grid densities below it are empty (Blender's volume ``render.clipping``, which
+    Cycles applies; 0.001 by default in Blender, 0 here). NaN, infinite and negative densities are
+    rendered as 0 (``medium_grid.clean_density``, with a warning each).
     """
 
     sigma_a: RGB = (0.1, 0.1, 0.1)
@@ -154,6 +158,7 @@ class Medium:
     density: np.ndarray | None = None
     index_to_world: np.ndarray | None = None
     box_to_world: np.ndarray | None = None
+    clipping: float = 0.0
 
     def __post_init__(self):
         if self.density is not None:
@@ -181,7 +186,7 @@ class Medium:
         """What the light-side maps depend on: the density field, not sigma."""
         if self.density is None:
             return _digest("homogeneous", self.box_to_world)
-        return _digest(self.density, self.index_to_world)
+        return _digest(self.density, self.index_to_world, float(self.clipping))
 
     @cached_property
     def key(self) -> str:

@@ -6,6 +6,7 @@ import numpy as np
 
 from ..gl_context import GLContext, set_matrix, set_uniforms
 from ..light import LightFrame
+from .bindings import pass_state
 from .solids import POSITION_ONLY, SolidsBuffer
 
 
@@ -23,7 +24,7 @@ class ShadowMap:
         self.depth.repeat_x = self.depth.repeat_y = False
         fbo = ctx.framebuffer([self.texture], self.depth)
         fbo.use()
-        ctx.enable(ctx.DEPTH_TEST)
+        pass_state(ctx, depth_test=True)
         fbo.clear(1e30, 0, 0, 0, depth=1.0)
         lo, hi = solids.bounds
         box = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
@@ -35,7 +36,7 @@ class ShadowMap:
         set_uniforms(prog, u_light_pos=tuple(frame.position), u_shadow_far=far)
         vao = ctx.vertex_array(prog, [(solids.vbo, POSITION_ONLY, "in_position")])
         vao.render(vertices=solids.vertex_count)
-        ctx.disable(ctx.DEPTH_TEST)
+        pass_state(ctx)
         vao.release()
         fbo.release()
 
