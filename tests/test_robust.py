@@ -100,3 +100,108 @@ def test_clipping_empties_densities_below_it(renderer):
     assert clipped.warnings == []
     np.testing.assert_allclose(clipped.combined, zeroed.combined, atol=1e-6 * float(full.combined.max()))
     assert not np.allclose(clipped.combined, full.combined)
+
+
+def _built(renderer, scene, settings=SETTINGS, **kwargs):
+    before = dict(renderer.counters)
+    out = renderer.render(scene, settings, **kwargs)
+    return {k: renderer.counters[k] - before.get(k, 0) for k in renderer.counters}, out
+
+
+def test_a_downsampled_grid_gets_its_own_tfm(fresh):
+    scene = smoke_scene(width=40, height=24, n=32)
+    _built(fresh, scene)
+    small = dataclasses.replace(SETTINGS, max_grid_bytes=20**3 * 4)
+    delta, out = _built(fresh, scene, small)
+    assert any("downsampled by 2" in w for w in out.warnings)
+    assert delta["grid_uploads"] == 1 and delta["tfms"] == 1 and delta.get("shadow_maps", 0) == 0
+
+
+def test_a_gobo_or_a_colour_rebuilds_no_shadow_map_and_no_tfm(fresh):
+    from tfm_addon.scenes import stripes_gobo
+
+    scene = smoke_scene(width=40, height=24, n=24)
+    _, plain = _built(fresh, scene)
+    light = scene.lights[0]
+    delta, gobo = _built(fresh, replace(scene, lights=(replace(light, gobo=stripes_gobo(32, 4)),)))
+    assert delta["gobos"] == 1 and delta.get("shadow_maps", 0) == 0 and delta.get("tfms", 0) == 0
+    assert not np.allclose(gobo.combined, plain.combined)
+    delta, _ = _built(fresh, replace(scene, lights=(replace(light, color=(1.0, 0.5, 0.2), power_w=900.0),)))
+    assert sum(delta.get(k, 0) for k in ("shadow_maps", "tfms", "gobos", "gbuffers", "grid_uploads")) == 0
+
+
+def test_sigma_edits_under_auto_rebuild_a_tfm_only_when_the_coefficient_count_grows(fresh):
+    from tfm_addon.engine.renderer import effective_settings
+
+    auto = dataclasses.replace(SETTINGS, quality="AUTO")
+    scene = smoke_scene(width=40, height=24, n=24)
+    thick = replace(scene, medium=replace(scene.medium, sigma_s=(6.0, 6.0, 6.0)))
+    slightly = replace(scene, medium=replace(scene.medium, sigma_s=(2.2, 2.1, 2.0)))
+    n0, n1 = (effective_settings(s, auto).coefficients for s in (scene, thick))
+    assert effective_settings(slightly, auto).coefficients == n0 and n1 > n0, (n0, n1)
+    _built(fresh, scene, auto)
+    delta, _ = _built(fresh, slightly, auto)                # same count: nothing rebuilt
+    assert sum(delta.get(k, 0) for k in ("shadow_maps", "tfms", "gbuffers", "grid_uploads")) == 0
+    delta, _ = _built(fresh, thick, auto)                   # more coefficients: one TFM (documented)
+    assert delta["tfms"] == 1 and delta.get("shadow_maps", 0) == 0
+    delta, back = _built(fresh, scene, auto)                # fewer: the wider map serves, exactly
+    assert delta.get("tfms", 0) == 0
+    other = Renderer()
+    try:
+        want = other.render(scene, auto).combined
+    finally:
+        other.release()
+    assert float(np.abs(back.combined - want).max()) <= 1e-5 * float(want.max())
+
+
+def test_a_preview_between_two_viewport_frames_evicts_none_of_the_viewports_maps(fresh):
+    scene = smoke_scene(width=40, height=24, n=24)
+    preview = smoke_scene(width=24, height=24, n=16, sigma_s=(1.0, 1.0, 1.0))
+    light = replace(preview.lights[0], matrix_world=look_at((2, -2, 4), (0, 0, 1)))
+    preview = replace(preview, lights=(light,))
+    _built(fresh, scene, client="viewport")
+    delta, _ = _built(fresh, preview, client="preview")
+    assert delta["grid_uploads"] == 1 and delta["tfms"] == 1
+    delta, _ = _built(fresh, scene, client="viewport")
+    assert sum(delta.get(k, 0) for k in ("shadow_maps", "tfms", "gbuffers", "grid_uploads")) == 0
+    # A client's next frame still releases what only its previous frame used.
+    moved = replace(scene, camera=replace(scene.camera, matrix_world=look_at((0.5, -6, 2), (0, 0, 1))))
+    _built(fresh, moved, client="viewport")
+    assert len(fresh._gbuffers.items) == 2                 # the preview's and the moved view's
+    fresh.forget_client("preview")
+    assert len(fresh._gbuffers.items) == 1 and len(fresh._media.items) == 1
+
+
+def scaled(scene, s: float):
+    """The scene scaled by ``s`` about the origin, sigma / s and power * s^2: every optical depth
+    and every pixel's radiance stay the same."""
+    S = np.diag([s, s, s, 1.0])
+
+    def place(m):
+        return S @ np.asarray(m) @ np.diag([1 / s, 1 / s, 1 / s, 1.0])    # rigid part moved, not scaled
+    cam = replace(scene.camera, matrix_world=place(scene.camera.matrix_world),
+                  clip_start=scene.camera.clip_start * s, clip_end=scene.camera.clip_end * s)
+    lights = tuple(replace(light, matrix_world=place(light.matrix_world), power_w=light.power_w * s * s)
+                   for light in scene.lights)
+    meshes = tuple(replace(m, matrix_world=S @ np.asarray(m.matrix_world)) for m in scene.meshes)
+    med = scene.medium
+    med = replace(med, index_to_world=S @ np.asarray(med.index_to_world),
+                  sigma_a=tuple(x / s for x in med.sigma_a), sigma_s=tuple(x / s for x in med.sigma_s))
+    return replace(scene, camera=cam, lights=lights, meshes=meshes, medium=med)
+
+
+def test_the_smoke_at_1mm_1m_and_1km_gives_the_same_image(renderer):
+    """The demo's smoke with its bar's shadow shaft; 0.1 mm too, where the former absolute 2 mm
+    shadow bias lost the shaft (1.27x the 1 m image's mean)."""
+    from tfm_addon.engine.metrics import ssim
+    from tfm_addon.scenes import demo_scene
+
+    scene = demo_scene(width=64, height=36, n=32)
+    settings = dataclasses.replace(SETTINGS, map_resolution=128)
+    metre = renderer.render(scene, settings).rgb
+    for s in (1e-4, 1e-3, 1e3):
+        other = renderer.render(scaled(scene, s), settings).rgb
+        assert np.isfinite(other).all()
+        value = ssim(other, metre)
+        ratio = float(other.mean() / metre.mean())
+        assert value >= 0.99 and abs(ratio - 1.0) <= 0.02, (s, value, ratio)

@@ -41,7 +41,8 @@ def bind_units(prog) -> None:
 class MediumGPU:
     """The medium's bounds as an oriented box and, for a grid, its padded 3D texture."""
 
-    def __init__(self, gl: GLContext, medium: Medium | None, grid: PreparedGrid | None):
+    def __init__(self, gl: GLContext, medium: Medium | None, grid: PreparedGrid | None, key=None):
+        self.key = key                # what the uploaded texture was made from (renderer's key)
         self.texture = None
         if medium is None or (grid is not None and grid.is_empty):
             self.kind = MEDIUM_NONE
@@ -82,7 +83,9 @@ def bind_light(prog, frame: LightFrame, intensity, map_res: int, shadow, gobo) -
     """A light's uniforms; ``shadow`` is a ShadowMap or None, ``gobo`` a texture or None."""
     set_matrix(prog, "u_world_to_light", frame.world_to_light)
     set_uniforms(prog, u_light_pos=tuple(frame.position), u_intensity=tuple(float(x) for x in intensity),
-                 u_cos_half=frame.cos_half, u_spot_smooth=frame.spot_smooth, u_tan_half=frame.tan_half,
+                 u_cos_half=frame.cos_half, u_spot_smooth=frame.spot_smooth,
+                 u_tan_half=tuple(float(t) for t in frame.tan_xy),
+                 u_cone_scale=tuple(float(s) for s in frame.cone_scale),
                  u_map_res=float(map_res), u_has_shadow=int(shadow is not None),
                  u_has_gobo=int(gobo is not None))
     if shadow is not None:

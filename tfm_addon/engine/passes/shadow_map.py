@@ -28,8 +28,9 @@ class ShadowMap:
         fbo.clear(1e30, 0, 0, 0, depth=1.0)
         lo, hi = solids.bounds
         box = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
-        far = float(np.linalg.norm(box - frame.position, axis=1).max()) * 1.01 + 1e-3
-        near = max(far * 1e-5, 1e-4)
+        far = float(np.linalg.norm(box - frame.position, axis=1).max()) * 1.01
+        far = far if far > 0.0 else 1.0         # scale-free: near and far follow the scene
+        near = far * 1e-5
         self.far = far
         prog = gl.program("shadow_map.vert", "shadow_map.frag")
         set_matrix(prog, "u_light_clip", frame.clip_matrix(near, far))
