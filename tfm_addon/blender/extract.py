@@ -242,7 +242,7 @@ def _volume_medium(instance, cache: GridCache, notes: list[str]) -> Medium | Non
         box = to_world @ _box_matrix(-0.5 * np.ones(3), n - 0.5)
         return Medium(sigma_a=sigma_a, sigma_s=sigma_s, anisotropy=g, box_to_world=box)
     return Medium(sigma_a=sigma_a, sigma_s=sigma_s, anisotropy=g, density=grid.density,
-                  index_to_world=to_world)
+                  index_to_world=to_world, clipping=float(getattr(volume.render, "clipping", 0.0)))
 
 
 def _mesh_medium(instance, material, notes: list[str]) -> Medium:
