@@ -63,10 +63,13 @@ float spot_falloff(vec3 q) {
 
 // Fraction of the light reaching distance r along the map direction uv past the solids:
 // the hardware's 2x2 percentage-closer filter on the linear depth (distance / far).
-// The bias is scale-free: three texel footprints at r, plus 2e-4 of the map's depth range.
+// The bias is scale-free: g_bias_texels texel footprints at r, plus 2e-4 of the map's depth
+// range. A lit surface needs a few footprints (else it shadows itself); a point of the medium is
+// no occluder and needs none (a larger bias lets light leak through a solid just before it).
+float g_bias_texels = 0.0;
 float solid_visibility(vec2 uv, float r) {
     if (u_has_shadow == 0) return 1.0;
-    float bias = r * (3.0 * max(u_tan_half.x, u_tan_half.y) / u_map_res) + 2e-4 * u_shadow_far;
+    float bias = r * (g_bias_texels * max(u_tan_half.x, u_tan_half.y) / u_map_res) + 2e-4 * u_shadow_far;
     return texture(u_shadow_depth, vec3(uv, (r - bias) / u_shadow_far));
 }
 

@@ -101,7 +101,9 @@ void main() {
         float ndl = dot(n, normalize(l));
         if (ndl > 0.0) {
             float r;
+            g_bias_texels = 3.0;    // the solid's own shadow-map texels must not shadow it
             surface += albedo / PI * ndl * light_arriving(P, light_space(P), r);
+            g_bias_texels = 0.0;
         }
 #endif
     }
