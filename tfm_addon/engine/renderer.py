@@ -274,6 +274,7 @@ class Renderer:
                    None), light_t=plan.light_t, tfm=plan.tfm)
         for cache in self._caches:
             cache.used.clear()          # a probe keeps every map for the next render
+            cache.fresh.clear()
         return out
 
     def _medium(self, scene: Scene, settings: RenderSettings) -> tuple[MediumGPU, list[str]]:
