@@ -291,3 +291,16 @@ def test_randomised_scenes_render_finite_and_warned(renderer):
                 failures.append((i, round(value, 4), round(depth, 2), round(cone)))
     print(f"randomised: 98 renders, {compared} against the reference, lowest SSIM {lowest:.4f}")
     assert compared >= 10 and not failures, (compared, failures)
+
+
+def test_a_cone_wider_than_170_degrees_renders_as_170_and_says_so(renderer):
+    scene = smoke_scene(width=40, height=24, n=24)
+    light = replace(scene.lights[0], spot_size_rad=float(np.radians(178.0)), spot_blend=0.0)
+    out = renderer.render(replace(scene, lights=(light,)), SETTINGS)
+    assert [w for w in out.warnings if "wider than" in w] == [
+        f"Spot '{light.name}': its cone (178 degrees) is wider than the 170 degrees its maps cover; "
+        "it is rendered as a 170 degree cone."]
+    as_170 = renderer.render(replace(scene, lights=(replace(light, spot_size_rad=float(np.radians(170.0))),)),
+                             SETTINGS)
+    assert as_170.warnings == []
+    np.testing.assert_allclose(out.combined, as_170.combined, atol=1e-5 * float(as_170.combined.max()))

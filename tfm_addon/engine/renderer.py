@@ -281,7 +281,7 @@ class Renderer:
         medium = scene.medium
         if medium is None or medium.is_homogeneous:
             key = ("homogeneous", None if medium is None else medium.density_key)
-            return self._media.get(key, lambda: (MediumGPU(self.gl, medium, None, key), []))[0]
+            return self._media.get(key, lambda: (_keyed(MediumGPU(self.gl, medium, None), key), []))[0]
         # The grid as uploaded: its source and everything that decides its downsampling.
         key = (medium.density_key, settings.max_grid_bytes, self.gl.max_3d_texture_size)
 
@@ -292,7 +292,7 @@ class Renderer:
             if grid.is_empty:
                 warnings.append("The density grid is empty: only the surfaces are rendered.")
             self.counters["grid_uploads"] += 1
-            return MediumGPU(self.gl, medium, grid, key), warnings
+            return _keyed(MediumGPU(self.gl, medium, grid), key), warnings
 
         return self._media.get(key, build)[0]
 
@@ -376,6 +376,12 @@ class Renderer:
             self.clear_maps()
             self._gl.release()
             self._gl = None
+
+
+def _keyed(medium_gpu: MediumGPU, key) -> MediumGPU:
+    """``medium_gpu`` with ``key``: what its uploaded texture was made from (the TFM key reads it)."""
+    medium_gpu.key = key
+    return medium_gpu
 
 
 class _FewerCoefficients:

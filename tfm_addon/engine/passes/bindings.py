@@ -41,8 +41,7 @@ def bind_units(prog) -> None:
 class MediumGPU:
     """The medium's bounds as an oriented box and, for a grid, its padded 3D texture."""
 
-    def __init__(self, gl: GLContext, medium: Medium | None, grid: PreparedGrid | None, key=None):
-        self.key = key                # what the uploaded texture was made from (renderer's key)
+    def __init__(self, gl: GLContext, medium: Medium | None, grid: PreparedGrid | None):
         self.texture = None
         if medium is None or (grid is not None and grid.is_empty):
             self.kind = MEDIUM_NONE
