@@ -304,3 +304,13 @@ def test_a_cone_wider_than_170_degrees_renders_as_170_and_says_so(renderer):
                              SETTINGS)
     assert as_170.warnings == []
     np.testing.assert_allclose(out.combined, as_170.combined, atol=1e-5 * float(as_170.combined.max()))
+
+
+def test_what_a_cancelled_viewport_frame_built_survives_a_preview(fresh):
+    scene = smoke_scene(width=40, height=24, n=24)
+    preview = smoke_scene(width=24, height=24, n=16, sigma_s=(1.0, 1.0, 1.0))
+    with pytest.raises(RenderCancelled):
+        fresh.render(scene, SETTINGS, cancel=_cancel_after(3), client="viewport")   # after the G-buffer
+    fresh.render(preview, SETTINGS, client="preview")
+    delta, _ = _built(fresh, scene, client="viewport")
+    assert sum(delta.get(k, 0) for k in ("shadow_maps", "tfms", "gbuffers", "grid_uploads")) == 0

@@ -226,8 +226,10 @@ class Renderer:
             timings["readback"] = time.perf_counter() - t0
         except RenderCancelled:
             # Every pass finished (ctx.finish) before the check that cancelled: what the frame
-            # cached is complete and kept for the next frame; nothing is swept.
+            # cached is complete, and kept for this client's next frame (which, under latest-wins
+            # cancellation, likely reuses it) along with what its last completed frame used.
             for cache in self._caches:
+                cache.kept.setdefault(client, set()).update(cache.used)
                 cache.used.clear()
                 cache.fresh.clear()
             raise
