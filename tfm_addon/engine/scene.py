@@ -88,7 +88,11 @@ class SpotLight:
     ``power_w`` is Blender's power in watts; the radiant intensity is
     I = power_w / (4 pi) W/sr whatever the cone. ``spot_size_rad`` is the full cone angle,
     ``spot_blend`` Blender's blend in [0, 1]. ``gobo`` is an optional projected texture, an
-    (h, w, 3) float32 array (top row first) stretched over the square that bounds the cone.
+    (h, w, 3) float32 array (top row first) stretched over the rectangle that bounds the cone.
+    ``cone_scale`` = (sx / sz, sy / sz) of the light object's scale: Cycles renders a spot of a
+    non-uniformly scaled object as an elliptical cone whose half-widths at unit distance are
+    tan(spot_size / 2) times these. ``cast_shadow`` False (Blender's ``use_shadow``): nothing
+    shadows the light, neither the solids nor the medium (as Cycles renders it).
     """
 
     matrix_world: np.ndarray
@@ -99,6 +103,8 @@ class SpotLight:
     gobo: np.ndarray | None = None
     use_tfm: bool = True
     name: str = "Spot"
+    cone_scale: tuple[float, float] = (1.0, 1.0)
+    cast_shadow: bool = True
 
     def __post_init__(self):
         object.__setattr__(self, "matrix_world", _matrix(self.matrix_world))
@@ -112,9 +118,14 @@ class SpotLight:
 
     @cached_property
     def key(self) -> str:
-        """Everything the light's maps depend on (its colour and power do not change them)."""
-        return _digest(self.matrix_world, self.spot_size_rad, self.use_tfm,
-                       None if self.gobo is None else self.gobo)
+        """Everything the light's shadow map and TFM depend on: its geometry (placement, cone).
+        Colour, power, blend, gobo and use_tfm do not change what those maps hold."""
+        return _digest(self.matrix_world, self.spot_size_rad, tuple(float(s) for s in self.cone_scale))
+
+    @cached_property
+    def gobo_key(self) -> str | None:
+        """What the gobo texture depends on (None without a gobo)."""
+        return None if self.gobo is None else _digest(self.gobo)
 
     @property
     def position(self) -> np.ndarray:
@@ -146,6 +157,10 @@ class Medium:
     Homogeneous (``density`` is None): D = 1 inside ``box_to_world``'s image of the cube
     [-1, 1]^3, or everywhere when ``box_to_world`` is None (fog filling the scene, up to the
     camera's clip_end).
+
+    ``clipping``: grid densities below it are empty (Blender's volume ``render.clipping``, which
+    Cycles applies; 0.001 by default in Blender, 0 here). NaN, infinite and negative densities are
+    rendered as 0 (``medium_grid.clean_density``, with a warning each).
     """
 
     sigma_a: RGB = (0.1, 0.1, 0.1)
@@ -154,6 +169,7 @@ class Medium:
     density: np.ndarray | None = None
     index_to_world: np.ndarray | None = None
     box_to_world: np.ndarray | None = None
+    clipping: float = 0.0
 
     def __post_init__(self):
         if self.density is not None:
@@ -181,7 +197,7 @@ class Medium:
         """What the light-side maps depend on: the density field, not sigma."""
         if self.density is None:
             return _digest("homogeneous", self.box_to_world)
-        return _digest(self.density, self.index_to_world)
+        return _digest(self.density, self.index_to_world, float(self.clipping))
 
     @cached_property
     def key(self) -> str:

@@ -16,6 +16,22 @@ UNIT = {"u_gb0": 0, "u_gb1": 1, "u_density": 2, "u_shadow": 3, "u_gobo": 4, "u_k
 MEDIUM_NONE, MEDIUM_BOX, MEDIUM_EVERYWHERE, MEDIUM_GRID = 0, 1, 2, 3
 
 
+def pass_state(ctx, *, depth_test: bool = False, blend: bool = False) -> None:
+    """Set every fixed-function state a pass depends on, whatever the previous pass (or a
+    cancelled frame) left: blending (additive when on), depth test, face culling."""
+    ctx.disable(ctx.CULL_FACE)
+    if depth_test:
+        ctx.enable(ctx.DEPTH_TEST)
+    else:
+        ctx.disable(ctx.DEPTH_TEST)
+    if blend:
+        ctx.enable(ctx.BLEND)
+        ctx.blend_func = ctx.ONE, ctx.ONE
+        ctx.blend_equation = ctx.FUNC_ADD
+    else:
+        ctx.disable(ctx.BLEND)
+
+
 def bind_units(prog) -> None:
     for name, unit in UNIT.items():
         if name in prog:
@@ -66,7 +82,9 @@ def bind_light(prog, frame: LightFrame, intensity, map_res: int, shadow, gobo) -
     """A light's uniforms; ``shadow`` is a ShadowMap or None, ``gobo`` a texture or None."""
     set_matrix(prog, "u_world_to_light", frame.world_to_light)
     set_uniforms(prog, u_light_pos=tuple(frame.position), u_intensity=tuple(float(x) for x in intensity),
-                 u_cos_half=frame.cos_half, u_spot_smooth=frame.spot_smooth, u_tan_half=frame.tan_half,
+                 u_cos_half=frame.cos_half, u_spot_smooth=frame.spot_smooth,
+                 u_tan_half=tuple(float(t) for t in frame.tan_xy),
+                 u_cone_scale=tuple(float(s) for s in frame.cone_scale),
                  u_map_res=float(map_res), u_has_shadow=int(shadow is not None),
                  u_has_gobo=int(gobo is not None))
     if shadow is not None:

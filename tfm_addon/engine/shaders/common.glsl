@@ -35,9 +35,10 @@ float density_at(vec3 p) {
 uniform mat4 u_world_to_light;   // rigid: the light at the origin shining along -Z
 uniform vec3 u_light_pos;
 uniform vec3 u_intensity;        // W/sr per channel
-uniform float u_cos_half;        // cos of half the cone angle
+uniform float u_cos_half;        // cos of half the cone angle (in the cone's scaled space)
 uniform float u_spot_smooth;     // (1 - cos_half) * blend
-uniform float u_tan_half;        // half-width of the map frustum at unit distance
+uniform vec2 u_tan_half;         // half-widths of the map frustum at unit distance, x and y
+uniform vec2 u_cone_scale;       // an elliptical cone's x, y scale (object scale x/z, y/z)
 uniform float u_map_res;         // texels per side of the shadow map and TFM
 uniform int u_has_shadow;
 uniform sampler2D u_shadow;      // distance from the light to the nearest solid, metres
@@ -52,7 +53,8 @@ vec3 light_space(vec3 p) { return (u_world_to_light * vec4(p, 1.0)).xyz; }
 vec2 light_uv(vec3 q) { return 0.5 + 0.5 * q.xy / (-q.z * u_tan_half); }
 
 float spot_falloff(vec3 q) {
-    float c = -q.z / max(length(q), 1e-20);
+    vec3 s = vec3(q.xy / u_cone_scale, q.z);       // Cycles' elliptical cone: scaled, then round
+    float c = -s.z / max(length(s), 1e-30);
     if (c <= u_cos_half) return 0.0;
     if (u_spot_smooth <= 0.0) return 1.0;
     float x = clamp((c - u_cos_half) / u_spot_smooth, 0.0, 1.0);
@@ -61,9 +63,13 @@ float spot_falloff(vec3 q) {
 
 // Fraction of the light reaching distance r along the map direction uv past the solids:
 // the hardware's 2x2 percentage-closer filter on the linear depth (distance / far).
+// The bias is scale-free: g_bias_texels texel footprints at r, plus 2e-4 of the map's depth
+// range. A lit surface needs a few footprints (else it shadows itself); a point of the medium is
+// no occluder and needs none (a larger bias lets light leak through a solid just before it).
+float g_bias_texels = 0.0;
 float solid_visibility(vec2 uv, float r) {
     if (u_has_shadow == 0) return 1.0;
-    float bias = r * (3.0 * u_tan_half / u_map_res) + 2e-3;
+    float bias = r * (g_bias_texels * max(u_tan_half.x, u_tan_half.y) / u_map_res) + 2e-4 * u_shadow_far;
     return texture(u_shadow_depth, vec3(uv, (r - bias) / u_shadow_far));
 }
 

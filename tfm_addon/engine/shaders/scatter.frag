@@ -41,10 +41,10 @@ vec3 light_arriving(vec3 p, vec3 q, out float r) {
 vec2 frustum_interval(vec3 o, vec3 d, vec2 range) {
     vec3 oq = light_space(o);
     vec3 dq = mat3(u_world_to_light) * d;
-    vec4 A = vec4(-oq.z * u_tan_half - oq.x, -oq.z * u_tan_half + oq.x,
-                  -oq.z * u_tan_half - oq.y, -oq.z * u_tan_half + oq.y);
-    vec4 B = vec4(-dq.z * u_tan_half - dq.x, -dq.z * u_tan_half + dq.x,
-                  -dq.z * u_tan_half - dq.y, -dq.z * u_tan_half + dq.y);
+    vec4 A = vec4(-oq.z * u_tan_half.x - oq.x, -oq.z * u_tan_half.x + oq.x,
+                  -oq.z * u_tan_half.y - oq.y, -oq.z * u_tan_half.y + oq.y);
+    vec4 B = vec4(-dq.z * u_tan_half.x - dq.x, -dq.z * u_tan_half.x + dq.x,
+                  -dq.z * u_tan_half.y - dq.y, -dq.z * u_tan_half.y + dq.y);
     for (int i = 0; i < 4; ++i) {
         if (abs(B[i]) < 1e-12) {
             if (A[i] < 0.0) return vec2(1.0, 0.0);
@@ -101,7 +101,9 @@ void main() {
         float ndl = dot(n, normalize(l));
         if (ndl > 0.0) {
             float r;
+            g_bias_texels = 3.0;    // the solid's own shadow-map texels must not shadow it
             surface += albedo / PI * ndl * light_arriving(P, light_space(P), r);
+            g_bias_texels = 0.0;
         }
 #endif
     }
