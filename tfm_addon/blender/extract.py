@@ -77,11 +77,12 @@ def render_size(scene) -> tuple[int, int]:
 
 def extract(depsgraph, *, parts: Change = Change.ALL, previous: Extraction | None = None,
             camera_object=None, size: tuple[int, int] | None = None, window=None,
-            cache: GridCache | None = None) -> Extraction:
+            cache: GridCache | None = None, volume_resolution: int | None = None) -> Extraction:
     """Read ``parts`` of the scene from an evaluated depsgraph; take the rest from ``previous``.
 
     ``camera_object``: the camera to render through (default: the scene's); ``size``: image size
-    in pixels (default: the scene's output size); ``window``: a render border's pixel window.
+    in pixels (default: the scene's output size); ``window``: a render border's pixel window;
+    ``volume_resolution``: voxels along a mesh medium's longest side (default: from the size).
     """
     if previous is None:
         previous, parts = Extraction(), Change.ALL
@@ -112,8 +113,9 @@ def extract(depsgraph, *, parts: Change = Change.ALL, previous: Extraction | Non
 
     geometry = parts & Change.GEOMETRY
     if geometry:
-        found = _walk_instances(depsgraph, geometry, cache,
-                                mesh_volume_resolution(size if size is not None else render_size(scene)))
+        if volume_resolution is None:
+            volume_resolution = mesh_volume_resolution(size if size is not None else render_size(scene))
+        found = _walk_instances(depsgraph, geometry, cache, volume_resolution)
         for part, key in ((Change.LIGHTS, "lights"), (Change.SOLIDS, "meshes")):
             if part in geometry:
                 changes[key] = tuple(found[key])
@@ -209,7 +211,10 @@ def _walk_instances(depsgraph, parts: Change, cache: GridCache,
         ob = instance.object
         kind = ob.type
         if not instance.show_self:
-            continue   # a particle or instancing emitter set not to show itself
+            # a particle or instancing emitter set not to show itself (its hair would show)
+            if parts & Change.SOLIDS and instance.show_particles and _has_hair(ob):
+                unrendered.setdefault("Hair particles", []).append(_label(instance))
+            continue
         if kind in UNRENDERED_TYPES and parts & Change.SOLIDS:
             unrendered.setdefault(UNRENDERED_TYPES[kind], []).append(_label(instance))
             continue
@@ -235,8 +240,7 @@ def _walk_instances(depsgraph, parts: Change, cache: GridCache,
                 continue
             if Change.SOLIDS not in parts:
                 continue
-            if any(ps.settings.type == 'HAIR' and ps.settings.render_type == 'PATH'
-                   for ps in getattr(ob, "particle_systems", ())):
+            if _has_hair(ob):
                 unrendered.setdefault("Hair particles", []).append(_label(instance))
             key = ob.data.as_pointer() if kind == 'MESH' else ob.as_pointer()
             if key not in arrays:
@@ -244,10 +248,12 @@ def _walk_instances(depsgraph, parts: Change, cache: GridCache,
             if arrays[key] is None:
                 continue
             vertices, tris = arrays[key]
+            flags = meshes.visibility(instance, depsgraph.view_layer)
+            if flags["visible_camera"] and materials.hidden_from_camera(material):
+                flags["visible_camera"] = False
             solids.append(Mesh(vertices=vertices, triangles=tris,
                                matrix_world=np.array(instance.matrix_world),
-                               color=meshes.diffuse_color(ob), name=_label(instance),
-                               **meshes.visibility(instance, depsgraph.view_layer)))
+                               color=meshes.diffuse_color(ob), name=_label(instance), **flags))
 
     if Change.LIGHTS in parts:
         if skipped_lights:
@@ -261,6 +267,11 @@ def _walk_instances(depsgraph, parts: Change, cache: GridCache,
             f"One medium is rendered: using {media[0]}, skipping " + ", ".join(media[1:]))
     return {"lights": spots, "meshes": solids, "medium": medium,
             "medium_source": media[0] if media else None, "warnings": notes}
+
+
+def _has_hair(ob) -> bool:
+    return any(ps.settings.type == 'HAIR' and ps.settings.render_type == 'PATH'
+               for ps in getattr(ob, "particle_systems", ()))
 
 
 # Object types TFM does not render, and how the render report names them.
@@ -343,7 +354,8 @@ def _mesh_medium(instance, material, notes: list[str],
     ob = instance.object
     label = f"Object '{_label(instance)}'"
     sigma_a, sigma_s, g, grid, _constant = _sigma(material, None, label, notes)
-    if grid:
+    if grid and grid != "density":
+        # Principled Volume's Density Attribute ("density") reads 1 on a mesh, as in Cycles.
         notes.append(f"{label}: a mesh has no grid '{grid}'; its medium has the material's constant "
                      f"density")
     arrays = meshes.triangles(ob)

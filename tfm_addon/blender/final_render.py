@@ -6,6 +6,7 @@ render result, and reports problems to the user; nothing raises into Blender.
 
 from __future__ import annotations
 
+import dataclasses
 import traceback
 
 import numpy as np
@@ -22,6 +23,24 @@ PASSES = (("Scattering", "scattering"), ("Surfaces", "surfaces"), ("Transmittanc
 last_messages: list[tuple[str, str]] = []
 # Seconds per stage of the last final render, as the renderer measured them.
 last_timings: dict[str, float] = {}
+# Warnings already given in a material preview: each is reported once per session, since Blender
+# renders the same preview scene again for every material and shape.
+_preview_reported: set[str] = set()
+
+# Voxels along a mesh medium's longest side in a preview (its shapes span ~100 px of 128).
+PREVIEW_VOLUME_RESOLUTION = 64
+
+
+def preview_settings(settings, width: int, height: int):
+    """The quality for a material preview of ``width`` x ``height`` pixels: steps and maps sized
+    for the image (a 128 px preview marches 64 steps and builds 128 px maps), whatever the
+    scene's TFM panel says (the preview scene has the add-on's defaults)."""
+    side = max(width, height)
+    res = int(min(512, max(64, 2 ** round(np.log2(max(side, 1))))))
+    steps = int(min(128, max(32, side // 2)))
+    return dataclasses.replace(settings, quality='CUSTOM', view_steps=steps, light_steps=steps,
+                               map_resolution=res, coefficients=8, density_weight=None,
+                               tfm_filter='LINEAR', method='TFM', ambient=True)
 
 
 def enabled_passes(view_layer) -> tuple[tuple[str, str], ...]:
@@ -47,6 +66,16 @@ def _tell(engine, level: str, message: str) -> None:
     engine.report({level}, message)
 
 
+def _warn(engine, message: str, preview: bool) -> None:
+    """A warning for the user; in a material preview, once per session (and on the console)."""
+    if preview:
+        if message in _preview_reported:
+            return
+        _preview_reported.add(message)
+        print(f"TFM material preview: {message}")
+    _tell(engine, 'WARNING', message)
+
+
 def render(engine, depsgraph) -> None:
     """RenderEngine.render: one frame of one view layer."""
     last_messages.clear()
@@ -54,19 +83,22 @@ def render(engine, depsgraph) -> None:
     scene = depsgraph.scene
     width, height = engine.resolution_x, engine.resolution_y
     window = border_window(scene.render, width, height)
-    quiet = engine.is_preview  # previews light their own scenes; their warnings help nobody
+    preview = engine.is_preview
     try:
         extraction = extract(depsgraph, camera_object=engine.camera_override,
-                             size=(width, height), window=window)
+                             size=(width, height), window=window,
+                             volume_resolution=PREVIEW_VOLUME_RESOLUTION if preview else None)
         if extraction.camera is None:
             _tell(engine, 'ERROR', "The scene has no camera to render from")
             return
-        if not quiet:
-            for message in extraction.all_warnings:
-                _tell(engine, 'WARNING', message)
+        for message in extraction.all_warnings:
+            _warn(engine, message, preview)
+        settings = extraction.settings
+        if preview:
+            settings = preview_settings(settings, width, height)
         engine.update_stats("", "TFM: rendering")
         output = get_worker().render(
-            extraction.scene(), extraction.settings,
+            extraction.scene(), settings,
             cancel=lambda: engine.test_break(),
             progress=lambda fraction: engine.update_progress(fraction),
         )
@@ -80,10 +112,9 @@ def render(engine, depsgraph) -> None:
         traceback.print_exc()
         _tell(engine, 'ERROR', f"TFM render failed: {type(ex).__name__}: {ex}")
         return
-    if not quiet:
-        for message in output.warnings:
-            if message not in extraction.all_warnings:
-                _tell(engine, 'WARNING', message)
+    for message in output.warnings:
+        if message not in extraction.all_warnings:
+            _warn(engine, message, preview)
     last_timings.update(output.timings_s)
     write_result(engine, output, depsgraph.view_layer.name, width, height,
                  passes=enabled_passes(depsgraph.view_layer))

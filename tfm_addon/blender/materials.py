@@ -238,3 +238,39 @@ def surface_color(material) -> RGB | None:
     except Unreadable:
         return None
     return None
+
+
+def hidden_from_camera(material) -> bool:
+    """Whether the surface is transparent to camera rays by a Light Path node: a Principled BSDF
+    whose Alpha is 0 when "Is Camera Ray" is 1 (Blender's preview floor, seen only in
+    reflections). Such a mesh is left out of what the camera sees; it still casts shadows."""
+    out = output_node(material)
+    if out is None:
+        return False
+    try:
+        node = _linked_node(out.inputs["Surface"])
+        if node is None or node.bl_idname != 'ShaderNodeBsdfPrincipled':
+            return False
+        return _camera_ray_value(node.inputs["Alpha"]) <= 0.0
+    except (Unreadable, KeyError):
+        return False
+
+
+_MATH = {'ADD': lambda a, b: a + b, 'SUBTRACT': lambda a, b: a - b, 'MULTIPLY': lambda a, b: a * b,
+         'MINIMUM': min, 'MAXIMUM': max}
+
+
+def _camera_ray_value(socket) -> float:
+    """A float input's value on a camera ray, through Light Path and Math nodes."""
+    if not socket.is_linked:
+        return float(socket.default_value)
+    link = socket.links[0]
+    node = _linked_node(socket)
+    if node is None:
+        return float(socket.default_value)
+    if node.bl_idname == 'ShaderNodeLightPath':
+        return 1.0 if link.from_socket.name == "Is Camera Ray" else 0.0
+    if node.bl_idname == 'ShaderNodeMath' and node.operation in _MATH:
+        value = _MATH[node.operation](_camera_ray_value(node.inputs[0]), _camera_ray_value(node.inputs[1]))
+        return min(max(value, 0.0), 1.0) if node.use_clamp else value
+    raise Unreadable(f"input '{socket.name}' is driven by node '{node.name}'")
