@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from tfm_addon import scenes
-from tfm_addon.engine import Medium, Renderer, RenderSettings, Scene, metrics
+from tfm_addon.engine import Medium, Renderer, RenderSettings, blackbody, metrics
 from tfm_addon.engine.reference import blackbody_rec709, render_reference
 from tfm_addon.engine.scene import HASHED, GridValue
 
@@ -46,10 +46,11 @@ def test_homogeneous_box_emission(renderer):
     assert metrics.ssim(out, ref) >= 0.99
 
 
-def test_blackbody_colour_is_cycles_fit():
-    # Values of Cycles' svm_math_blackbody_color_rec709 at segment edges and in between.
+@pytest.mark.parametrize("colour", [blackbody_rec709, blackbody.color_rec709])
+def test_blackbody_colour_is_cycles_fit(colour):
+    # Values of Cycles' svm_math_blackbody_color_rec709 beyond its range and in between.
     t = np.array([700.0, 1000.0, 2000.0, 6500.0, 12000.0])
-    c = blackbody_rec709(t)
+    c = colour(t)
     assert np.allclose(c[0], (5.413294490189271, -0.20319390035873933, -0.0822535242887164))
     assert np.allclose(c[4], (0.8262954810464208, 0.9945080501520986, 1.566307710274283))
     # The fit is luminance-balanced: Rec.709 luminance close to 1 over the range.
@@ -57,29 +58,38 @@ def test_blackbody_colour_is_cycles_fit():
     assert np.all(np.abs(lum - 1.0) < 0.1)
 
 
+def _edits(r, scene, edits):
+    before = dict(r.counters)
+    first = r.render(scene, SETTINGS).combined
+    images = [r.render(dataclasses.replace(scene, medium=dataclasses.replace(scene.medium, **edit)),
+                       SETTINGS).combined for edit in edits]
+    delta = {k: r.counters[k] - before.get(k, 0) for k in r.counters}
+    return first, images, delta
+
+
 def test_emission_edits_rebuild_no_map():
     r = Renderer()
     try:
         scene = scenes.fire_scene(48, 27, 24, kind="FIRE", with_light=True, with_occluder=True)
-        first = r.render(scene, SETTINGS).combined
-        before = dict(r.counters)
-        m = scene.medium
-        edits = [dict(emission_color=(0.2, 0.9, 0.3)),
-                 dict(emission_strength=GridValue("flame", 9.0, 0.0)),
-                 dict(blackbody_tint=(0.5, 0.5, 1.0)),
-                 dict(temperature=GridValue("temperature", 1300.0, 0.0)),
-                 dict(blackbody_intensity=GridValue(offset=0.0))]
-        images = []
-        for edit in edits:
-            images.append(r.render(Scene(camera=scene.camera, lights=scene.lights,
-                                         medium=dataclasses.replace(m, **edit), meshes=scene.meshes),
-                                   SETTINGS).combined)
-        delta = {k: r.counters[k] - before.get(k, 0) for k in r.counters}
-        assert delta["renders"] == len(edits)
+        r.render(scene, SETTINGS)
+        # Colour, strength and tint are uniforms: nothing is rebuilt or uploaded.
+        first, images, delta = _edits(r, scene, [dict(emission_color=(0.2, 0.9, 0.3)),
+                                                 dict(emission_strength=GridValue("flame", 9.0, 0.0)),
+                                                 dict(blackbody_tint=(0.5, 0.5, 1.0))])
+        assert delta["renders"] == 4
         for counter in ("shadow_maps", "tfms", "grid_uploads", "attribute_uploads", "gbuffers"):
             assert delta.get(counter, 0) == 0, counter
         for image in images:
             assert np.abs(image - first).max() > 1e-3   # each edit shows
+        # The blackbody term is evaluated per voxel: a temperature or intensity edit uploads it
+        # again, and still builds no light map.
+        first, images, delta = _edits(r, scene, [dict(temperature=GridValue("temperature", 1300.0, 0.0)),
+                                                 dict(blackbody_intensity=GridValue(offset=0.5))])
+        assert delta["attribute_uploads"] == 2
+        for counter in ("shadow_maps", "tfms", "grid_uploads", "gbuffers"):
+            assert delta.get(counter, 0) == 0, counter
+        for image in images:
+            assert np.abs(image - first).max() > 1e-3
     finally:
         r.release()
 

@@ -406,7 +406,8 @@ def fire_scene(width: int = 96, height: int = 54, n: int = 32, kind: str = "EMIS
     """A burning plume in a ``n`` x ``n`` x 3n/2 grid, 3 m tall.
 
     ``kind``: 'EMISSION' (Emission Strength 4 x flame, an orange Emission Color), 'BLACKBODY'
-    (Blackbody Intensity 1, temperature 1000 K x the temperature grid), 'FIRE' (both, thin smoke),
+    (Blackbody Intensity 1, temperature 1500 K x the temperature grid: 2250-4500 K), 'FIRE' (both,
+    1000 K x the grid),
     'COLOR' (no emission, a per-voxel colour grid, black absorption colour so the extinction does
     not depend on it). ``with_light``: a spot from above left; ``with_occluder``: a bar in its beam.
     """
@@ -420,7 +421,8 @@ def fire_scene(width: int = 96, height: int = 54, n: int = 32, kind: str = "EMIS
         fields.update(emission_color=(1.0, 0.45, 0.12), emission_strength=GridValue("flame", 4.0, 0.0))
     if kind in ("BLACKBODY", "FIRE"):
         fields.update(blackbody_intensity=GridValue(offset=1.0),
-                      temperature=GridValue("temperature", 1000.0, 0.0), blackbody_tint=(1.0, 0.9, 0.8))
+                      temperature=GridValue("temperature", 1500.0 if kind == "BLACKBODY" else 1000.0, 0.0),
+                      blackbody_tint=(1.0, 0.9, 0.8))
     if kind == "COLOR":
         grids["color"] = color_grid_for(density)
         fields.update(color_grid="color")

@@ -1,5 +1,6 @@
-"""The medium's attribute grids (emission strength, blackbody intensity, temperature, colour)
-prepared for the GPU on the density's lattice, cleaned and downsampled as the density was."""
+"""The medium's attribute grids prepared for the GPU on the density's lattice, cleaned and
+downsampled as the density was: the emission-strength grid as read, and the blackbody term
+evaluated per voxel (engine/blackbody.py says why), plus the colour grid."""
 
 from __future__ import annotations
 
@@ -7,30 +8,42 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from . import blackbody
 from .medium_grid import downsample
-from .scene import Medium
+from .scene import GridValue, Medium
+
+STRENGTH, BLACKBODY = 0, 1   # channels of the scalar texture: strength grid, blackbody RGB (1-3)
 
 
 @dataclass(frozen=True)
 class PreparedAttributes:
-    """``scalars``: (nx, ny, nz, 4) float32 holding the scalar grids the emission reads, channel
-    ``channels[name]``, or None when the emission reads no grid; ``color``: (nx, ny, nz, 3) or
-    None. Both finite, on the prepared density's lattice."""
+    """``scalars``: (nx, ny, nz, 4) float32, channel 0 the emission-strength grid, 1-3 the
+    blackbody radiance before its tint (W/(sr m^2) per metre), or None when the emission reads no
+    grid; ``strength_grid``/``blackbody_grid``: which of those it holds; ``color``: (nx, ny, nz, 3)
+    or None. Everything finite, on the prepared density's lattice."""
 
     scalars: np.ndarray | None
-    channels: dict[str, int]
+    strength_grid: bool
+    blackbody_grid: bool
     color: np.ndarray | None
     warnings: list[str] = field(default_factory=list)
 
 
-def scalar_names(medium: Medium) -> tuple[str, ...]:
-    """The scalar grids the emission reads, in channel order (at most four)."""
-    names: list[str] = []
-    if medium.has_emission:
-        for value in (medium.emission_strength, medium.blackbody_intensity, medium.temperature):
-            if value.grid is not None and value.grid not in names:
-                names.append(value.grid)
-    return tuple(names[:4])
+def uses_blackbody_grid(medium: Medium) -> bool:
+    return medium.has_emission and (medium.blackbody_intensity.grid is not None
+                                    or medium.temperature.grid is not None) and not (
+        medium.blackbody_intensity.grid is None and medium.blackbody_intensity.offset <= 0.0)
+
+
+def uses_strength_grid(medium: Medium) -> bool:
+    return medium.has_emission and medium.emission_strength.grid is not None
+
+
+def key(medium: Medium) -> tuple:
+    """What the prepared textures depend on besides the grids' content and lattice."""
+    bb = (medium.blackbody_intensity, medium.temperature) if uses_blackbody_grid(medium) else None
+    strength = medium.emission_strength.grid if uses_strength_grid(medium) else None
+    return (strength, bb, medium.color_grid)
 
 
 def _clean(a: np.ndarray, name: str, warnings: list[str]) -> np.ndarray:
@@ -41,33 +54,58 @@ def _clean(a: np.ndarray, name: str, warnings: list[str]) -> np.ndarray:
     return a
 
 
+def _value(medium: Medium, v: GridValue, warnings: list[str]) -> np.ndarray | float:
+    if v.grid is None:
+        return float(v.offset)
+    g = _clean(np.asarray(medium.grids[v.grid], np.float32), v.grid, warnings)
+    return v.scale * np.maximum(g.astype(np.float64), 0.0) + v.offset
+
+
 def downsample_factor(medium: Medium, prepared_index_to_world: np.ndarray) -> int:
     """The factor by which the density was downsampled (1: not at all)."""
     s = np.linalg.inv(np.asarray(medium.index_to_world, np.float64)) @ np.asarray(prepared_index_to_world)
     return max(1, int(round(float(s[0, 0]))))
 
 
+def _down(a: np.ndarray, factor: int) -> np.ndarray:
+    a = np.ascontiguousarray(a, dtype=np.float32)
+    return downsample(a, factor) if factor > 1 else a
+
+
 def prepare_attributes(medium: Medium, factor: int) -> PreparedAttributes:
     """The grids ``medium`` needs besides the density, downsampled by ``factor`` like it."""
     warnings: list[str] = []
-    names = scalar_names(medium)
+    strength, bb = uses_strength_grid(medium), uses_blackbody_grid(medium)
     scalars = None
-    if names:
-        channels = []
-        for name in names:
-            a = _clean(np.asarray(medium.grids[name], np.float32), name, warnings)
-            channels.append(downsample(a, factor) if factor > 1 else a)
-        shape = channels[0].shape
-        scalars = np.zeros((*shape, 4), np.float32)
-        for i, a in enumerate(channels):
-            scalars[..., i] = a
+    if strength or bb:
+        shape = medium.density.shape
+        channels = [np.zeros(shape, np.float32) for _ in range(4)]
+        if strength:
+            name = medium.emission_strength.grid
+            channels[STRENGTH] = _clean(np.asarray(medium.grids[name], np.float32), name, warnings)
+        if bb:
+            t = _value(medium, medium.temperature, warnings)
+            b = _value(medium, medium.blackbody_intensity, warnings)
+            t, b = np.broadcast_arrays(np.asarray(t, np.float64), np.asarray(b, np.float64))
+            if t.shape != shape:
+                t, b = np.broadcast_to(t, shape), np.broadcast_to(b, shape)
+            rgb = blackbody.radiance(t, b)
+            for k in range(3):
+                channels[BLACKBODY + k] = rgb[..., k].astype(np.float32)
+        scalars = np.stack([_down(c, factor) for c in channels], axis=-1)
     color = None
     if medium.color_grid is not None:
         c = _clean(np.asarray(medium.grids[medium.color_grid], np.float32), medium.color_grid, warnings)
-        if factor > 1:
-            c = np.stack([downsample(np.ascontiguousarray(c[..., k]), factor) for k in range(3)], axis=-1)
-        color = np.ascontiguousarray(c)
-    return PreparedAttributes(scalars, {n: i for i, n in enumerate(names)}, color, warnings)
+        color = np.stack([_down(c[..., k], factor) for k in range(3)], axis=-1)
+    return PreparedAttributes(scalars, strength, bb, color, warnings)
+
+
+def constant_blackbody(medium: Medium) -> tuple[float, float, float]:
+    """The blackbody term before the tint when it reads no grid."""
+    if not medium.has_emission or uses_blackbody_grid(medium):
+        return (0.0, 0.0, 0.0)
+    rgb = blackbody.radiance(np.asarray(medium.temperature.offset), medium.blackbody_intensity.offset)
+    return tuple(float(x) for x in np.asarray(rgb).reshape(3))
 
 
 def padded_xyz_fastest(a: np.ndarray) -> np.ndarray:

@@ -22,9 +22,10 @@ The model (units: metres, watts, radians; colours are scene-linear RGB):
   over the part of that segment inside the medium's bounds (analytic for a homogeneous medium).
   A colour grid C multiplies sigma_s per channel at the sample (not the extinction).
 - Emission: ``T_view * L_e(p) * dt`` at every sample, zero-density ones included, with
-  ``L_e = emission_color * max(strength, 0) + tint * 1e-6 sigma_SB / pi * ((1 - b) + b T^4) * bb(T)``
-  where the blackbody intensity b > 0 (Cycles' Principled Volume); each grid-driven quantity is
-  ``scale * max(G, 0) + offset`` with G trilinear like the density.
+  ``L_e = emission_color * max(strength, 0) + tint * B``, B the blackbody term
+  ``1e-6 sigma_SB / pi * ((1 - b) + b T^4) * bb(T)`` where the intensity b > 0 (Cycles' Principled
+  Volume); each grid-driven quantity is ``scale * max(G, 0) + offset``, strength trilinear in G,
+  B evaluated per voxel and blended trilinearly (what Cycles' stochastic look-ups converge to).
 """
 
 from __future__ import annotations
@@ -258,6 +259,12 @@ def blackbody_rec709(t: np.ndarray) -> np.ndarray:
     return out
 
 
+def _blackbody_term(t: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """(n, 3): 1e-6 sigma / pi * ((1 - b) + b T^4) * colour(T) where b > 0, else 0."""
+    power = _STEFAN_BOLTZMANN * 1e-6 / math.pi * ((1.0 - b) + b * t ** 4)
+    return np.where((b > 0)[:, None], power[:, None] * blackbody_rec709(t), 0.0)
+
+
 class _Field:
     """The density D of a medium: its bounds, point look-ups and integrals toward a light."""
 
@@ -320,14 +327,27 @@ class _Field:
         """Emitted radiance per metre (n, 3), W/(sr m^3), at the points p (n, 3)."""
         out = np.maximum(self.value(medium.emission_strength, p), 0.0)[:, None] * \
             np.asarray(medium.emission_color, np.float64)
-        b = self.value(medium.blackbody_intensity, p)
-        hot = np.flatnonzero(b > 0)
-        if len(hot):
-            temp = np.maximum(self.value(medium.temperature, p[hot]), 0.0)
-            power = _STEFAN_BOLTZMANN * 1e-6 / math.pi * ((1.0 - b[hot]) + b[hot] * temp ** 4)
-            out[hot] += (power[:, None] * np.asarray(medium.blackbody_tint, np.float64)
-                         * blackbody_rec709(temp))
-        return out
+        tint = np.asarray(medium.blackbody_tint, np.float64)
+        bb, t = medium.blackbody_intensity, medium.temperature
+        if bb.grid is None and t.grid is None:
+            if bb.offset > 0:
+                out += tint * _blackbody_term(np.array([max(t.offset, 0.0)]), np.array([bb.offset]))[0]
+            return out
+        # Cycles reads the attributes stochastically (one voxel with trilinear odds): it converges
+        # to the trilinear blend of each voxel's blackbody term.
+        if "__blackbody" not in self.attributes:
+            shape = medium.density.shape
+            b_vox = np.broadcast_to(self._voxel_value(medium, bb), shape).reshape(-1)
+            t_vox = np.broadcast_to(np.maximum(self._voxel_value(medium, t), 0.0), shape).reshape(-1)
+            term = _blackbody_term(t_vox, b_vox).reshape(*shape, 3)
+            self.attributes["__blackbody"] = np.pad(term, [(1, 1)] * 3 + [(0, 0)])
+        return out + tint * self.attribute("__blackbody", p)
+
+    @staticmethod
+    def _voxel_value(medium: Medium, v) -> np.ndarray:
+        if v.grid is None:
+            return np.asarray(float(v.offset))
+        return v.scale * np.maximum(np.asarray(medium.grids[v.grid], np.float64), 0.0) + v.offset
 
     def _march_sums(self, start: np.ndarray, step: np.ndarray) -> np.ndarray:
         """Sum of D over ``light_steps`` midpoints start + (k + 1/2) step (padded index space)."""

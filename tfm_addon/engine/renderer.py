@@ -9,11 +9,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from . import medium_attributes
 from .camera import view_plane
 from .errors import RenderCancelled
 from .gl_context import GLContext
 from .light import LightFrame, cone_meets_box, is_dark
-from .medium_attributes import downsample_factor, prepare_attributes, scalar_names
 from .medium_grid import prepare_grid
 from .output import RenderOutput
 from .passes.bindings import MEDIUM_GRID, MEDIUM_NONE, MediumGPU, gobo_texture
@@ -247,7 +247,8 @@ class Renderer:
     def _medium_attributes(self, scene: Scene, settings: RenderSettings,
                            medium_gpu: MediumGPU) -> AttributesGPU | None:
         """The medium's emission and colour-grid textures, or None when it has neither. Keyed by
-        the grids and the lattice they are uploaded on, not by the emission constants."""
+        the grids, the lattice they are uploaded on and, for the blackbody term evaluated per
+        voxel, the temperature and intensity; not by the emission colour, strength or tint."""
         medium = scene.medium
         if medium is None or medium_gpu.kind == MEDIUM_NONE:
             return None
@@ -255,13 +256,13 @@ class Renderer:
             return None
         if medium_gpu.kind != MEDIUM_GRID:
             return self._attributes.get(("constant",), lambda: AttributesGPU(self.gl, None))[0]
-        names = scalar_names(medium)
-        key = (medium.grids_key, medium.density_key, settings.max_grid_bytes, names, medium.color_grid)
+        key = (medium.grids_key, medium.density_key, settings.max_grid_bytes,
+               medium_attributes.key(medium))
 
         def build():
             self.counters["attribute_uploads"] += 1
-            factor = downsample_factor(medium, medium_gpu.box_to_world)
-            return AttributesGPU(self.gl, prepare_attributes(medium, factor))
+            factor = medium_attributes.downsample_factor(medium, medium_gpu.box_to_world)
+            return AttributesGPU(self.gl, medium_attributes.prepare_attributes(medium, factor))
 
         return self._attributes.get(key, build)[0]
 

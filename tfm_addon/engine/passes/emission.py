@@ -8,8 +8,8 @@ from __future__ import annotations
 import numpy as np
 
 from ..gl_context import GLContext, set_uniforms
-from ..medium_attributes import PreparedAttributes, padded_xyz_fastest
-from ..scene import GridValue, Medium
+from ..medium_attributes import PreparedAttributes, constant_blackbody, padded_xyz_fastest
+from ..scene import Medium
 
 UNIT_ATTRS, UNIT_COLOR = 10, 15
 
@@ -19,7 +19,8 @@ class AttributesGPU:
 
     def __init__(self, gl: GLContext, prepared: PreparedAttributes | None):
         ctx = gl.ctx
-        self.channels = dict(prepared.channels) if prepared is not None else {}
+        self.strength_grid = prepared is not None and prepared.strength_grid
+        self.blackbody_grid = prepared is not None and prepared.blackbody_grid
         self.warnings = list(prepared.warnings) if prepared is not None else []
         scalars = prepared.scalars if prepared is not None else None
         if scalars is None:
@@ -38,18 +39,15 @@ class AttributesGPU:
                 tex.filter = (ctx.LINEAR, ctx.LINEAR)
                 tex.repeat_x = tex.repeat_y = tex.repeat_z = False
 
-    def _expr(self, value: GridValue) -> tuple[float, float, float]:
-        if value.grid is None or value.grid not in self.channels:
-            return (0.0, float(value.offset), -1.0)
-        return (float(value.scale), float(value.offset), float(self.channels[value.grid]))
-
     def bind(self, prog, medium: Medium) -> None:
         self.attrs.use(UNIT_ATTRS)
+        v = medium.emission_strength
+        strength = ((float(v.scale), float(v.offset), 0.0) if self.strength_grid
+                    else (0.0, float(v.offset), -1.0))
         set_uniforms(prog, u_attrs=UNIT_ATTRS, u_attrs_size=tuple(float(n) for n in self.attrs_size),
                      u_emission_color=tuple(float(c) for c in medium.emission_color),
-                     u_strength=self._expr(medium.emission_strength),
-                     u_bb_intensity=self._expr(medium.blackbody_intensity),
-                     u_temperature=self._expr(medium.temperature),
+                     u_strength=strength, u_bb_grid=int(self.blackbody_grid),
+                     u_bb_const=constant_blackbody(medium),
                      u_bb_tint=tuple(float(c) for c in medium.blackbody_tint))
         if self.color is not None:
             self.color.use(UNIT_COLOR)
