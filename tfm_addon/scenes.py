@@ -444,7 +444,22 @@ def fire_scene(width: int = 96, height: int = 54, n: int = 32, kind: str = "EMIS
 
 
 def fire_demo_scene(width: int = 640, height: int = 360, n: int = 64) -> Scene:
-    """The demo's burning plume: smoke with a blackbody flame and an orange glow, raked by a spot
-    whose shaft a bar cuts, over a ground."""
-    base = fire_scene(width, height, n, kind="FIRE", with_light=True, with_occluder=True, with_ground=True)
-    return base
+    """The demo's burning plume: smoke rising from a fire whose flame glows (Emission Strength from
+    the flame grid) and burns (blackbody from the temperature grid), a dim spot raking the smoke,
+    a bar cutting a shaft of shadow through it, a ground, a faint night sky."""
+    from .engine.scene import GridValue
+
+    density = plume_density(n, seed=11)
+    grids = fire_grids(density)
+    medium = Medium(sigma_a=(0.25, 0.25, 0.25), sigma_s=(1.6, 1.55, 1.5), anisotropy=0.3, density=density,
+                    index_to_world=grid_to_world(density.shape, 3.0, (0, 0, 1.5)), grids=grids,
+                    emission_color=(1.0, 0.35, 0.08), emission_strength=GridValue("flame", 6.0, 0.0),
+                    blackbody_intensity=GridValue(offset=1.0), blackbody_tint=(1.0, 0.85, 0.7),
+                    temperature=GridValue("temperature", 1000.0, 0.0))
+    light = SpotLight(matrix_world=look_at((-3.0, -1.5, 4.5), (0.0, 0.0, 1.8)), power_w=1500.0,
+                      color=(0.75, 0.85, 1.0), spot_size_rad=math.radians(40), spot_blend=0.3)
+    meshes = (box_mesh((-1.9, -0.95, 3.7), (0.12, 1.6, 0.12), color=(0.3, 0.3, 0.3), name="Bar"),
+              plane_mesh((0, 0, 0), 12.0, color=(0.45, 0.45, 0.45)))
+    camera = Camera(matrix_world=look_at((0.4, -5.8, 1.4), (0, 0, 1.45)), width_px=width, height_px=height,
+                    lens_mm=32.0)
+    return Scene(camera=camera, lights=(light,), medium=medium, meshes=meshes, ambient=(0.01, 0.012, 0.02))
