@@ -27,6 +27,8 @@ class PreparedAttributes:
     blackbody_grid: bool
     color: np.ndarray | None
     warnings: list[str] = field(default_factory=list)
+    emission_box: tuple[tuple[float, ...], tuple[float, ...]] | None = None  # index space; None: all
+
 
 
 def uses_blackbody_grid(medium: Medium) -> bool:
@@ -97,7 +99,26 @@ def prepare_attributes(medium: Medium, factor: int) -> PreparedAttributes:
     if medium.color_grid is not None:
         c = _clean(np.asarray(medium.grids[medium.color_grid], np.float32), medium.color_grid, warnings)
         color = np.stack([_down(c[..., k], factor) for k in range(3)], axis=-1)
-    return PreparedAttributes(scalars, strength, bb, color, warnings)
+    return PreparedAttributes(scalars, strength, bb, color, warnings, _emission_box(medium, scalars))
+
+
+def _emission_box(medium: Medium, scalars: np.ndarray | None):
+    """Index-space bounds of the voxels that can emit, one voxel wider (the trilinear support);
+    None when a constant emits everywhere."""
+    v = medium.emission_strength
+    strength_constant = v.offset > 0.0 and any(c != 0.0 for c in medium.emission_color)
+    if scalars is None or strength_constant or not uses_blackbody_grid(medium) and \
+            medium.blackbody_intensity.offset > 0.0:
+        return None
+    live = np.zeros(scalars.shape[:3], bool)
+    if uses_strength_grid(medium) and v.scale > 0.0:
+        live |= scalars[..., STRENGTH] > 0.0
+    if uses_blackbody_grid(medium):
+        live |= np.any(scalars[..., BLACKBODY:] != 0.0, axis=-1)
+    if not live.any():
+        return ((0.0, 0.0, 0.0), (-1.0, -1.0, -1.0))
+    idx = np.argwhere(live)
+    return (tuple(float(x) - 1.0 for x in idx.min(axis=0)), tuple(float(x) + 1.0 for x in idx.max(axis=0)))
 
 
 def constant_blackbody(medium: Medium) -> tuple[float, float, float]:

@@ -30,6 +30,8 @@ class AttributesGPU:
             data = padded_xyz_fastest(scalars)
             self.attrs_size = tuple(int(n) + 2 for n in scalars.shape[:3])
         self.attrs = ctx.texture3d(self.attrs_size, 4, data.tobytes(), dtype="f4")
+        box = prepared.emission_box if prepared is not None else None
+        self.emission_box = box or ((-2.0, -2.0, -2.0), (1e30, 1e30, 1e30))
         self.color = None
         if prepared is not None and prepared.color is not None:
             size = tuple(int(n) + 2 for n in prepared.color.shape[:3])
@@ -48,7 +50,8 @@ class AttributesGPU:
                      u_emission_color=tuple(float(c) for c in medium.emission_color),
                      u_strength=strength, u_bb_grid=int(self.blackbody_grid),
                      u_bb_const=constant_blackbody(medium),
-                     u_bb_tint=tuple(float(c) for c in medium.blackbody_tint))
+                     u_bb_tint=tuple(float(c) for c in medium.blackbody_tint),
+                     u_emit_lo=self.emission_box[0], u_emit_hi=self.emission_box[1])
         if self.color is not None:
             self.color.use(UNIT_COLOR)
             set_uniforms(prog, u_color_grid=UNIT_COLOR)

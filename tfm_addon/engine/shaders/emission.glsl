@@ -9,6 +9,18 @@ uniform vec3 u_strength;         // scale, offset, channel of u_attrs (-1: const
 uniform int u_bb_grid;           // 1: the blackbody term per voxel in channels 1-3 (before tint)
 uniform vec3 u_bb_const;         // else this constant
 uniform vec3 u_bb_tint;
+uniform vec3 u_emit_lo;          // index-space box outside which nothing emits
+uniform vec3 u_emit_hi;
+
+// Part (t_in, t_out) of the ray ob + db t (box space) where the medium can emit.
+vec2 emission_interval(vec3 ob, vec3 db) {
+    vec3 inv = 1.0 / mix(db, vec3(1e-12), lessThan(abs(db), vec3(1e-12)));
+    vec3 t0 = (u_emit_lo - ob) * inv;
+    vec3 t1 = (u_emit_hi - ob) * inv;
+    vec3 lo = min(t0, t1);
+    vec3 hi = max(t0, t1);
+    return vec2(max(max(lo.x, lo.y), lo.z), min(min(hi.x, hi.y), hi.z));
+}
 
 // Emitted radiance per metre at a point in box (grid index) space.
 vec3 emission_at_index(vec3 idx) {

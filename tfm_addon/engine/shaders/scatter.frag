@@ -123,6 +123,9 @@ void main() {
         // Positions along the ray, incrementally in box and light space.
         vec3 ob = (u_world_to_box * vec4(o, 1.0)).xyz;
         vec3 db = (u_world_to_box * vec4(d, 0.0)).xyz;
+#if EMISSION
+        vec2 emit = emission_interval(ob, db);
+#endif
 #if HAS_LIGHT
         vec3 oq = light_space(o);
         vec3 dq = mat3(u_world_to_light) * d;
@@ -131,7 +134,8 @@ void main() {
             float t = seg.x + (float(i) + 0.5) * dt;
             float D = density_at_index(ob + db * t);
 #if EMISSION
-            scatter += exp(-u_sigma_t * (tau + 0.5 * D * dt)) * emission_at_index(ob + db * t) * dt;
+            if (t >= emit.x && t <= emit.y)
+                scatter += exp(-u_sigma_t * (tau + 0.5 * D * dt)) * emission_at_index(ob + db * t) * dt;
 #endif
             if (D > 0.0) {
                 vec3 tv = exp(-u_sigma_t * (tau + 0.5 * D * dt));
