@@ -112,3 +112,30 @@ def test_grids_must_share_the_lattice():
         Medium(density=d, grids={"flame": np.zeros((4, 4, 5), np.float32)})
     with pytest.raises(ValueError, match="no scalar grid 'heat'"):
         Medium(density=d, emission_strength=GridValue("heat", 1.0, 0.0))
+
+
+def test_bad_attribute_voxels_are_named_once_and_rendered_as_zero(renderer):
+    scene = scenes.fire_scene(48, 27, 16, kind="FIRE")
+    flame = np.array(scene.medium.grids["flame"])
+    flame[3, 4, 5], flame[6, 7, 8] = np.nan, np.inf
+    medium = dataclasses.replace(scene.medium, grids={**scene.medium.grids, "flame": flame})
+    out = renderer.render(dataclasses.replace(scene, medium=medium), SETTINGS)
+    assert np.isfinite(out.combined).all()
+    assert [w for w in out.warnings if "'flame'" in w] == [
+        "Grid 'flame' had 2 NaN/infinite values; they were set to 0."]
+
+
+def test_attributes_are_downsampled_with_the_density():
+    r = Renderer()
+    try:
+        scene = scenes.fire_scene(48, 27, 24, kind="FIRE")
+        full = r.render(scene, SETTINGS).combined
+        small = dataclasses.replace(SETTINGS, max_grid_bytes=scene.medium.density.nbytes // 8)
+        out = r.render(scene, small)
+        assert any("downsampled by 2" in w for w in out.warnings)
+        (attributes,) = r._attributes.items.values()
+        (medium_gpu, _), = r._media.items.values()
+        assert tuple(attributes.attrs_size) == tuple(medium_gpu.grid_size)
+        assert metrics.ssim(out.combined[..., :3], full[..., :3]) > 0.95
+    finally:
+        r.release()

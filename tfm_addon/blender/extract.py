@@ -254,8 +254,10 @@ def _drop_missing(fields: dict, extras: dict, label: str, notes: list[str],
     out = dict(fields)
     for key in ("emission_strength", "blackbody_intensity", "temperature"):
         v = out.get(key)
-        if isinstance(v, GridValue) and v.grid is not None and v.grid not in extras:
-            notes.append(f"{label}: grid '{v.grid}' {why}; its socket reads {v.offset:g}")
+        if isinstance(v, GridValue) and v.grid is not None and (v.grid not in extras
+                                                                or extras[v.grid].ndim != 3):
+            notes.append(f"{label}: grid '{v.grid}' {why} (or is not a float grid); its socket reads "
+                         f"{v.offset:g}")
             out[key] = GridValue(offset=v.offset)
     if out.get("color_grid") and (out["color_grid"] not in extras or extras[out["color_grid"]].ndim != 4):
         notes.append(f"{label}: colour grid '{out['color_grid']}' {why} (or is not a vector grid)")

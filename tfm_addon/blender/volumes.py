@@ -142,7 +142,14 @@ def read_grid_set(openvdb, path: str, density_name: str, extras, label: str, war
     boxes = [g.evalActiveVoxelBoundingBox() for g in grids.values()]
     lo = tuple(min(int(b[0][k]) for b in boxes) for k in range(3))
     hi = tuple(max(int(b[1][k]) for b in boxes) for k in range(3))
-    arrays = {name: _copy(g, lo, hi) for name, g in grids.items()}
+    arrays = {}
+    for name, g in grids.items():
+        try:
+            arrays[name] = _copy(g, lo, hi)
+        except Exception as ex:   # a grid of another value type (int, bool, ...)
+            if name == density_name:
+                raise VolumeReadError(f"Volume '{label}': cannot read grid '{name}': {ex}") from ex
+            warnings.append(f"Volume '{label}': grid '{name}' ({g.valueTypeName}) is not read")
     for a in arrays.values():
         a.setflags(write=False)
     shift = np.eye(4)
