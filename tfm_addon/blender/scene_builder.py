@@ -299,7 +299,9 @@ def fluid_domain(name: str, corner_min, corner_max, resolution_max: int, cache_d
                  material=None, collection=None, enabled: bool = True):
     """A box mesh with a Fluid modifier set up as a smoke / fire domain whose OpenVDB cache is
     ``cache_directory`` (not baked here). ``enabled`` False turns the modifier off in the viewport
-    and render, so that Blender never evaluates it (see BLENDER.md on Mantaflow in the module)."""
+    and render, so that Blender never evaluates it (Mantaflow is broken in the bpy module).
+    Setting the cache up empties ``cache_directory`` (Blender frees the cache): write the cache
+    files (``write_fluid_cache_frame``) after this."""
     import bpy
 
     lo, hi = np.asarray(corner_min, float), np.asarray(corner_max, float)
