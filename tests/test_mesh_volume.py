@@ -120,3 +120,25 @@ def test_cache_by_shape_not_transform(renderer):
     for name in ("grid_uploads", "tfms", "shadow_maps"):
         assert after[name] == before.get(name, 0), name
     assert after["gbuffers"] == before["gbuffers"] + 3
+
+
+def test_constant_emission_glows_inside_the_mesh_only(renderer):
+    """Cycles' constant volume emission fills the mesh, not its grid's box: it is scaled by the
+    coverage."""
+    from tfm_addon.engine.scene import GridValue
+
+    v, t = SPHERE
+    medium, _ = mv.mesh_medium(v, t, np.eye(4), sigma_a=(0.2,) * 3, sigma_s=(0.0,) * 3, resolution=32,
+                               emission_color=(1.0, 0.5, 0.2), emission_strength=GridValue(offset=2.0),
+                               cache=mv.OccupancyCache())
+    assert medium.emission_strength.grid == mv.INSIDE_GRID and medium.grids[mv.INSIDE_GRID] is medium.density
+    cam = Camera(_translate(0.0, 0.0, 5.0), 48, 48, projection="ORTHO", ortho_scale=2.4)
+    out = renderer.render(Scene(cam, medium=medium), RenderSettings(view_steps=128, ambient=False))
+    px = (np.arange(48) + 0.5) / 48 * 2.4 - 1.2
+    x, y = np.meshgrid(px, -px)
+    outside = x**2 + y**2 > 1.1**2
+    assert out.rgb[outside].max() == 0.0 and out.rgb[~outside].max() > 0.5
+    # through the centre: emission integrated over the chord, attenuated: (1 - e^{-0.2 * 2}) / 0.2
+    expect = 2.0 * (1.0 - np.exp(-0.4)) / 0.2
+    centre = out.rgb[23:25, 23:25, 0].mean()
+    assert abs(centre / expect - 1.0) < 0.03

@@ -18,7 +18,7 @@ import sys
 import time
 from pathlib import Path
 
-SECTIONS = ("methods", "table1", "sweeps", "blender", "issue2")
+SECTIONS = ("methods", "table1", "sweeps", "blender", "issue2", "emission")
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -119,6 +119,13 @@ def main(argv: list[str] | None = None) -> int:
         issue2_text = renderer_bench.report(issue2_rows)
         (out / "renderer.md").write_text(issue2_text + "\n")
         progress.step("issue 2 table")
+    if "emission" in sections:
+        from . import emission_bench
+
+        size = (emission_bench.QUICK if args.quick else emission_bench.PAPER if args.gpu
+                else emission_bench.FULL)
+        emission_rows = emission_bench.run(size, log=progress.log)
+        (out / "emission.md").write_text(emission_bench.report(emission_rows) + "\n")
     progress.close()
     text = summary.write(out / "summary.md", config=config, machine=machine,
                          seconds=time.perf_counter() - t_start, rows=rows, checks=checks, table1=table1_rows,

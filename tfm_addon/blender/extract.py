@@ -13,9 +13,10 @@ import numpy as np
 
 from ..engine import mesh_volume
 from ..engine.medium_grid import downsample
-from ..engine.scene import Camera, Medium, Mesh, RenderSettings, Scene, SpotLight
+from ..engine.scene import Camera, GridValue, Medium, Mesh, RenderSettings, Scene, SpotLight
+from ..engine.scene import _digest as digest
+from . import fluid, materials, meshes
 from . import lights as lights_module
-from . import materials, meshes
 from .camera import camera_from_object
 from .changes import Change
 from .volumes import GridCache, NoGridThisFrame, VolumeReadError, grid_cache
@@ -206,6 +207,7 @@ def _walk_instances(depsgraph, parts: Change, cache: GridCache,
     arrays: dict = {}  # evaluated mesh data -> (vertices, triangles), shared by its instances
     simplify = volume_simplify_level(depsgraph) if Change.MEDIUM in parts else 0
     unrendered: dict[str, list[str]] = {}   # kind of object TFM does not render -> names
+    colour_notes: list[str] = []
 
     for instance in depsgraph.object_instances:
         ob = instance.object
@@ -229,8 +231,20 @@ def _walk_instances(depsgraph, parts: Change, cache: GridCache,
             if medium is None and len(media) == 1:
                 medium = _volume_medium(instance, cache, notes[Change.MEDIUM], simplify)
                 _medium_visibility_notes(depsgraph, instance, notes[Change.MEDIUM])
+        elif kind == 'MESH' and fluid.domain_modifier(ob, depsgraph.mode == 'RENDER') is not None:
+            if Change.MEDIUM in parts:   # a smoke / fire domain: its cache, never its mesh
+                media.append(_label(instance))
+                if medium is None and len(media) == 1:
+                    medium = _fluid_medium(instance, depsgraph.scene.frame_current, cache,
+                                           notes[Change.MEDIUM], simplify)
+                    _medium_visibility_notes(depsgraph, instance, notes[Change.MEDIUM])
         elif kind in meshes.MESH_TYPES and parts & (Change.SOLIDS | Change.MEDIUM):
             material = meshes.first_material(ob)
+            if Change.SOLIDS in parts and materials.has_surface_and_volume(material):
+                note = (f"Material '{material.name}' has a surface and a volume shader: the surface is "
+                        f"rendered as an opaque diffuse solid and the volume inside it is not rendered")
+                if note not in notes[Change.SOLIDS]:
+                    notes[Change.SOLIDS].append(note)
             if materials.has_volume_only(material):
                 if Change.MEDIUM in parts:
                     media.append(_label(instance))
@@ -253,8 +267,10 @@ def _walk_instances(depsgraph, parts: Change, cache: GridCache,
                 flags["visible_camera"] = False
             solids.append(Mesh(vertices=vertices, triangles=tris,
                                matrix_world=np.array(instance.matrix_world),
-                               color=meshes.diffuse_color(ob), name=_label(instance), **flags))
+                               color=meshes.diffuse_color(ob, colour_notes), name=_label(instance),
+                               **flags))
 
+    notes[Change.SOLIDS].extend(dict.fromkeys(colour_notes))   # once per material
     if Change.LIGHTS in parts:
         if skipped_lights:
             notes[Change.LIGHTS].append(
@@ -297,21 +313,58 @@ def _box_matrix(lo, hi) -> np.ndarray:
     return m
 
 
-def _sigma(material, settings, label: str, notes: list[str]):
-    """(sigma_a, sigma_s, g, grid the material reads or None, constant density?) for a medium."""
+def _grid_value(e: materials.Expr) -> GridValue:
+    return GridValue(e.grid, e.scale, e.offset) if e.grid else GridValue(offset=e.offset)
+
+
+def _sigma(material, settings, label: str, notes: list[str], available=None) -> dict:
+    """What a medium's material gives: 'fields' (Medium keyword arguments besides the grids), the
+    density 'grid' the material reads (None: constant), 'constant' (the density is constant), and
+    'grids' (every grid it reads). ``available``: the volume's grid names (None: unknown)."""
     use_nodes = settings is None or settings.use_node_material
     if use_nodes and material is not None:
-        sigma, reason = materials.read_volume_material(material)
+        sigma, reason = materials.read_volume_material(material, available)
         if sigma is not None:
-            for note in sigma.notes:
-                notes.append(f"{label}: {note} is not rendered")
-            return sigma.sigma_a, sigma.sigma_s, sigma.anisotropy, sigma.grid, sigma.grid is None
+            notes.extend(f"{label}: {note}" for note in sigma.notes)
+            fields = dict(sigma_a=sigma.sigma_a, sigma_s=sigma.sigma_s, anisotropy=sigma.anisotropy,
+                          color_grid=sigma.color_grid, emission_color=sigma.emission_color,
+                          emission_strength=_grid_value(sigma.emission_strength),
+                          blackbody_intensity=_grid_value(sigma.blackbody_intensity),
+                          blackbody_tint=sigma.blackbody_tint, temperature=_grid_value(sigma.temperature))
+            return dict(fields=fields, grid=sigma.grid, constant=sigma.grid is None, grids=sigma.grids)
         notes.append(f"{label}: {reason}")
     if settings is None:
-        return (0.1, 0.1, 0.1), (1.0, 1.0, 1.0), 0.0, None, False
+        return dict(fields=dict(sigma_a=(0.1, 0.1, 0.1), sigma_s=(1.0, 1.0, 1.0), anisotropy=0.0),
+                    grid=None, constant=False, grids=())
     k = settings.density_scale
-    return (tuple(k * c for c in settings.sigma_a), tuple(k * c for c in settings.sigma_s),
-            settings.anisotropy, None, False)
+    fields = dict(sigma_a=tuple(k * c for c in settings.sigma_a),
+                  sigma_s=tuple(k * c for c in settings.sigma_s), anisotropy=settings.anisotropy)
+    grids: tuple = ()
+    strength = float(getattr(settings, "emission_strength", 0.0))
+    if strength > 0.0:
+        name = getattr(settings, "emission_grid", "")
+        has = bool(name) and (available is None or name in available)
+        fields.update(emission_color=tuple(settings.emission_color),
+                      emission_strength=GridValue(name, strength, 0.0) if has else GridValue(offset=strength))
+        grids = (name,) if has else ()
+    return dict(fields=fields, grid=None, constant=False, grids=grids)
+
+
+def _drop_missing(fields: dict, extras: dict, label: str, notes: list[str],
+                  why: str = "was not found") -> dict:
+    """Fields whose grids were not read fall back to their constants, with a note."""
+    out = dict(fields)
+    for key in ("emission_strength", "blackbody_intensity", "temperature"):
+        v = out.get(key)
+        if isinstance(v, GridValue) and v.grid is not None and (v.grid not in extras
+                                                                or extras[v.grid].ndim != 3):
+            notes.append(f"{label}: grid '{v.grid}' {why} (or is not a float grid); its socket reads "
+                         f"{v.offset:g}")
+            out[key] = GridValue(offset=v.offset)
+    if out.get("color_grid") and (out["color_grid"] not in extras or extras[out["color_grid"]].ndim != 4):
+        notes.append(f"{label}: colour grid '{out['color_grid']}' {why} (or is not a vector grid)")
+        out["color_grid"] = None
+    return out
 
 
 def _volume_medium(instance, cache: GridCache, notes: list[str], simplify: int = 0) -> Medium | None:
@@ -323,10 +376,18 @@ def _volume_medium(instance, cache: GridCache, notes: list[str], simplify: int =
     generated = (not volume.filepath or len(ob.original.modifiers) > 0
                  or (instance.is_instance and instance.parent is not None
                      and len(instance.parent.original.modifiers) > 0))
-    sigma_a, sigma_s, g, material_grid, constant = _sigma(
-        meshes.first_material(ob), settings, label, notes)
     try:
-        grid, grid_notes = cache.read(volume, preferred, _label(instance), generated=generated)
+        available = [name for name, _ in cache.grid_types(volume, _label(instance))]
+    except NoGridThisFrame:
+        return None
+    except VolumeReadError as ex:
+        notes.append(f"{ex}; rendering without it")
+        return None
+    read = _sigma(meshes.first_material(ob), settings, label, notes, available)
+    material_grid = read["grid"]
+    try:
+        grid, grid_notes = cache.read(volume, preferred, _label(instance), generated=generated,
+                                      extras=tuple(read["grids"]))
     except NoGridThisFrame:
         return None
     except VolumeReadError as ex:
@@ -336,15 +397,60 @@ def _volume_medium(instance, cache: GridCache, notes: list[str], simplify: int =
     if material_grid and material_grid != grid.grid_name:
         notes.append(f"{label}: the material reads grid '{material_grid}', the density comes from "
                      f"grid '{grid.grid_name}' (set in the volume's TFM panel)")
-    to_world = np.array(instance.matrix_world) @ grid.index_to_object
-    if constant:
+    return _grid_medium(np.array(instance.matrix_world), grid, read, label, notes, simplify,
+                        float(getattr(volume.render, "clipping", 0.0)))
+
+
+def _grid_medium(matrix_world, grid, read: dict, label: str, notes: list[str], simplify: int = 0,
+                 clipping: float = 0.0) -> Medium:
+    """The medium of a grid read for an object placed by ``matrix_world``; ``simplify`` halves
+    the grids that many times (Simplify's volume resolution), ``clipping`` empties lower densities."""
+    fields = read["fields"]
+    to_world = matrix_world @ grid.index_to_object
+    if read["constant"]:
         n = np.asarray(grid.density.shape, dtype=np.float64)
         box = to_world @ _box_matrix(-0.5 * np.ones(3), n - 0.5)
-        return Medium(sigma_a=sigma_a, sigma_s=sigma_s, anisotropy=g, box_to_world=box)
+        fields = _drop_missing(fields, {}, label, notes, "is not rendered with a constant density")
+        return Medium(box_to_world=box, **fields)
+    fields = _drop_missing(fields, grid.extras, label, notes)
+    used = {v.grid for v in (fields.get("emission_strength"), fields.get("blackbody_intensity"),
+                             fields.get("temperature")) if isinstance(v, GridValue) and v.grid}
+    used |= {fields["color_grid"]} if fields.get("color_grid") else set()
+    extras = {name: a for name, a in grid.extras.items() if name in used}
     density, index_to_object = simplify_grid(grid.density, grid.index_to_object, simplify)
-    return Medium(sigma_a=sigma_a, sigma_s=sigma_s, anisotropy=g, density=density,
-                  index_to_world=np.array(instance.matrix_world) @ index_to_object,
-                  clipping=float(getattr(volume.render, "clipping", 0.0)))
+    if simplify > 0:
+        extras = {name: _downsample_channels(a, 2 ** simplify) for name, a in extras.items()}
+    return Medium(density=density, index_to_world=matrix_world @ index_to_object, grids=extras,
+                  clipping=clipping,
+                  source_key=digest(grid.key, sorted(extras), simplify) if grid.key else None, **fields)
+
+
+def _downsample_channels(a: np.ndarray, f: int) -> np.ndarray:
+    """A scalar (nx, ny, nz) or colour (nx, ny, nz, c) grid at 1/f of its resolution, as
+    ``simplify_grid`` does the density."""
+    if a.ndim == 3:
+        return downsample(a, f)
+    return np.stack([downsample(a[..., c], f) for c in range(a.shape[-1])], axis=-1)
+
+
+def _fluid_medium(instance, frame: int, cache: GridCache, notes: list[str],
+                  simplify: int = 0) -> Medium | None:
+    """A Mantaflow gas domain, from its baked cache for ``frame``."""
+    ob = instance.object
+    label = f"Fluid domain '{_label(instance)}'"
+    attributes = ("density", "flame", "heat", "temperature", "color")
+    read = _sigma(meshes.first_material(ob), None, label, notes, attributes)
+    try:
+        grid, _all, warnings = fluid.read_domain(ob, frame, cache, tuple(read["grids"]), _label(instance))
+    except VolumeReadError as ex:
+        notes.append(f"{ex}; rendering without it")
+        return None
+    notes.extend(warnings)
+    notes.extend(grid.warnings)
+    if read["grid"] not in (None, "density"):
+        notes.append(f"{label}: the material reads grid '{read['grid']}' as density; the domain's "
+                     f"density is used")
+    return _grid_medium(np.array(instance.matrix_world), grid, read, label, notes, simplify)
 
 
 def _mesh_medium(instance, material, notes: list[str],
@@ -353,17 +459,18 @@ def _mesh_medium(instance, material, notes: list[str],
     voxelised once per shape (engine/mesh_volume.py) and placed by the instance's matrix."""
     ob = instance.object
     label = f"Object '{_label(instance)}'"
-    sigma_a, sigma_s, g, grid, _constant = _sigma(material, None, label, notes)
-    if grid and grid != "density":
+    read = _sigma(material, None, label, notes)
+    if read["grid"] not in (None, "density"):
         # Principled Volume's Density Attribute ("density") reads 1 on a mesh, as in Cycles.
-        notes.append(f"{label}: a mesh has no grid '{grid}'; its medium has the material's constant "
-                     f"density")
+        notes.append(f"{label}: a mesh has no grid '{read['grid']}'; its medium has the material's "
+                     f"constant density")
     arrays = meshes.triangles(ob)
     if arrays is None:
         notes.append(f"{label}: the mesh has no faces, so it holds no medium")
         return None
+    fields = _drop_missing(read["fields"], {}, label, notes, "is not rendered in a mesh medium")
     medium, mesh_notes = mesh_volume.mesh_medium(
-        arrays[0], arrays[1], np.array(instance.matrix_world), sigma_a=sigma_a, sigma_s=sigma_s,
-        anisotropy=g, resolution=resolution, label=label)
+        arrays[0], arrays[1], np.array(instance.matrix_world), resolution=resolution, label=label,
+        **fields)
     notes.extend(mesh_notes)
     return medium

@@ -27,11 +27,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .scene import RGB, Medium, _digest
+from .scene import RGB, GridValue, Medium, _digest
 
 # Voxels along the longest side of the mesh's bounding box.
 DEFAULT_RESOLUTION = 96
 MIN_RESOLUTION, MAX_RESOLUTION = 8, 512
+# The coverage as an extra grid of the medium (what a constant emission is scaled by).
+INSIDE_GRID = "mesh inside"
 # Pairs (triangle, column) handled at once (each costs ~100 bytes).
 _PAIRS_PER_CHUNK = 1 << 20
 
@@ -248,11 +250,13 @@ occupancy_cache = OccupancyCache()
 def mesh_medium(vertices: np.ndarray, triangles: np.ndarray, matrix_world: np.ndarray, *,
                 sigma_a: RGB, sigma_s: RGB, anisotropy: float = 0.0, density: float = 1.0,
                 resolution: int = DEFAULT_RESOLUTION, cache: OccupancyCache | None = None,
-                label: str = "Mesh") -> tuple[Medium | None, list[str]]:
+                label: str = "Mesh", **fields) -> tuple[Medium | None, list[str]]:
     """The medium inside a mesh: its coverage grid times ``density``, placed by
-    ``matrix_world``; sigma per unit density as for any Medium. Returns the medium (None for a
-    mesh without faces or volume) and warnings for the user (one line for a mesh that is not
-    closed)."""
+    ``matrix_world``; sigma per unit density as for any Medium. ``fields``: more Medium fields
+    (emission, blackbody); a constant emission or blackbody intensity glows inside the mesh only
+    (it becomes ``GridValue`` of the coverage, as Cycles renders a mesh's volume emission).
+    Returns the medium (None for a mesh without faces or volume) and warnings for the user (one
+    line for a mesh that is not closed)."""
     cache = occupancy_cache if cache is None else cache
     notes: list[str] = []
     if len(np.asarray(triangles).reshape(-1, 3)) == 0:
@@ -262,7 +266,7 @@ def mesh_medium(vertices: np.ndarray, triangles: np.ndarray, matrix_world: np.nd
         box = np.asarray(matrix_world, dtype=np.float64) @ box
         return Medium(sigma_a=tuple(density * c for c in sigma_a),
                       sigma_s=tuple(density * c for c in sigma_s), anisotropy=anisotropy,
-                      box_to_world=box), notes
+                      box_to_world=box, **fields), notes
     occ = cache.get(vertices, triangles, resolution)
     if not occ.closed:
         notes.append(f"{label}: the mesh is not closed ({occ.open_edges} open edges); its medium fills "
@@ -271,5 +275,12 @@ def mesh_medium(vertices: np.ndarray, triangles: np.ndarray, matrix_world: np.nd
     if not grid.any():
         notes.append(f"{label}: the mesh encloses no volume, so it holds no medium")
         return None, notes
+    grids = {}
+    for name in ("emission_strength", "blackbody_intensity"):
+        value = fields.get(name)
+        if isinstance(value, GridValue) and value.grid is None and value.offset != 0.0:
+            fields[name] = GridValue(grid=INSIDE_GRID, scale=value.offset, offset=0.0)
+            grids[INSIDE_GRID] = occ.coverage
     return Medium(sigma_a=sigma_a, sigma_s=sigma_s, anisotropy=anisotropy, density=grid,
-                  index_to_world=np.asarray(matrix_world, dtype=np.float64) @ occ.index_to_object), notes
+                  index_to_world=np.asarray(matrix_world, dtype=np.float64) @ occ.index_to_object,
+                  grids=grids, source_key=occ.key if density == 1.0 else None, **fields), notes

@@ -9,13 +9,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from . import medium_attributes
 from .camera import view_plane
 from .errors import RenderCancelled
 from .gl_context import GLContext
 from .light import LightFrame, cone_meets_box, cone_warning, is_dark
 from .medium_grid import prepare_grid
 from .output import RenderOutput
-from .passes.bindings import MEDIUM_GRID, MediumGPU, gobo_texture, pass_state
+from .passes.bindings import MEDIUM_GRID, MEDIUM_NONE, MediumGPU, gobo_texture, pass_state
+from .passes.emission import AttributesGPU
 from .passes.gbuffer import GBuffer
 from .passes.probe import probe_light_transmittance
 from .passes.scattering import (
@@ -129,8 +131,9 @@ class Renderer:
         self._gobos = _Cache()
         self._gbuffers = _Cache()
         self._targets = _Cache()
+        self._attributes = _Cache()
         self._caches = [self._media, self._solids, self._shadows, self._tfms, self._gobos,
-                        self._gbuffers, self._targets]
+                        self._gbuffers, self._targets, self._attributes]
 
     @property
     def gl(self) -> GLContext:
@@ -181,6 +184,8 @@ class Renderer:
             t0 = time.perf_counter()
             medium_gpu, medium_warnings = self._medium(scene, settings)
             warnings += medium_warnings
+            attributes = self._medium_attributes(scene, settings, medium_gpu)
+            warnings += attributes.warnings if attributes is not None else []
             casters = self._solid_set(scene.shadow_casters)
             seen = self._solid_set(scene.camera_meshes)
             step("scene", t0)
@@ -205,7 +210,8 @@ class Renderer:
             gbuffer.bind()
             ambient = scene.ambient if settings.ambient else (0.0, 0.0, 0.0)
             common = dict(camera=scene.camera, plane=plane, medium=scene.medium,
-                          medium_gpu=medium_gpu, settings=settings, ambient=ambient)
+                          medium_gpu=medium_gpu, settings=settings, ambient=ambient,
+                          attributes=attributes)
             if not plans:
                 t0 = time.perf_counter()
                 run_light_pass(gl, first=True, **common)
@@ -301,6 +307,28 @@ class Renderer:
             return _keyed(MediumGPU(self.gl, medium, grid), key), warnings
 
         return self._media.get(key, build)[0]
+
+    def _medium_attributes(self, scene: Scene, settings: RenderSettings,
+                           medium_gpu: MediumGPU) -> AttributesGPU | None:
+        """The medium's emission and colour-grid textures, or None when it has neither. Keyed by
+        the grids, the lattice they are uploaded on and, for the blackbody term evaluated per
+        voxel, the temperature and intensity; not by the emission colour, strength or tint."""
+        medium = scene.medium
+        if medium is None or medium_gpu.kind == MEDIUM_NONE:
+            return None
+        if not medium.has_emission and medium.color_grid is None:
+            return None
+        if medium_gpu.kind != MEDIUM_GRID:
+            return self._attributes.get(("constant",), lambda: AttributesGPU(self.gl, None))[0]
+        key = (medium.grids_key, medium.density_key, settings.max_grid_bytes,
+               medium_attributes.key(medium))
+
+        def build():
+            self.counters["attribute_uploads"] += 1
+            factor = medium_attributes.downsample_factor(medium, medium_gpu.box_to_world)
+            return AttributesGPU(self.gl, medium_attributes.prepare_attributes(medium, factor))
+
+        return self._attributes.get(key, build)[0]
 
     def _plan_light(self, scene, settings, light, medium_gpu, solids) -> _LightPlan:
         gl = self.gl

@@ -7,7 +7,7 @@ import numpy as np
 from ..camera import ViewPlane, camera_to_world
 from ..gl_context import GLContext, set_matrix, set_uniforms
 from ..scene import Camera, Medium, RenderSettings
-from .bindings import MEDIUM_NONE, MediumGPU, bind_light, bind_units, pass_state
+from .bindings import MEDIUM_GRID, MEDIUM_NONE, MediumGPU, bind_light, bind_units, pass_state
 
 # How a light pass finds the transmittance from the light (the shader's LIGHT_T).
 # LIGHT_T_UNIT: the light reaches the medium but its transmittance is taken as 1 ('UNSHADOWED').
@@ -78,15 +78,19 @@ def camera_uniforms(prog, camera: Camera, plane: ViewPlane) -> None:
 
 def run_light_pass(gl: GLContext, *, camera: Camera, plane: ViewPlane, medium: Medium | None,
                    medium_gpu: MediumGPU, settings: RenderSettings, ambient, first: bool,
-                   light=None, light_t: int = LIGHT_T_NONE, tfm=None) -> None:
+                   light=None, light_t: int = LIGHT_T_NONE, tfm=None, attributes=None) -> None:
     """Add one pass into the bound ScatteringTargets. ``light`` is (frame, intensity, ShadowMap
-    or None, gobo texture or None) or None for the ambient-only first pass."""
+    or None, gobo texture or None) or None for the ambient-only first pass. ``attributes``
+    (emission.AttributesGPU or None): the medium's emission, added by the first pass, and colour grid."""
     medium_kind = medium_gpu.kind
     if light is not None and light_t == LIGHT_T_NONE and not first:
         medium_kind = MEDIUM_NONE          # this light never reaches the medium
+    emits = attributes is not None and first and medium_kind != MEDIUM_NONE and medium.has_emission
+    colored = attributes is not None and attributes.color is not None and medium_kind == MEDIUM_GRID
     defines = {"MEDIUM": medium_kind, "LIGHT_T": light_t, "FIRST_PASS": int(first),
                "HAS_LIGHT": int(light is not None),
-               "PROJECTIVE": int(settings.sampling == "PROJECTIVE")}
+               "PROJECTIVE": int(settings.sampling == "PROJECTIVE"),
+               "EMISSION": int(emits), "COLOR_GRID": int(colored)}
     if tfm is not None:
         defines.update(tfm.defines(settings.tfm_filter))
     prog = gl.program("fullscreen.vert", "scatter.frag", defines)
@@ -104,4 +108,6 @@ def run_light_pass(gl: GLContext, *, camera: Camera, plane: ViewPlane, medium: M
         bind_light(prog, frame, intensity, settings.map_resolution, shadow, gobo)
     if tfm is not None:
         tfm.bind(prog, medium.sigma_t)
+    if emits or colored:
+        attributes.bind(prog, medium)
     gl.draw_fullscreen(prog)

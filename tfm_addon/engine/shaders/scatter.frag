@@ -7,6 +7,7 @@
 // PROJECTIVE: space the samples of a homogeneous medium uniformly in the light's map space.
 #include "common.glsl"
 #include "transmittance.glsl"
+#include "emission.glsl"
 
 uniform sampler2D u_gb0;       // albedo, distance
 uniform sampler2D u_gb1;       // normal, hit
@@ -124,6 +125,9 @@ void main() {
         // Positions along the ray, incrementally in box and light space.
         vec3 ob = (u_world_to_box * vec4(o, 1.0)).xyz;
         vec3 db = (u_world_to_box * vec4(d, 0.0)).xyz;
+#if EMISSION
+        vec2 emit = emission_interval(ob, db);
+#endif
 #if HAS_LIGHT
         vec3 oq = light_space(o);
         vec3 dq = mat3(u_world_to_light) * d;
@@ -131,6 +135,10 @@ void main() {
         for (int i = 0; i < u_view_steps; ++i) {
             float t = seg.x + (float(i) + 0.5) * dt;
             float D = density_at_index(ob + db * t);
+#if EMISSION
+            if (t >= emit.x && t <= emit.y)
+                scatter += exp(-u_sigma_t * (tau + 0.5 * D * dt)) * emission_at_index(ob + db * t) * dt;
+#endif
             if (D > 0.0) {
                 vec3 tv = exp(-u_sigma_t * (tau + 0.5 * D * dt));
                 vec3 src = vec3(0.0);
@@ -142,6 +150,9 @@ void main() {
                 float r;
                 vec3 li = light_arriving(o + d * t, q, r);
                 if (any(greaterThan(li, vec3(0.0)))) src += li * hg_phase(-dot(q, dq) / r, phase_g);
+#endif
+#if COLOR_GRID
+                src *= color_at_index(ob + db * t);
 #endif
                 scatter += tv * u_sigma_s * D * dt * src;
                 tau += D * dt;
@@ -157,6 +168,10 @@ void main() {
         vec3 ratio = mix(u_sigma_s / max(u_sigma_t, vec3(1e-12)), vec3(len) * u_sigma_s,
                          lessThan(u_sigma_t, vec3(1e-12)));
         scatter += ratio * u_ambient * mix(1.0 - transmittance, vec3(1.0), lessThan(u_sigma_t, vec3(1e-12)));
+#endif
+#if EMISSION
+        scatter += emission_at_index(vec3(0.0)) * mix((1.0 - transmittance) / max(u_sigma_t, vec3(1e-12)),
+                                                      vec3(len), lessThan(u_sigma_t, vec3(1e-12)));
 #endif
 #if HAS_LIGHT
         vec2 cs = frustum_interval(o, d, seg);
