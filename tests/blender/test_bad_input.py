@@ -140,13 +140,19 @@ def test_scene_without_camera_is_an_error_message(blank):
     assert engine.errors == ["The scene has no camera to render from"]
 
 
-def test_material_preview_renders_without_nagging(blank, tmp_path):
-    # Blender's preview scenes light a sphere with area lights: no spot light, by design.
+def test_material_preview_warns_once(blank, tmp_path):
+    # A preview is rendered again for every material and shape: what makes it wrong is said once.
     made = _smoke_in_blender(tmp_path)
     for light in made["lights"]:
         bpy.data.objects.remove(light)
-    engine = FakeEngine(32, 24)
-    engine.is_preview = True
-    _mod("final_render").render(engine, bpy.context.evaluated_depsgraph_get())
-    assert engine.reports == [] and engine.errors == []
-    assert engine.results == 1
+    final_render = _mod("final_render")
+    final_render._preview_reported.clear()
+    reports = []
+    for _ in range(2):
+        engine = FakeEngine(32, 24)
+        engine.is_preview = True
+        final_render.render(engine, bpy.context.evaluated_depsgraph_get())
+        assert engine.errors == [] and engine.results == 1
+        reports.append(engine.reports)
+    assert any("no light" in m or "no spot light" in m for _, m in reports[0])
+    assert reports[1] == []
