@@ -86,7 +86,6 @@ def mesh_against_volume(bpy, repeats: int, size: tuple[int, int], folder: str) -
     for kind in ("mesh", "volume"):
         bpy.ops.wm.read_homefile(use_empty=True)
         mesh_volume.occupancy_cache.clear()
-        built = mesh_volume.occupancy_cache.counters["voxelisations"]
         scene = bpy.context.scene
         if kind == "mesh":
             scene_builder.build(base, folder, settings=settings)
@@ -104,6 +103,7 @@ def mesh_against_volume(bpy, repeats: int, size: tuple[int, int], folder: str) -
                                                                 sigma_s=(3.0,) * 3,
                                                                 resolution=resolution)[0])
             scene_builder.build(medium_scene, folder, settings=settings)
+        built = mesh_volume.occupancy_cache.counters["voxelisations"]   # what the renders build
         cam = scene.camera
         cam.rotation_mode = 'QUATERNION'
         angle = [0.0]

@@ -265,10 +265,10 @@ def _walk_instances(depsgraph, parts: Change, cache: GridCache,
             flags = meshes.visibility(instance, depsgraph.view_layer)
             if flags["visible_camera"] and materials.hidden_from_camera(material):
                 flags["visible_camera"] = False
+            seen = colour_notes if flags["visible_camera"] else None   # an unseen colour needs no note
             solids.append(Mesh(vertices=vertices, triangles=tris,
                                matrix_world=np.array(instance.matrix_world),
-                               color=meshes.diffuse_color(ob, colour_notes), name=_label(instance),
-                               **flags))
+                               color=meshes.diffuse_color(ob, seen), name=_label(instance), **flags))
 
     notes[Change.SOLIDS].extend(dict.fromkeys(colour_notes))   # once per material
     if Change.LIGHTS in parts:
