@@ -63,3 +63,24 @@ def test_opaque_film_shows_the_world_like_cycles(blank, tmp_path):
     assert ssim >= 0.98 and abs(ratio - 1.0) < 0.03
     top = tfm[0, :, :3]                       # the top row sees the world past the smoke
     np.testing.assert_allclose(top.mean(axis=0), WORLD, rtol=0.02)
+
+
+def test_viewport_follows_the_film(blank, tmp_path):
+    """The viewport draws the combined image: opaque film, the world and alpha 1; transparent,
+    the sky's alpha 0 (a settings change re-reads the film)."""
+    builder = importlib.import_module(MODULE + ".tfm_addon.blender.scene_builder")
+    changes = importlib.import_module(MODULE + ".tfm_addon.blender.changes")
+    scene = bpy.context.scene
+    builder.build(smoke(width=64, height=36, n=32, with_ground=False), str(tmp_path), settings=SETTINGS)
+    scene.world.node_tree.nodes["Background"].inputs["Color"].default_value = (*WORLD, 1.0)
+    scene.render.film_transparent = False
+    session = importlib.import_module(MODULE + ".tfm_addon.blender.viewport").ViewportSession()
+    session.update(bpy.context.evaluated_depsgraph_get())
+    camera = session.extraction.camera
+    opaque = session.render(camera).combined
+    assert (opaque[..., 3] == 1.0).all()
+    np.testing.assert_allclose(opaque[0, :, :3].mean(axis=0), WORLD, rtol=0.02)
+    scene.render.film_transparent = True
+    session.update(bpy.context.evaluated_depsgraph_get(), changes.Change.SETTINGS)
+    clear = session.render(camera).combined
+    assert (clear[0, :, 3] == 0.0).all() and (clear[0, :, :3] == 0.0).all()
