@@ -52,3 +52,18 @@ def test_opaque_film_shows_the_world_through_the_medium(renderer, smoke):
     behind = (clear.combined[..., 3] < 1.0)[..., None]      # no solid seen
     np.testing.assert_allclose(out.rgb, clear.rgb + behind * out.passes["transmittance"] * np.asarray(WORLD),
                                atol=1e-4)
+
+
+def test_holdout_keeps_its_alpha_with_an_opaque_film(renderer, smoke):
+    """Cycles' holdout cuts the image whatever the film: no world, alpha as the medium in front."""
+    import dataclasses
+
+    holes = tuple(dataclasses.replace(m, holdout=True) for m in smoke.meshes)
+    held = dataclasses.replace(smoke, meshes=holes)
+    out = renderer.render(held, _settings(False))
+    ref = render_reference(held, _settings(False), view_steps=96, light_steps=64)
+    bar = renderer.render(smoke, _settings(True)).combined[..., 3] == 1.0
+    assert bar.sum() >= 10
+    np.testing.assert_allclose(out.combined[..., 3][bar], ref.combined[..., 3][bar], atol=0.01)
+    assert out.combined[..., 3][bar].max() < 0.9 and (out.combined[..., 3][~bar] == 1.0).all()
+    np.testing.assert_allclose(out.rgb[bar], out.passes["scattering"][bar], atol=1e-5)   # no world
