@@ -23,6 +23,7 @@ from .passes.scattering import (
     LIGHT_T_MARCH,
     LIGHT_T_NONE,
     LIGHT_T_TFM,
+    LIGHT_T_UNIT,
     ScatteringTargets,
     run_light_pass,
 )
@@ -255,14 +256,16 @@ class Renderer:
         light_t, tfm = LIGHT_T_NONE, None
         if medium_gpu.kind == MEDIUM_GRID:
             reaches = cone_meets_box(frame, medium_gpu.box_to_world, medium_gpu.lo, medium_gpu.hi)
-            if reaches and light.use_tfm:
+            if reaches and settings.method == "UNSHADOWED":
+                light_t = LIGHT_T_UNIT
+            elif reaches and light.use_tfm:
                 if settings.method == "BRUTE_FORCE":
                     light_t = LIGHT_T_MARCH
                 else:
                     tfm = self._tfm(scene, settings, light, frame, medium_gpu, shadow, res)
                     light_t = LIGHT_T_TFM if tfm is not None else LIGHT_T_NONE
         elif medium is not None and medium_gpu.kind != 0:
-            light_t = LIGHT_T_ANALYTIC
+            light_t = LIGHT_T_UNIT if settings.method == "UNSHADOWED" else LIGHT_T_ANALYTIC
         return _LightPlan(light, frame, light_t, shadow, tfm, gobo)
 
     def _tfm(self, scene, settings, light, frame, medium_gpu, shadow, res):

@@ -235,7 +235,9 @@ class RenderSettings:
     along the light rays; the map then does not depend on sigma).
     ``map_resolution``: shadow map and TFM side, texels.
     ``sampling``: 'WORLD' or 'PROJECTIVE' spacing of view samples in a homogeneous medium.
-    ``method``: 'TFM' (the product), 'BRUTE_FORCE' (GPU double march reference).
+    ``method``: 'TFM' (the product), 'BRUTE_FORCE' (GPU double march reference), 'UNSHADOWED'
+    (the floor: transmittance 1 from the light through the medium, solids' shadow maps kept, no
+    TFM built; what no transmittance representation can beat, for the benchmark).
     ``tfm_filter``: 'EXACT' reconstructs the 2x2 nearest TFM texels each in its own [K_in, K_out]
     and blends the results; 'LINEAR' lets the hardware blend coefficients and domains (about a
     quarter of the lookups; mixes domains at the medium's edges as seen from the light).
@@ -252,8 +254,8 @@ class RenderSettings:
     density_weight: float | None = None
     map_resolution: int = 512
     sampling: Literal["WORLD", "PROJECTIVE"] = "WORLD"
-    method: Literal["TFM", "BRUTE_FORCE"] = "TFM"
-    tfm_filter: Literal["EXACT", "LINEAR"] = "EXACT"
+    method: Literal["TFM", "BRUTE_FORCE", "UNSHADOWED"] = "TFM"
+    tfm_filter: Literal["EXACT", "LINEAR"] = "LINEAR"
     ambient: bool = True
     max_grid_bytes: int = 512 * 1024 * 1024
     quality: Literal["CUSTOM", "AUTO"] = "CUSTOM"

@@ -10,7 +10,8 @@ from ..scene import Camera, Medium, RenderSettings
 from .bindings import MEDIUM_NONE, MediumGPU, bind_light, bind_units
 
 # How a light pass finds the transmittance from the light (the shader's LIGHT_T).
-LIGHT_T_TFM, LIGHT_T_MARCH, LIGHT_T_ANALYTIC, LIGHT_T_NONE = 0, 1, 2, 3
+# LIGHT_T_UNIT: the light reaches the medium but its transmittance is taken as 1 ('UNSHADOWED').
+LIGHT_T_TFM, LIGHT_T_MARCH, LIGHT_T_ANALYTIC, LIGHT_T_NONE, LIGHT_T_UNIT = 0, 1, 2, 3, 4
 
 
 class ScatteringTargets:

@@ -129,7 +129,9 @@ void main() {
         for (int i = 0; i < u_view_steps; ++i) {
             float t = seg.x + (float(i) + 0.5) * dt;
             float D = density_at_index(ob + db * t);
-            if (D > 0.0) {
+            if (D <= 0.0) {     // in an empty occupancy cell: on to the first sample past it
+                i = max(i, int(ceil((skip_empty(ob, db, t) - seg.x) / dt - 0.501)) - 1);
+            } else {
                 vec3 tv = exp(-u_sigma_t * (tau + 0.5 * D * dt));
                 vec3 src = vec3(0.0);
 #if FIRST_PASS
@@ -143,7 +145,7 @@ void main() {
 #endif
                 scatter += tv * u_sigma_s * D * dt * src;
                 tau += D * dt;
-                if (sigma_t_min * tau > 14.0) break;
+                if (sigma_t_min * tau > 6.9078) break;    // view transmittance < 1e-3
             }
         }
         transmittance = exp(-u_sigma_t * tau);
