@@ -29,7 +29,7 @@ from .passes.scattering import (
 )
 from .passes.shadow_map import ShadowMap
 from .passes.solids import SolidsBuffer
-from .passes.tfm import TransmittanceMap, largest_density_integral
+from .passes.tfm import TransmittanceMap, largest_density_integral, tfm_resolution
 from .quality import auto_settings
 from .scene import RenderSettings, Scene, SpotLight
 
@@ -262,7 +262,8 @@ class Renderer:
                 if settings.method == "BRUTE_FORCE":
                     light_t = LIGHT_T_MARCH
                 else:
-                    tfm = self._tfm(scene, settings, light, frame, medium_gpu, shadow, res)
+                    tfm = self._tfm(scene, settings, light, frame, medium_gpu, shadow,
+                                    tfm_resolution(settings, frame, medium_gpu, res))
                     light_t = LIGHT_T_TFM if tfm is not None else LIGHT_T_NONE
         elif medium is not None and medium_gpu.kind != 0:
             light_t = LIGHT_T_UNIT if settings.method == "UNSHADOWED" else LIGHT_T_ANALYTIC

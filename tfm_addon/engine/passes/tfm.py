@@ -11,6 +11,34 @@ from ..light import LightFrame
 from .bindings import MediumGPU, bind_light, bind_units
 
 MAX_COEFFICIENTS = 16
+TEXELS_PER_VOXEL = 1.0          # the 'FOOTPRINT' resolution rule (docs/benchmark.md)
+MIN_FOOTPRINT_RESOLUTION = 64
+
+
+def footprint_resolution(frame: LightFrame, medium: MediumGPU, cap: int) -> int:
+    """The TFM side, texels, for ``tfm_resolution='FOOTPRINT'``: TEXELS_PER_VOXEL map texels per
+    voxel where the medium's non-zero box comes nearest to the light (the map's texels grow
+    with distance, so farther voxels get more), a multiple of 16 in
+    [MIN_FOOTPRINT_RESOLUTION, cap]; ``cap`` when the light is inside that box."""
+    w2b, b2w = medium.world_to_box, medium.box_to_world
+    p = w2b[:3, :3] @ frame.position + w2b[:3, 3]
+    q = np.clip(p, medium.lo, medium.hi)
+    distance = float(np.linalg.norm(b2w[:3, :3] @ (q - p)))
+    voxel = float(np.linalg.norm(b2w[:3, :3], axis=0).min())
+    if distance <= 0.0 or voxel <= 0.0:
+        return int(cap)
+    texels = TEXELS_PER_VOXEL * 2.0 * frame.tan_half * distance / voxel
+    return int(min(cap, max(MIN_FOOTPRINT_RESOLUTION, 16 * math.ceil(texels / 16))))
+
+
+def tfm_resolution(settings, frame: LightFrame, medium: MediumGPU, map_res: int) -> int:
+    """The TFM side for ``settings.tfm_resolution`` (RenderSettings), at most ``map_res``."""
+    r = settings.tfm_resolution
+    if r is None:
+        return int(map_res)
+    if r == "FOOTPRINT":
+        return footprint_resolution(frame, medium, map_res)
+    return int(min(max(int(r), 1), map_res))
 
 
 def largest_density_integral(gl: GLContext, frame: LightFrame, medium: MediumGPU, resolution: int,

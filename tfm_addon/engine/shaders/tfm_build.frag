@@ -31,7 +31,7 @@ void main() {
     vec2 k = box_interval(u_light_pos, dir);
     float k_in = max(k.x, 0.0);
     float k_out = k.y;
-    if (u_has_shadow == 1) k_out = min(k_out, texelFetch(u_shadow, ivec2(gl_FragCoord.xy), 0).r);
+    if (u_has_shadow == 1) k_out = min(k_out, texelFetch(u_shadow, ivec2(uv * vec2(textureSize(u_shadow, 0))), 0).r);
 
 #ifndef OPTICAL_DEPTH_ONLY
     // Tighten [K_in, K_out] to the part of the ray where the density is not zero, so that the

@@ -89,10 +89,10 @@ float tfm_lookup(vec2 uv, float r) {
 #endif
                       r);
 #else
-    vec2 f = uv * u_map_res - 0.5;
+    int res = textureSize(u_krange, 0).x;      // the TFM's own side (may differ from the shadow map's)
+    vec2 f = uv * float(res) - 0.5;
     ivec2 i0 = ivec2(floor(f));
     vec2 w = f - floor(f);
-    int res = int(u_map_res);
     float v = 0.0;
     for (int dy = 0; dy < 2; ++dy) {
         for (int dx = 0; dx < 2; ++dx) {
