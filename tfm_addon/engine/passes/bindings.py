@@ -13,6 +13,13 @@ from ..scene import Medium
 UNIT = {"u_gb0": 0, "u_gb1": 1, "u_density": 2, "u_shadow": 3, "u_gobo": 4, "u_krange": 5,
         "u_coef0": 6, "u_coef1": 7, "u_coef2": 8, "u_coef3": 9, "u_occupancy": 15, "u_shadow_depth": 14}
 
+# The density texture's format: (moderngl dtype, numpy type); values are stored divided by the
+# grid's maximum (``MediumGPU.density_scale``) so that half floats never overflow and the
+# normalised integers span their range. R16F is the smallest that keeps SSIM >= 0.995 against
+# the numpy reference on every benchmark scene (docs/benchmark.md); half the bytes of R32F.
+GRID_FORMATS = {"R32F": ("f4", np.float32), "R16F": ("f2", np.float16), "R16": ("nu2", np.uint16),
+                "R8": ("nu1", np.uint8)}
+GRID_FORMAT = "R16F"
 OCCUPANCY_BLOCK = 8     # voxels per side of an occupancy cell (empty-space skipping)
 
 MEDIUM_NONE, MEDIUM_BOX, MEDIUM_EVERYWHERE, MEDIUM_GRID = 0, 1, 2, 3
@@ -27,8 +34,11 @@ def bind_units(prog) -> None:
 class MediumGPU:
     """The medium's bounds as an oriented box and, for a grid, its padded 3D texture."""
 
-    def __init__(self, gl: GLContext, medium: Medium | None, grid: PreparedGrid | None):
+    def __init__(self, gl: GLContext, medium: Medium | None, grid: PreparedGrid | None,
+                 grid_format: str | None = None):
+        grid_format = grid_format or GRID_FORMAT
         self.texture = None
+        self.density_scale = 1.0
         self.occupancy = None
         if medium is None or (grid is not None and grid.is_empty):
             self.kind = MEDIUM_NONE
@@ -40,7 +50,14 @@ class MediumGPU:
             lo, hi = nonzero_bounds(grid.density)
             data = grid.padded_xyz_fastest()
             self.grid_size = (n[0] + 2, n[1] + 2, n[2] + 2)
-            self.texture = gl.ctx.texture3d(self.grid_size, 1, data.tobytes(), dtype="f4")
+            self.grid_format = grid_format
+            dtype, numpy_type = GRID_FORMATS[grid_format]
+            self.density_scale = max(grid.max_value, 1e-30)      # stored: density / scale
+            stored = data / np.float32(self.density_scale)
+            if np.issubdtype(numpy_type, np.integer):
+                stored = np.rint(stored * np.iinfo(numpy_type).max)
+            self.texture = gl.ctx.texture3d(self.grid_size, 1, stored.astype(numpy_type).tobytes(),
+                                            dtype=dtype)
             self.texture.filter = (gl.ctx.LINEAR, gl.ctx.LINEAR)
             self.texture.repeat_x = self.texture.repeat_y = self.texture.repeat_z = False
             occ = occupancy(data)
@@ -63,7 +80,7 @@ class MediumGPU:
         set_uniforms(prog, u_box_lo=self.lo, u_box_hi=self.hi)
         if self.texture is not None:
             set_uniforms(prog, u_grid_size=tuple(float(x) for x in self.grid_size),
-                         u_occupancy_block=float(OCCUPANCY_BLOCK))
+                         u_occupancy_block=float(OCCUPANCY_BLOCK), u_density_scale=self.density_scale)
             self.texture.use(UNIT["u_density"])
             self.occupancy.use(UNIT["u_occupancy"])
 

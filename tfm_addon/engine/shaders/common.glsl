@@ -8,6 +8,7 @@ uniform vec3 u_box_lo;
 uniform vec3 u_box_hi;
 uniform sampler3D u_density;   // padded by one zero voxel on every side
 uniform vec3 u_grid_size;      // padded texture size, voxels
+uniform float u_density_scale; // the texture holds density / u_density_scale
 
 // Ray (o, d) against the medium's box: (t_in, t_out) in units of d; t_in >= t_out when missed.
 vec2 box_interval(vec3 o, vec3 d) {
@@ -23,7 +24,7 @@ vec2 box_interval(vec3 o, vec3 d) {
 
 // Density at a point given in box (grid index) space: trilinear between voxel centres.
 float density_at_index(vec3 idx) {
-    return texture(u_density, (idx + 1.5) / u_grid_size).r;
+    return texture(u_density, (idx + 1.5) / u_grid_size).r * u_density_scale;
 }
 
 // Empty-space skipping: u_occupancy is 1 where a cell of u_occupancy_block^3 padded voxels may
