@@ -97,9 +97,12 @@ def test_what_was_built(bench, results):
     for r in results:
         if r["scene"] == "gobo":
             assert int(r["tfms_built"]) == 0, r          # homogeneous: analytic, no TFM
-        elif r["method"].startswith("brute force"):
-            assert int(r["tfms_built"]) == 0, r
+        elif r["method"].startswith(("brute force", "floor")):
+            assert int(r["tfms_built"]) == 0, r       # floor: method UNSHADOWED builds no TFM
+            if r["method"].startswith("floor"):
+                assert float(r["vs_floor"]) == 1.0, r
         else:
+            assert float(r["vs_floor"]) > 0, r
             assert int(r["tfms_built"]) == 1, r
     checks = _csv(bench / "counters.csv")
     away = [c for c in checks if "aimed away" in c["scene"]]

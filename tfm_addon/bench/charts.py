@@ -12,6 +12,7 @@ from .common import (
     BRUTE,
     CYCLES,
     EEVEE,
+    FLOOR,
     PROJECTIVE,
     TFM_ALPHA,
     TFM_ALPHA10,
@@ -33,6 +34,7 @@ STYLE = {
     CYCLES: dict(color="tab:gray", marker="D"),
     EEVEE: dict(color="tab:pink", marker="X"),
     TFM_SSAA: dict(color="navy", marker="h"),
+    FLOOR: dict(color="black", marker="x"),
 }
 SSIM_CEILING = 1 - 1e-6
 
