@@ -11,6 +11,7 @@ from ..light import LightFrame
 from .bindings import MediumGPU, bind_light, bind_units
 
 MAX_COEFFICIENTS = 16
+COEF_DTYPE = "f4"      # "f2" (half floats) gives the same SSIM on every bench scene, no faster on llvmpipe
 TEXELS_PER_VOXEL = 1.0          # the 'FOOTPRINT' resolution rule (docs/benchmark.md)
 MIN_FOOTPRINT_RESOLUTION = 64
 
@@ -76,7 +77,7 @@ class TransmittanceMap:
         targets = math.ceil(n / 4)
         size = (resolution, resolution)
         self.krange = ctx.texture(size, 4, dtype="f4")
-        self.coef = [ctx.texture(size, 4, dtype="f4") for _ in range(targets)]
+        self.coef = [ctx.texture(size, 4, dtype=COEF_DTYPE) for _ in range(targets)]
         for t in [self.krange, *self.coef]:
             t.filter = (ctx.LINEAR, ctx.LINEAR)      # texelFetch ignores it; 'LINEAR' lookups use it
             t.repeat_x = t.repeat_y = False
