@@ -263,7 +263,8 @@ class Renderer:
                     light_t = LIGHT_T_MARCH
                 else:
                     tfm = self._tfm(scene, settings, light, frame, medium_gpu, shadow,
-                                    tfm_resolution(settings, frame, medium_gpu, res))
+                                    tfm_resolution(settings, frame, medium_gpu, res,
+                                                   max(scene.camera.width_px, scene.camera.height_px)))
                     light_t = LIGHT_T_TFM if tfm is not None else LIGHT_T_NONE
         elif medium is not None and medium_gpu.kind != 0:
             light_t = LIGHT_T_UNIT if settings.method == "UNSHADOWED" else LIGHT_T_ANALYTIC

@@ -236,7 +236,8 @@ class RenderSettings:
     ``map_resolution``: shadow map and TFM side, texels.
     ``tfm_resolution``: the TFM's side when it differs: None (``map_resolution``), texels, or
     'FOOTPRINT' (one texel per voxel where the medium is nearest to the light, at most
-    ``map_resolution``; passes/tfm.footprint_resolution; AUTO's choice).
+    ``map_resolution`` and the image's larger side; passes/tfm.footprint_resolution; AUTO's
+    choice).
     ``sampling``: 'WORLD' or 'PROJECTIVE' spacing of view samples in a homogeneous medium.
     ``method``: 'TFM' (the product), 'BRUTE_FORCE' (GPU double march reference), 'UNSHADOWED'
     (the floor: transmittance 1 from the light through the medium, solids' shadow maps kept, no

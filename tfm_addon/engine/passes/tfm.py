@@ -32,13 +32,18 @@ def footprint_resolution(frame: LightFrame, medium: MediumGPU, cap: int) -> int:
     return int(min(cap, max(MIN_FOOTPRINT_RESOLUTION, 16 * math.ceil(texels / 16))))
 
 
-def tfm_resolution(settings, frame: LightFrame, medium: MediumGPU, map_res: int) -> int:
-    """The TFM side for ``settings.tfm_resolution`` (RenderSettings), at most ``map_res``."""
+def tfm_resolution(settings, frame: LightFrame, medium: MediumGPU, map_res: int,
+                   image_side: int | None = None) -> int:
+    """The TFM side for ``settings.tfm_resolution`` (RenderSettings), at most ``map_res``;
+    'FOOTPRINT' also at most ``image_side`` (the image's larger side, pixels): a map finer than
+    the image is not seen where the medium fits in the frame."""
     r = settings.tfm_resolution
     if r is None:
         return int(map_res)
     if r == "FOOTPRINT":
-        return footprint_resolution(frame, medium, map_res)
+        cap = map_res if image_side is None else min(map_res, max(int(image_side),
+                                                                  MIN_FOOTPRINT_RESOLUTION))
+        return footprint_resolution(frame, medium, cap)
     return int(min(max(int(r), 1), map_res))
 
 
