@@ -97,7 +97,7 @@ def nonzero_bounds(density: np.ndarray) -> tuple[tuple[float, ...], tuple[float,
     for axis in range(3):
         other = tuple(a for a in range(3) if a != axis)
         nz = np.flatnonzero(np.any(density > 0, axis=other))
-        first, last = (int(nz[0]), int(nz[-1])) if nz.size else (0, -1)
+        first, last = (int(nz[0]), int(nz[-1])) if nz.size else (1, -1)     # empty: lo = hi
         lo.append(float(first - 1))
         hi.append(float(last + 1))
     return tuple(lo), tuple(hi)
