@@ -108,7 +108,7 @@ float tfm_lookup(vec2 uv, float r) {
 // Transmittance from the light to p (q: p in light space, r: its distance to the light).
 vec3 light_transmittance(vec3 p, vec3 q, float r) {
 #if LIGHT_T == 0
-    return pow(vec3(tfm_lookup(light_uv(q), r)), u_tfm_exponent);
+    return exp2(u_tfm_exponent * log2(max(tfm_lookup(light_uv(q), r), 1e-30)));   // F^exponent, one log
 #elif LIGHT_T == 1
     vec3 dir = (u_light_pos - p) / r;
     vec2 k = box_interval(p, dir);
