@@ -95,6 +95,8 @@ def chart(rows_path: Path, out: Path) -> Path:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
+
     from .charts import _logit
 
     rows = [r for r in json.loads(rows_path.read_text()) if "ssim" in r]
@@ -108,6 +110,9 @@ def chart(rows_path: Path, out: Path) -> Path:
                 ax.plot(r["ms"][label], min(r["ssim"][label], 1 - 1e-6), marker=marker, color=color,
                         linestyle="none", label=label, markersize=9 if label == "AUTO" else 6)
         ax.set_xscale("log")
+        ax.xaxis.set_major_locator(LogLocator(base=10.0, subs=(1.0, 2.0, 5.0)))
+        ax.xaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+        ax.xaxis.set_minor_formatter(NullFormatter())
         _logit(ax)
         ax.axhline(0.99, color="gray", linewidth=0.6, linestyle=":")
         ax.set_title(f"{r['scene']} {r['size']}", fontsize=8)
