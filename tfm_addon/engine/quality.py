@@ -131,7 +131,8 @@ def _camera_rays(scene: Scene, n: int) -> tuple[np.ndarray, np.ndarray]:
 def medium_stats(scene: Scene) -> MediumStats | None:
     """The numbers the rule reads, or None without a medium. Each part is cached by what it
     depends on: the grid's (coarse copy, sharpness) by the density, the optical depth and light
-    chord by the density, sigma and light, so that a camera or light move costs milliseconds."""
+    chord by the density and light (not sigma: the optical depth is sigma times a density
+    integral), so that a camera or light move costs milliseconds and a sigma edit nothing."""
     m = scene.medium
     if m is None:
         return None
@@ -140,7 +141,9 @@ def medium_stats(scene: Scene) -> MediumStats | None:
     grid = _cached(("grid", m.density_key), lambda: _grid_summary(m)) if m.density is not None else None
     tau_max, light_len = 0.0, 0.0
     for light in lights:
-        tau, chord = _cached(("light", m.key, light.key), lambda light=light: _light_part(m, light, grid))
+        integral, chord = _cached(("light", m.density_key, light.key),
+                                  lambda light=light: _light_part(m, light, grid))
+        tau = float(m.sigma_t.max()) * integral
         tau_max, light_len = max(tau_max, tau), max(light_len, chord)
     view_len = 0.0
     if to_local is not None:
@@ -176,8 +179,9 @@ def _grid_summary(m) -> tuple[np.ndarray, int, float]:
 
 
 def _light_part(m, light, grid) -> tuple[float, float]:
-    """(the largest optical depth along the light's rays, the longest light chord in voxels
-    between the first and last non-zero density; for a box: through the box, in its units)."""
+    """(the largest density integral along the light's rays, metres at unit density: the optical
+    depth over sigma_t; the longest light chord in voxels between the first and last non-zero
+    density; for a box: through the box, in its units). Reads the density, not sigma."""
     from scipy import ndimage
 
     to_local, lo, hi, _ = _bounds_of(m)
@@ -193,7 +197,7 @@ def _light_part(m, light, grid) -> tuple[float, float]:
         return 0.0, 0.0
     o_h, d_h, t0, t1 = np.broadcast_to(o, d.shape)[hit], d[hit], t0[hit], t1[hit]
     chord = (t1 - t0) * np.linalg.norm(d_h, axis=1)     # local units (voxels for a grid)
-    sigma = float(m.sigma_t.max())
+    sigma = 1.0                 # the density integral; the caller multiplies by sigma
     if grid is None:
         return sigma * float((t1 - t0).max()), float(chord.max())
     coarse, f, _ = grid
