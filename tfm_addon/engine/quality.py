@@ -4,7 +4,8 @@ against the ground truth, chosen from a few numbers measured on the scene (numpy
 The rule and the sweeps it comes from are written down in ``docs/benchmark.md``:
 
 - heterogeneous medium: density weighting on (automatic alpha); the coefficient count from the
-  largest optical depth tau along the lights' rays (``AUTO_COEFFICIENTS``); view and light steps
+  largest optical depth tau along the lights' rays (``AUTO_COEFFICIENTS``; 2 coefficients, packed
+  beside the K range in one texture, where tau <= 2); view and light steps
   from the number of voxels the longest view / light ray crosses through the non-zero density,
   times the steps per voxel the density's sharpness asks for (``sharpness``: one step per
   "feature", the distance over which the density changes by its maximum, clamped to
@@ -34,7 +35,7 @@ from .passes.bindings import nonzero_bounds
 from .scene import RenderSettings, Scene
 
 # (largest optical depth, coefficients): the first row whose depth is >= tau applies.
-AUTO_COEFFICIENTS: tuple[tuple[float, int], ...] = ((4.0, 4), (16.0, 8), (math.inf, 16))
+AUTO_COEFFICIENTS: tuple[tuple[float, int], ...] = ((2.0, 2), (4.0, 4), (16.0, 8), (math.inf, 16))
 STEPS_PER_VOXEL = (0.1, 0.5)        # the range the sharpness may ask for
 MIN_STEPS = 32
 MAX_STEPS = 256

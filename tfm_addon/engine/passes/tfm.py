@@ -71,7 +71,8 @@ def largest_density_integral(gl: GLContext, frame: LightFrame, medium: MediumGPU
 
 class TransmittanceMap:
     """K_in/K_out (metres from the light) and ceil(n / 4) RGBA32F textures of DCT coefficients of
-    F(x) = exp(-tau_D(x) / alpha_D), so that T = F ** (alpha_D * sigma_t) per channel."""
+    F(x) = exp(-tau_D(x) / alpha_D), so that T = F ** (alpha_D * sigma_t) per channel; with
+    n <= 2 the coefficients sit in the K range texture's z, w (one fetch per lookup)."""
 
     def __init__(self, gl: GLContext, frame: LightFrame, medium: MediumGPU, shadow, resolution: int,
                  light_steps: int, coefficients: int, alpha_d: float):
@@ -79,7 +80,7 @@ class TransmittanceMap:
         n = int(min(max(coefficients, 1), MAX_COEFFICIENTS))
         self.coefficients = n
         self.alpha_d = float(alpha_d)
-        targets = math.ceil(n / 4)
+        targets = 0 if n <= 2 else math.ceil(n / 4)      # two coefficients ride in the K range texture
         size = (resolution, resolution)
         self.krange = ctx.texture(size, 4, dtype="f4")
         self.coef = [ctx.texture(size, 4, dtype=COEF_DTYPE) for _ in range(targets)]

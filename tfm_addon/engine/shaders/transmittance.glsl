@@ -46,6 +46,10 @@ float tfm_series(vec2 k, vec4 c0, vec4 c1, vec4 c2, vec4 c3, float r) {
 // F in one texel's own domain.
 float tfm_texel(ivec2 c, float r) {
     vec4 zero = vec4(0.0);
+#if N_TARGETS == 0
+    vec4 kc = texelFetch(u_krange, c, 0);       // two coefficients beside the K range
+    return tfm_series(kc.xy, vec4(kc.zw, 0.0, 0.0), zero, zero, zero, r);
+#endif
     return tfm_series(texelFetch(u_krange, c, 0).xy, texelFetch(u_coef0, c, 0),
 #if N_TARGETS > 1
                       texelFetch(u_coef1, c, 0),
@@ -71,6 +75,10 @@ float tfm_texel(ivec2 c, float r) {
 float tfm_lookup(vec2 uv, float r) {
 #if TFM_FILTER == 1
     vec4 zero = vec4(0.0);
+#if N_TARGETS == 0
+    vec4 kc = texture(u_krange, uv);            // one fetch: K range and c0, c1
+    return tfm_series(kc.xy, vec4(kc.zw, 0.0, 0.0), zero, zero, zero, r);
+#endif
     return tfm_series(texture(u_krange, uv).xy, texture(u_coef0, uv),
 #if N_TARGETS > 1
                       texture(u_coef1, uv),
