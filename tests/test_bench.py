@@ -97,9 +97,12 @@ def test_what_was_built(bench, results):
     for r in results:
         if r["scene"] == "gobo":
             assert int(r["tfms_built"]) == 0, r          # homogeneous: analytic, no TFM
-        elif r["method"].startswith("brute force"):
-            assert int(r["tfms_built"]) == 0, r
+        elif r["method"].startswith(("brute force", "floor")):
+            assert int(r["tfms_built"]) == 0, r       # floor: method UNSHADOWED builds no TFM
+            if r["method"].startswith("floor"):
+                assert float(r["vs_floor"]) == 1.0, r
         else:
+            assert float(r["vs_floor"]) > 0, r
             assert int(r["tfms_built"]) == 1, r
     checks = _csv(bench / "counters.csv")
     away = [c for c in checks if "aimed away" in c["scene"]]
@@ -178,7 +181,7 @@ def test_auto_rule_follows_optical_depth_sharpness_and_medium_kind():
     assert medium_stats(dense).optical_depth == pytest.approx(30 * medium_stats(thin).optical_depth, rel=1e-6)
     base = RenderSettings(map_resolution=64, quality="AUTO")
     a_thin, a_dense = auto_settings(thin, base), auto_settings(dense, base)
-    assert (a_thin.coefficients, a_dense.coefficients) == (4, 16)
+    assert (a_thin.coefficients, a_dense.coefficients) == (2, 16)     # tau 1.2 and 37
     assert a_thin.density_weight is None and a_dense.density_weight is None
     assert a_thin.map_resolution == 64 and a_thin == auto_settings(thin, base)      # pure, repeatable
 

@@ -31,7 +31,7 @@ from .passes.scattering import (
 )
 from .passes.shadow_map import ShadowMap
 from .passes.solids import SolidsBuffer
-from .passes.tfm import TransmittanceMap, largest_density_integral
+from .passes.tfm import TransmittanceMap, largest_density_integral, tfm_resolution
 from .quality import auto_settings
 from .scene import RenderSettings, Scene, SpotLight
 
@@ -348,16 +348,19 @@ class Renderer:
         light_t, tfm = LIGHT_T_NONE, None
         if medium_gpu.kind == MEDIUM_GRID:
             reaches = cone_meets_box(frame, medium_gpu.box_to_world, medium_gpu.lo, medium_gpu.hi)
-            if reaches and not light.cast_shadow:
-                light_t = LIGHT_T_UNIT              # nothing shadows it, the medium neither
+            if reaches and (settings.method == "UNSHADOWED" or not light.cast_shadow):
+                light_t = LIGHT_T_UNIT              # the floor, or a light nothing shadows
             elif reaches and light.use_tfm:
                 if settings.method == "BRUTE_FORCE":
                     light_t = LIGHT_T_MARCH
                 else:
-                    tfm = self._tfm(scene, settings, light, frame, medium_gpu, shadow, res)
+                    tfm = self._tfm(scene, settings, light, frame, medium_gpu, shadow,
+                                    tfm_resolution(settings, frame, medium_gpu, res,
+                                                   max(scene.camera.width_px, scene.camera.height_px)))
                     light_t = LIGHT_T_TFM if tfm is not None else LIGHT_T_NONE
         elif medium is not None and medium_gpu.kind != 0:
-            light_t = LIGHT_T_ANALYTIC if light.cast_shadow else LIGHT_T_UNIT
+            unit = settings.method == "UNSHADOWED" or not light.cast_shadow
+            light_t = LIGHT_T_UNIT if unit else LIGHT_T_ANALYTIC
         return _LightPlan(light, frame, light_t, shadow, tfm, gobo)
 
     def _tfm(self, scene, settings, light, frame, medium_gpu, shadow, res):

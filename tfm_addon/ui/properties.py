@@ -78,7 +78,7 @@ class TFM_SceneSettings(bpy.types.PropertyGroup):
             ('LINEAR', "Linear", "Let the GPU blend neighbouring coefficients (faster; blurs the "
                                  "medium's edges as seen from the light)", 1),
         ),
-        default='EXACT',
+        default='LINEAR',
         description="How transmittance maps are filtered between texels",
     )
     ambient: BoolProperty(

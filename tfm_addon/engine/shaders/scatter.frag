@@ -114,6 +114,12 @@ void main() {
     vec2 seg = vec2(t_near, t_end);
 #else
     vec2 seg = box_interval(o, d);
+#if MEDIUM == 3 && EMISSION
+    // The box is the density's non-zero bounds; emission may glow outside them.
+    vec2 emit_seg = emission_interval((u_world_to_box * vec4(o, 1.0)).xyz, (u_world_to_box * vec4(d, 0.0)).xyz);
+    if (emit_seg.y > emit_seg.x)
+        seg = seg.y > seg.x ? vec2(min(seg.x, emit_seg.x), max(seg.y, emit_seg.y)) : emit_seg;
+#endif
     seg = vec2(max(seg.x, t_near), min(seg.y, t_end));
 #endif
     if (seg.y > seg.x) {
@@ -138,8 +144,12 @@ void main() {
 #if EMISSION
             if (t >= emit.x && t <= emit.y)
                 scatter += exp(-u_sigma_t * (tau + 0.5 * D * dt)) * emission_at_index(ob + db * t) * dt;
+            if (D > 0.0) {     // emission glows where the density is 0: no empty-space skipping
+#else
+            if (D <= 0.0) {     // in an empty occupancy cell: on to the first sample past it
+                i = max(i, int(ceil((skip_empty(ob, db, t) - seg.x) / dt - 0.501)) - 1);
+            } else {
 #endif
-            if (D > 0.0) {
                 vec3 tv = exp(-u_sigma_t * (tau + 0.5 * D * dt));
                 vec3 src = vec3(0.0);
 #if FIRST_PASS
@@ -156,7 +166,7 @@ void main() {
 #endif
                 scatter += tv * u_sigma_s * D * dt * src;
                 tau += D * dt;
-                if (sigma_t_min * tau > 14.0) break;
+                if (sigma_t_min * tau > 6.9078) break;    // view transmittance < 1e-3
             }
         }
         transmittance = exp(-u_sigma_t * tau);
