@@ -366,7 +366,8 @@ class Renderer:
     def _tfm(self, scene, settings, light, frame, medium_gpu, shadow, res):
         """The light's TFM, or None when its rays meet no density. A cached TFM of the same
         inputs with more coefficients serves a request for fewer when both counts are multiples
-        of 4 (its first n coefficients are those an n-coefficient map holds)."""
+        of 4, or the request is for <= 2 (its first n coefficients are those an n-coefficient map
+        holds)."""
         medium = scene.medium
         n = int(min(max(settings.coefficients, 1), 16))
         if settings.density_weight is None:
@@ -376,7 +377,7 @@ class Renderer:
         # The grid as uploaded (medium_gpu.key), not its source: a downsampled grid has its own.
         base = (light.key, scene.solids_key, medium_gpu.key, res, settings.light_steps)
         key = base + (n, weight_key)
-        if n % 4 == 0 and key not in self._tfms.items:
+        if (n % 4 == 0 or n <= 2) and key not in self._tfms.items:
             wider = [k for k in self._tfms.items
                      if k[:len(base)] == base and len(k) == len(key) and k[-1] == weight_key
                      and k[-2] > n and k[-2] % 4 == 0]
@@ -422,14 +423,15 @@ def _keyed(medium_gpu: MediumGPU, key) -> MediumGPU:
 
 
 class _FewerCoefficients:
-    """A TFM read with its first ``n`` coefficients (n a multiple of 4)."""
+    """A TFM read with its first ``n`` coefficients (n a multiple of 4, or n <= 2: the shader
+    then ignores the rest of the first target)."""
 
     def __init__(self, tfm: TransmittanceMap, n: int):
         self.tfm, self.coefficients = tfm, n
 
     def defines(self, tfm_filter: str) -> dict[str, int]:
         return {**self.tfm.defines(tfm_filter), "N_COEFF": self.coefficients,
-                "N_TARGETS": self.coefficients // 4}
+                "N_TARGETS": max(1, self.coefficients // 4)}
 
     def bind(self, prog, sigma_t) -> None:
         self.tfm.bind(prog, sigma_t)
