@@ -6,7 +6,7 @@ Imports ``bpy`` (through ``render_engine``); only ``tfm_addon.register`` imports
 
 import bpy
 
-from . import render_engine
+from . import render_engine, viewport
 from .render_worker import close_worker
 from .volumes import grid_cache
 
@@ -18,6 +18,9 @@ def register():
 
 
 def unregister():
-    _unregister_classes()
+    # The GL thread and the viewport's timer end before the engine class goes: nothing of ours
+    # runs against an unregistered class.
+    viewport.stop_polling()
     close_worker()
+    _unregister_classes()
     grid_cache.clear()

@@ -29,6 +29,7 @@ from .scene import RenderSettings, Scene
 
 OPEN, CLOSING, CLOSED = "open", "closing", "closed"
 POLL_S = 0.02  # how often a waiting host thread looks at its cancel and progress callbacks
+HANDSHAKE_S = 1.0  # the longest the GL thread waits for a host's answer between passes
 
 
 class WorkerClosed(RendererError):
@@ -51,27 +52,57 @@ class Job:
         self._generator: GeneratorType | None = None
         self._progress: list[float] = []
         self._lock = threading.Lock()
+        self._cond = threading.Condition(self._lock)
+        self.lockstep = False   # a host thread answers check_in() (see wait_for)
+        self._asking = False
 
     # -- GL thread side
     def cancelled(self) -> bool:
         """True once the host cancelled this job, a newer one superseded it or the worker closes."""
         return self._cancel.is_set()
 
+    def check_in(self) -> bool:
+        """The renderer's cancel callable: with a host waiting in lockstep, hand it the progress
+        so far and wait (at most HANDSHAKE_S) for it to ask its own cancel callback; else just
+        ``cancelled()``. Each pass of a final render is thus checked on the host's thread."""
+        if self.lockstep and not self._cancel.is_set():
+            with self._cond:
+                self._asking = True
+                self._cond.notify_all()
+                self._cond.wait_for(lambda: not self._asking or self._cancel.is_set(), HANDSHAKE_S)
+                self._asking = False
+        return self._cancel.is_set()
+
     def set_progress(self, fraction: float) -> None:
-        with self._lock:
+        with self._cond:
             self._progress.append(float(fraction))
+            self._cond.notify_all()
 
     def _finish(self, result=None, error: BaseException | None = None) -> bool:
-        with self._lock:
+        with self._cond:
             if self._done.is_set():
                 return False  # already failed by close(): the late result is dropped
             self._result, self._error = result, error
             self._done.set()
+            self._cond.notify_all()
             return True
 
     # -- host side
     def cancel(self) -> None:
-        self._cancel.set()
+        with self._cond:
+            self._cancel.set()
+            self._cond.notify_all()
+
+    def _wait_event(self, timeout_s: float) -> tuple[bool, bool]:
+        """Wait for the end, a question or progress; (ended, asked)."""
+        with self._cond:
+            self._cond.wait_for(lambda: self._done.is_set() or self._asking or self._progress, timeout_s)
+            return self._done.is_set(), self._asking
+
+    def _answer(self) -> None:
+        with self._cond:
+            self._asking = False
+            self._cond.notify_all()
 
     @property
     def done(self) -> bool:
@@ -255,12 +286,20 @@ class RenderWorker:
 
     def render(self, scene: Scene, settings: RenderSettings | None = None,
                cancel: Callable[[], bool] | None = None,
-               progress: Callable[[float], None] | None = None, passes: bool = True) -> RenderOutput:
-        """Renderer.render on the GL thread. ``cancel`` and ``progress`` are called on the calling
+               progress: Callable[[float], None] | None = None, passes: bool = True,
+               samples: int = 1) -> RenderOutput:
+        """Renderer.render on the GL thread (``samples`` > 1: the mean of that many antialiasing
+        samples, sampling.render_samples). ``cancel`` and ``progress`` are called on the calling
         thread while it waits (every POLL_S seconds); a true ``cancel()`` stops the render at the
         renderer's next check (between passes) and raises RenderCancelled."""
-        job = self.submit(lambda r, job: r.render(scene, settings, job.cancelled, job.set_progress, passes))
-        return wait_for(job, cancel, progress)
+        from .sampling import render_samples
+
+        def fn(r, job):
+            if samples <= 1:
+                return r.render(scene, settings, job.check_in, job.set_progress, passes)
+            return render_samples(r, scene, settings, samples, job.check_in, job.set_progress, passes)
+
+        return wait_for(self.submit(fn), cancel, progress)
 
     @property
     def counters(self) -> dict:
@@ -303,14 +342,20 @@ class RenderWorker:
 
 def wait_for(job: Job, cancel: Callable[[], bool] | None = None,
              progress: Callable[[float], None] | None = None, poll_s: float = POLL_S):
-    """Wait for ``job`` on the calling thread, calling ``progress`` with each fraction it reported
-    and ``cancel()`` every ``poll_s`` seconds (a true value cancels the job); its result."""
+    """Wait for ``job`` on the calling thread and return its result, calling ``progress`` with
+    each fraction it reported and ``cancel()`` each time the job checks in (``Job.check_in``,
+    between passes; a true value cancels it). Waits in steps of ``poll_s`` seconds."""
+    job.lockstep = cancel is not None
     while True:
-        if cancel is not None and not job.cancelled() and cancel():
-            job.cancel()
-        ended = job.wait(poll_s)
+        ended, asked = job._wait_event(poll_s)
         if progress is not None:
             for fraction in job.take_progress():
                 progress(fraction)
+        else:
+            job.take_progress()
         if ended:
             return job.result(0)
+        if asked:  # the GL thread finished a pass and waits: ask here, on the host's thread
+            if cancel is not None and not job.cancelled() and cancel():
+                job.cancel()
+            job._answer()

@@ -1,0 +1,117 @@
+"""The progressive viewport image on the GL worker: latest wins, superseded frames are never
+shown, maps are built once per change, and the converged image is the final render's."""
+
+import dataclasses
+import threading
+
+import numpy as np
+
+from tfm_addon.engine import RenderSettings
+from tfm_addon.engine.progressive import ProgressiveView
+from tfm_addon.engine.sampling import render_samples
+from tfm_addon.engine.worker import RenderWorker
+from tfm_addon.scenes import look_at, smoke_scene
+
+SETTINGS = RenderSettings(view_steps=32, light_steps=32, map_resolution=64, coefficients=4)
+
+
+class RecordingView(ProgressiveView):
+    """Records every frame the GL thread offers, shown or dropped."""
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self.offered = []
+        self.on_offer = None
+
+    def _publish(self, generation, *args):
+        if self.on_offer is not None:
+            self.on_offer(generation)
+        shown = super()._publish(generation, *args)
+        self.offered.append((generation, shown))
+        return shown
+
+
+def _wait_converged(view, generation, timeout_s=60.0):
+    done = threading.Event()
+    for _ in range(int(timeout_s / 0.01)):
+        frame = view.frame()
+        if frame is not None and frame.generation == generation and view.state == "idle":
+            return frame
+        done.wait(0.01)
+    raise AssertionError(f"not converged: {view.state}, {view.counters}")
+
+
+def _counts(worker):
+    return dict(worker.counters)
+
+
+def test_superseded_frames_are_dropped_without_being_shown():
+    worker = RenderWorker()
+    view = RecordingView(worker)
+    scene = smoke_scene(width=64, height=40, n=32)
+    moved = dataclasses.replace(scene, camera=dataclasses.replace(
+        scene.camera, matrix_world=look_at((0.5, -6.0, 2.0), (0, 0, 1.0))))
+
+    # A: the new request arrives while A's first frame is finishing: that frame is dropped.
+    def supersede(generation):
+        if generation == 1:
+            view.on_offer = None
+            view.request("B", moved, SETTINGS, 4)
+
+    view.on_offer = supersede
+    view.request("A", scene, SETTINGS, 4)
+    frame = _wait_converged(view, 2)
+    assert view.offered[0] == (1, False)
+    assert all(shown for gen, shown in view.offered if gen == 2)
+    assert not any(shown for gen, shown in view.offered if gen == 1)
+    assert view.counters["dropped"] >= 1 and frame.samples == 4
+
+    # C waits in the slot behind a busy worker and D replaces it: C never runs at all.
+    gate = threading.Event()
+    busy = worker.submit(lambda r, j: gate.wait(10))
+    view.request("C", scene, SETTINGS, 4)
+    view.request("D", moved, SETTINGS, 2)
+    gate.set()
+    busy.result(10)
+    _wait_converged(view, 4)
+    assert [gen for gen, _ in view.offered if gen == 3] == []
+    assert worker.stats["dropped"] >= 1
+    # The same request again posts nothing.
+    assert view.request("D", moved, SETTINGS, 2) is False
+    assert worker.close(10)
+
+
+def test_coarse_then_full_then_samples_with_maps_built_once_per_change():
+    worker = RenderWorker()
+    view = RecordingView(worker)
+    scene = smoke_scene(width=64, height=40, n=32)
+    view.request(1, scene, SETTINGS, 6)
+    _wait_converged(view, 1)
+    assert view.counters["coarse"] == 1 and view.counters["samples"] == 6
+
+    # Orbit the camera: no light map rebuilt while it refines to 6 samples.
+    before = _counts(worker)
+    orbit = dataclasses.replace(scene, camera=dataclasses.replace(
+        scene.camera, matrix_world=look_at((2.0, -5.5, 2.0), (0, 0, 1.0))))
+    view.request(2, orbit, SETTINGS, 6)
+    frame = _wait_converged(view, 2)
+    after = _counts(worker)
+    assert all(after[k] == before[k] for k in ("tfms", "shadow_maps", "grid_uploads"))
+    assert after["gbuffers"] - before["gbuffers"] >= 6
+
+    # Move the light: its maps are rebuilt once, not once per refinement step.
+    light = scene.lights[0]
+    lit = dataclasses.replace(orbit, lights=(dataclasses.replace(
+        light, matrix_world=look_at((-2.0, -1.5, 4.5), (0, 0, 1.0))),))
+    before = after
+    view.request(3, lit, SETTINGS, 6)
+    relit = _wait_converged(view, 3)
+    after = _counts(worker)
+    assert after["tfms"] - before["tfms"] == 1 and after["shadow_maps"] - before["shadow_maps"] == 1
+    assert float(np.abs(relit.image - frame.image).max()) > 0.01
+
+    # Converged: the viewport's image is the final render of that view at that sample count.
+    final = worker.call(lambda r: render_samples(r, lit, SETTINGS, 6, passes=False))
+    assert float(np.abs(relit.image - final.combined).max()) <= 1e-4
+    assert relit.image.shape == final.combined.shape
+    assert worker.close(10)
