@@ -13,6 +13,7 @@ from tfm_addon.engine.worker import RenderWorker
 from tfm_addon.scenes import look_at, smoke_scene
 
 SETTINGS = RenderSettings(view_steps=32, light_steps=32, map_resolution=64, coefficients=4)
+MAPS128 = dataclasses.replace(SETTINGS, map_resolution=128)  # coarse maps: 64
 
 
 class RecordingView(ProgressiveView):
@@ -85,7 +86,7 @@ def test_coarse_then_full_then_samples_with_maps_built_once_per_change():
     worker = RenderWorker()
     view = RecordingView(worker)
     scene = smoke_scene(width=64, height=40, n=32)
-    view.request(1, scene, SETTINGS, 6)
+    view.request(1, scene, MAPS128, 6)
     _wait_converged(view, 1)
     assert view.counters["coarse"] == 1 and view.counters["samples"] == 6
 
@@ -93,25 +94,27 @@ def test_coarse_then_full_then_samples_with_maps_built_once_per_change():
     before = _counts(worker)
     orbit = dataclasses.replace(scene, camera=dataclasses.replace(
         scene.camera, matrix_world=look_at((2.0, -5.5, 2.0), (0, 0, 1.0))))
-    view.request(2, orbit, SETTINGS, 6)
+    view.request(2, orbit, MAPS128, 6)
     frame = _wait_converged(view, 2)
     after = _counts(worker)
     assert all(after[k] == before[k] for k in ("tfms", "shadow_maps", "grid_uploads"))
     assert after["gbuffers"] - before["gbuffers"] >= 6
 
-    # Move the light: its maps are rebuilt once, not once per refinement step.
+    # Move the light: its maps are rebuilt once for the coarse image (quarter side, half the
+    # light steps) and once for the full one, not once per refinement step.
     light = scene.lights[0]
     lit = dataclasses.replace(orbit, lights=(dataclasses.replace(
         light, matrix_world=look_at((-2.0, -1.5, 4.5), (0, 0, 1.0))),))
-    before = after
-    view.request(3, lit, SETTINGS, 6)
+    before, coarse = after, view.counters["coarse"]
+    view.request(3, lit, MAPS128, 6)
     relit = _wait_converged(view, 3)
     after = _counts(worker)
-    assert after["tfms"] - before["tfms"] == 1 and after["shadow_maps"] - before["shadow_maps"] == 1
+    assert view.counters["coarse"] == coarse + 1
+    assert after["tfms"] - before["tfms"] == 2 and after["shadow_maps"] - before["shadow_maps"] == 2
     assert float(np.abs(relit.image - frame.image).max()) > 0.01
 
     # Converged: the viewport's image is the final render of that view at that sample count.
-    final = worker.call(lambda r: render_samples(r, lit, SETTINGS, 6, passes=False))
+    final = worker.call(lambda r: render_samples(r, lit, MAPS128, 6, passes=False))
     assert float(np.abs(relit.image - final.combined).max()) <= 1e-4
     assert relit.image.shape == final.combined.shape
     assert worker.close(10)

@@ -19,6 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .errors import RenderCancelled
+from .renderer import effective_settings
 from .sampling import Accumulator, iter_samples
 from .scene import RenderSettings, Scene
 from .worker import RenderWorker, WorkerClosed
@@ -40,6 +41,17 @@ class Frame:
     target: int
     warnings: tuple[str, ...] = ()
     seconds_since_request: float = 0.0
+
+
+def coarse_settings(settings: RenderSettings, rebuild_maps: bool) -> RenderSettings:
+    """The coarse image's settings: half the view steps; when the maps must be rebuilt anyway,
+    maps of a quarter side with half the light steps (the full maps follow once, for the full
+    image). When they need no rebuild, the cached full maps."""
+    coarse = dataclasses.replace(settings, view_steps=max(8, settings.view_steps // 2))
+    if rebuild_maps:
+        coarse = dataclasses.replace(coarse, map_resolution=max(64, settings.map_resolution // 4),
+                                     light_steps=max(8, settings.light_steps // 2))
+    return coarse
 
 
 def _maps_key(scene: Scene, settings: RenderSettings):
@@ -155,14 +167,16 @@ class ProgressiveView:
     def _refine(self, renderer, job, generation, t0, scene, settings, target):
         """The generator the worker steps: coarse image, full image, then samples 2..target."""
         try:
+            settings = dataclasses.replace(effective_settings(scene, settings), quality="CUSTOM")
+            maps_key = _maps_key(scene, settings)
             w, h = scene.camera.width_px, scene.camera.height_px
             cw, ch = max(1, round(w * self.coarse_scale)), max(1, round(h * self.coarse_scale))
             slow = self._last_full_s is None or self._last_full_s >= COARSE_BELOW_S
-            if slow and (cw, ch) != (w, h):
+            rebuild = maps_key != self._maps_key
+            if (slow or rebuild) and (cw, ch) != (w, h):
                 small = dataclasses.replace(scene, camera=dataclasses.replace(
                     scene.camera, width_px=cw, height_px=ch))
-                out = renderer.render(small, settings, job.cancelled, None, False)
-                self._maps_key = _maps_key(scene, settings)
+                out = renderer.render(small, coarse_settings(settings, rebuild), job.cancelled, None, False)
                 self.counters["coarse"] += 1
                 self._publish(generation, t0, out.combined, "coarse", 0, target, out.warnings)
                 yield
@@ -171,7 +185,7 @@ class ProgressiveView:
                                                  passes=False, accumulator=Accumulator())):
                 if k == 0:
                     self._last_full_s = time.perf_counter() - t_full
-                    self._maps_key = _maps_key(scene, settings)
+                    self._maps_key = maps_key
                 self.counters["samples"] += 1
                 mean = acc.output
                 self._publish(generation, t0, mean.combined.copy(), "full" if k == 0 else "accumulating",

@@ -15,7 +15,7 @@ from collections.abc import Callable, Iterator
 import numpy as np
 
 from .output import RenderOutput
-from .renderer import Renderer
+from .renderer import Renderer, effective_settings
 from .scene import Camera, RenderSettings, Scene
 
 # The R2 sequence (Roberts 2018): the plastic number's powers give a low-discrepancy 2D sequence.
@@ -102,7 +102,8 @@ def iter_samples(renderer: Renderer, scene: Scene, settings: RenderSettings | No
     """Render samples ``first`` .. ``samples - 1`` of ``scene`` into ``accumulator`` and yield it
     after each. ``progress`` gets the fraction of all ``samples`` done; ``cancel`` is the renderer's
     (checked between passes)."""
-    settings = settings or RenderSettings()
+    # The quality rule reads the unjittered view once: every sample marches with the same steps.
+    settings = dataclasses.replace(effective_settings(scene, settings), quality="CUSTOM")
     acc = accumulator or Accumulator()
     n = max(int(samples), 1)
     for k in range(first, n):
