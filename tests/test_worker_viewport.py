@@ -94,7 +94,12 @@ def test_coarse_then_full_then_samples_with_maps_built_once_per_change():
     before = _counts(worker)
     orbit = dataclasses.replace(scene, camera=dataclasses.replace(
         scene.camera, matrix_world=look_at((2.0, -5.5, 2.0), (0, 0, 1.0))))
+    gate = threading.Event()
+    busy = worker.submit(lambda r, j: gate.wait(10))
     view.request(2, orbit, MAPS128, 6)
+    assert view.status == "Rendering"                    # same maps: none to build
+    gate.set()
+    busy.result(10)
     frame = _wait_converged(view, 2)
     after = _counts(worker)
     assert all(after[k] == before[k] for k in ("tfms", "shadow_maps", "grid_uploads"))
@@ -106,7 +111,12 @@ def test_coarse_then_full_then_samples_with_maps_built_once_per_change():
     lit = dataclasses.replace(orbit, lights=(dataclasses.replace(
         light, matrix_world=look_at((-2.0, -1.5, 4.5), (0, 0, 1.0))),))
     before, coarse = after, view.counters["coarse"]
+    gate = threading.Event()
+    busy = worker.submit(lambda r, j: gate.wait(10))     # hold the GL thread: the header first
     view.request(3, lit, MAPS128, 6)
+    assert view.status == "Building maps" and view.state == "coarse"
+    gate.set()
+    busy.result(10)
     relit = _wait_converged(view, 3)
     after = _counts(worker)
     assert view.counters["coarse"] == coarse + 1
@@ -114,6 +124,7 @@ def test_coarse_then_full_then_samples_with_maps_built_once_per_change():
     assert float(np.abs(relit.image - frame.image).max()) > 0.01
 
     # Converged: the viewport's image is the final render of that view at that sample count.
+    assert view.status == "Sample 6/6" and relit.samples == 6 and relit.stage == "accumulating"
     final = worker.call(lambda r: render_samples(r, lit, MAPS128, 6, passes=False))
     assert float(np.abs(relit.image - final.combined).max()) <= 1e-4
     assert relit.image.shape == final.combined.shape

@@ -17,10 +17,15 @@ def register():
     _register_classes()
 
 
+def shutdown():
+    """Stop the viewport's timer and the GL thread (bounded wait); safe to call twice."""
+    viewport.stop_polling()
+    close_worker()
+
+
 def unregister():
     # The GL thread and the viewport's timer end before the engine class goes: nothing of ours
     # runs against an unregistered class.
-    viewport.stop_polling()
-    close_worker()
+    shutdown()
     _unregister_classes()
     grid_cache.clear()

@@ -54,11 +54,16 @@ def coarse_settings(settings: RenderSettings, rebuild_maps: bool) -> RenderSetti
     return coarse
 
 
-def _maps_key(scene: Scene, settings: RenderSettings):
-    """What the light maps of a frame depend on, roughly (to say "Building maps")."""
+def _scene_maps_key(scene: Scene, settings: RenderSettings):
+    """What the light maps depend on in the scene (read on the host's thread: "Building maps")."""
     return (tuple(light.key for light in scene.lights), None if scene.medium is None else
-            scene.medium.density_key, scene.solids_key, settings.map_resolution, settings.light_steps,
-            settings.coefficients, settings.quality)
+            scene.medium.density_key, scene.solids_key, settings.map_resolution)
+
+
+def _maps_key(scene: Scene, settings: RenderSettings):
+    """What the light maps of a frame depend on, with the settings the quality rule chose."""
+    return _scene_maps_key(scene, settings) + (settings.light_steps, settings.coefficients,
+                                               settings.density_weight)
 
 
 class ProgressiveView:
@@ -95,7 +100,8 @@ class ProgressiveView:
             self._generation += 1
             generation = self._generation
             self._state = "coarse"
-            self._status = "Building maps" if _maps_key(scene, settings) != self._maps_key else "Rendering"
+            known = self._maps_key is not None and self._maps_key[:4] == _scene_maps_key(scene, settings)
+            self._status = "Rendering" if known else "Building maps"
             self._error = None
             self.counters["requests"] += 1
         t0 = time.perf_counter()
