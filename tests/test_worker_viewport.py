@@ -123,6 +123,14 @@ def test_coarse_then_full_then_samples_with_maps_built_once_per_change():
     assert after["tfms"] - before["tfms"] == 2 and after["shadow_maps"] - before["shadow_maps"] == 2
     assert float(np.abs(relit.image - frame.image).max()) > 0.01
 
+    # More coefficients: new TFMs (coarse and full); the full shadow map is still valid and the
+    # coarse frame in between does not evict it (only the coarse image's own one is built).
+    before = after
+    view.request(4, lit, dataclasses.replace(MAPS128, coefficients=8), 6)
+    _wait_converged(view, 4)
+    after = _counts(worker)
+    assert after["tfms"] - before["tfms"] == 2 and after["shadow_maps"] - before["shadow_maps"] == 1
+
     # Converged: the viewport's image is the final render of that view at that sample count.
     assert view.status == "Sample 6/6" and relit.samples == 6 and relit.stage == "accumulating"
     final = worker.call(lambda r: render_samples(r, lit, MAPS128, 6, passes=False))

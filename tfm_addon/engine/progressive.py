@@ -182,7 +182,8 @@ class ProgressiveView:
             if (slow or rebuild) and (cw, ch) != (w, h):
                 small = dataclasses.replace(scene, camera=dataclasses.replace(
                     scene.camera, width_px=cw, height_px=ch))
-                out = renderer.render(small, coarse_settings(settings, rebuild), job.cancelled, None, False)
+                out = renderer.render(small, coarse_settings(settings, rebuild), job.cancelled, None, False,
+                                      sweep=False)
                 self.counters["coarse"] += 1
                 self._publish(generation, t0, out.combined, "coarse", 0, target, out.warnings)
                 yield

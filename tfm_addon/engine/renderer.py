@@ -107,16 +107,19 @@ class Renderer:
 
     def render(self, scene: Scene, settings: RenderSettings | None = None,
                cancel: Callable[[], bool] | None = None,
-               progress: Callable[[float], None] | None = None, passes: bool = True) -> RenderOutput:
+               progress: Callable[[float], None] | None = None, passes: bool = True,
+               sweep: bool = True) -> RenderOutput:
         """Render ``scene``; raises RenderCancelled when ``cancel()`` turns true between passes.
-        ``passes=False`` reads back the combined image alone (the viewport's case)."""
+        ``passes=False`` reads back the combined image alone (the viewport's case).
+        ``sweep=False`` keeps what this frame did not use (a preview frame between two full ones:
+        the viewport's coarse image must not evict the full maps)."""
         gl = self.gl
         gl.check_thread()
         settings = effective_settings(scene, settings)
         with gl.ctx:     # current for the call, whatever other context the thread made current
-            return self._render(scene, settings, cancel, progress, passes)
+            return self._render(scene, settings, cancel, progress, passes, sweep)
 
-    def _render(self, scene, settings, cancel, progress, want_passes) -> RenderOutput:
+    def _render(self, scene, settings, cancel, progress, want_passes, sweep=True) -> RenderOutput:
         gl = self.gl
         t_start = time.perf_counter()
         timings: dict[str, float] = {}
@@ -186,7 +189,10 @@ class Renderer:
                 cache.used.clear()
             raise
         for cache in self._caches:
-            cache.sweep()
+            if sweep:
+                cache.sweep()
+            else:
+                cache.used.clear()
         self.counters["renders"] += 1
         timings["total"] = time.perf_counter() - t_start
         if not scene.lights:
