@@ -1,10 +1,12 @@
 """Antialiasing samples: subpixel jitter with a box filter converges to the supersampled image,
 maps are built once per frame, and the same samples give the same bits."""
 
+import dataclasses
+
 import numpy as np
 
 from tfm_addon.engine import RenderSettings
-from tfm_addon.engine.sampling import render_samples, subpixel_offset
+from tfm_addon.engine.sampling import frame_settings, render_samples, subpixel_offset, view_steps_per_sample
 from tfm_addon.scenes import smoke_scene
 
 SETTINGS = RenderSettings(view_steps=32, light_steps=32, map_resolution=64, coefficients=4)
@@ -47,3 +49,21 @@ def test_maps_are_built_once_for_all_samples_and_samples_repeat_bit_for_bit(rend
     assert np.array_equal(first.combined, again.combined)
     for name in first.passes:
         assert np.array_equal(first.passes[name], again.passes[name])
+
+
+def test_auto_spreads_the_view_steps_over_the_samples_at_the_same_quality(renderer):
+    assert view_steps_per_sample(32, 1) == 32 and view_steps_per_sample(32, 4) == 32
+    assert view_steps_per_sample(32, 16) == 8 and view_steps_per_sample(100, 16) == 25
+    assert view_steps_per_sample(6, 64) == 6  # never more than AUTO chose
+    auto = RenderSettings(quality="AUTO", map_resolution=64)
+    scene = smoke_scene(width=48, height=32, n=32)
+    chosen = frame_settings(scene, auto, 1)
+    assert chosen.quality == "CUSTOM" and frame_settings(scene, auto, 32).view_steps < chosen.view_steps
+    big = smoke_scene(width=48 * 8, height=32 * 8, n=32)
+    reference = renderer.render(big, dataclasses.replace(chosen, view_steps=4 * chosen.view_steps))
+    reference = reference.combined.reshape(32, 8, 48, 8, 4).mean(axis=(1, 3))
+    spread = render_samples(renderer, scene, auto, 32).combined
+    full = render_samples(renderer, scene, chosen, 32).combined   # every sample at AUTO's steps
+    err_spread = float(np.abs(spread - reference).mean())
+    err_full = float(np.abs(full - reference).mean())
+    assert err_spread <= 1.25 * err_full, (err_spread, err_full)

@@ -19,8 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .errors import RenderCancelled
-from .renderer import effective_settings
-from .sampling import Accumulator, iter_samples
+from .sampling import Accumulator, frame_settings, iter_samples
 from .scene import RenderSettings, Scene
 from .worker import RenderWorker, WorkerClosed
 
@@ -173,7 +172,7 @@ class ProgressiveView:
     def _refine(self, renderer, job, generation, t0, scene, settings, target):
         """The generator the worker steps: coarse image, full image, then samples 2..target."""
         try:
-            settings = dataclasses.replace(effective_settings(scene, settings), quality="CUSTOM")
+            settings = frame_settings(scene, settings, target)
             maps_key = _maps_key(scene, settings)
             w, h = scene.camera.width_px, scene.camera.height_px
             cw, ch = max(1, round(w * self.coarse_scale)), max(1, round(h * self.coarse_scale))

@@ -10,6 +10,7 @@ the camera or the march offset, so the renderer builds them once for all the sam
 from __future__ import annotations
 
 import dataclasses
+import math
 from collections.abc import Callable, Iterator
 
 import numpy as np
@@ -24,6 +25,8 @@ _A1, _A2 = 1.0 / _PLASTIC, 1.0 / _PLASTIC**2
 _GOLDEN = 0.61803398874989484820  # R1, for the march start
 
 AUTO_SAMPLES = 16  # final-render samples when scene.tfm.samples is 0 (automatic)
+AUTO_POINTS_PER_STEP = 4  # under AUTO: view-march points per pixel and frame, in units of AUTO's steps
+MIN_VIEW_STEPS = 8
 
 
 def subpixel_offset(k: int) -> tuple[float, float]:
@@ -95,6 +98,26 @@ class Accumulator:
                             warnings=list(acc.warnings), timings_s=dict(acc.timings_s))
 
 
+def view_steps_per_sample(view_steps: int, samples: int) -> int:
+    """Under AUTO, the view steps of each of ``samples`` samples: the jittered starts stratify the
+    march across samples, so the frame keeps at least AUTO_POINTS_PER_STEP x ``view_steps`` points
+    per pixel with fewer steps per sample (never below MIN_VIEW_STEPS, never above ``view_steps``)."""
+    if samples <= AUTO_POINTS_PER_STEP:
+        return view_steps
+    return max(min(view_steps, MIN_VIEW_STEPS), math.ceil(AUTO_POINTS_PER_STEP * view_steps / samples))
+
+
+def frame_settings(scene: Scene, settings: RenderSettings | None, samples: int) -> RenderSettings:
+    """The settings every sample of a frame renders with: the quality rule applied once, on the
+    unjittered view (so that all samples march alike), and under AUTO the view steps spread over
+    the samples (view_steps_per_sample)."""
+    settings = settings or RenderSettings()
+    chosen = effective_settings(scene, settings)
+    if settings.quality == "AUTO":
+        chosen = dataclasses.replace(chosen, view_steps=view_steps_per_sample(chosen.view_steps, samples))
+    return dataclasses.replace(chosen, quality="CUSTOM")
+
+
 def iter_samples(renderer: Renderer, scene: Scene, settings: RenderSettings | None, samples: int,
                  cancel: Callable[[], bool] | None = None, passes: bool = True,
                  progress: Callable[[float], None] | None = None,
@@ -102,10 +125,9 @@ def iter_samples(renderer: Renderer, scene: Scene, settings: RenderSettings | No
     """Render samples ``first`` .. ``samples - 1`` of ``scene`` into ``accumulator`` and yield it
     after each. ``progress`` gets the fraction of all ``samples`` done; ``cancel`` is the renderer's
     (checked between passes)."""
-    # The quality rule reads the unjittered view once: every sample marches with the same steps.
-    settings = dataclasses.replace(effective_settings(scene, settings), quality="CUSTOM")
-    acc = accumulator or Accumulator()
     n = max(int(samples), 1)
+    settings = frame_settings(scene, settings, n)
+    acc = accumulator or Accumulator()
     for k in range(first, n):
         sub = None if progress is None else (lambda f, k=k: progress((k + f) / n))
         s_scene, s_settings = sample_scene(scene, settings, k)
