@@ -388,6 +388,7 @@ def run(quick: bool, out: Path, log=print, blender: bool = True) -> str:
         rows += measure(name, scene, settings, samples=SAMPLES, repeats=1 if quick else 3, log=log)
     cb = run_callbacks(size[0], size[1], 32 if quick else 64, out / "viewport", log) if blender else None
     text = report(rows, cb, size)
+    (out / "viewport.json").write_text(json.dumps(dict(size=list(size), rows=rows, callbacks=cb), indent=1))
     if blender and not quick:
         text += "\n\n" + run_aa(out, log=log)
     (out / "viewport.md").write_text(text + "\n")
