@@ -85,6 +85,19 @@ def edited(scene: Scene, edit: str, step: int) -> Scene:
     return scene
 
 
+def _stall_while(busy, limit_s: float) -> float:
+    """While ``busy()`` (at most ``limit_s``), wake every millisecond as a Python UI thread would;
+    the longest gap between wake-ups, seconds: how long the worker kept this thread from running
+    (the worker's GL calls hold Python's GIL unless they release it), plus the OS's scheduling."""
+    longest, end = 0.0, time.perf_counter() + limit_s
+    last = time.perf_counter()
+    while busy() and last < end:
+        time.sleep(0.001)
+        now = time.perf_counter()
+        longest, last = max(longest, now - last), now
+    return longest
+
+
 def _counts(worker: RenderWorker) -> dict:
     return dict(worker.counters)
 
@@ -109,19 +122,20 @@ def measure(name: str, scene: Scene, settings: RenderSettings, samples: int = SA
             if not same_key:
                 key += 1
             posted = view.request(key, target_scene, settings, samples)
-            if posted:
-                view.converged.wait(600)
+            stall = _stall_while(lambda: posted and not view.converged.is_set(), 600)
             after = _counts(worker)
             delta = {k: after.get(k, 0) - before.get(k, 0) for k in ("grid_uploads", "shadow_maps", "tfms")}
             if not posted:
-                return dict(first=0.0, full=0.0, converged=0.0, posted=False, **delta)
+                return dict(first=0.0, full=0.0, converged=0.0, posted=False, stall=0.0, **delta)
             times = {"first": view.events[0][0] - t0}
             times["full"] = next(t for t, stage, _ in view.events if stage != "coarse") - t0
             times["converged"] = view.events[-1][0] - t0
-            return dict(posted=True, coarse=view.events[0][1] == "coarse", **times, **delta)
+            return dict(posted=True, coarse=view.events[0][1] == "coarse", stall=stall, **times, **delta)
 
+        idle = _stall_while(lambda: True, 1.0)
         first = settle(current)
-        rows.append(dict(scene=name, edit="first image (compiles shaders)", **_ms(first)))
+        rows.append(dict(scene=name, edit="first image (compiles shaders)", **_ms(first),
+                         stall_ms=1000.0 * first["stall"], idle_stall_ms=1000.0 * idle))
         settle(_orbit(current, 0.5))       # warm: every program compiled at both sizes
         for edit in EDITS:
             runs = []
@@ -131,7 +145,8 @@ def measure(name: str, scene: Scene, settings: RenderSettings, samples: int = SA
                 current = nxt
             mid = {k: float(np.median([r[k] for r in runs])) for k in ("first", "full", "converged")}
             rows.append(dict(scene=name, edit=edit, **_ms(mid), **{k: runs[-1][k] for k in (
-                "grid_uploads", "shadow_maps", "tfms")}, posted=runs[-1]["posted"]))
+                "grid_uploads", "shadow_maps", "tfms")}, posted=runs[-1]["posted"],
+                stall_ms=1000.0 * max(r["stall"] for r in runs)))
             log(f"viewport {name}: {edit}: first {rows[-1]['first_ms']:.0f} ms, "
                 f"full {rows[-1]['full_ms']:.0f} ms, {samples} samples {rows[-1]['converged_ms']:.0f} ms")
     finally:
@@ -216,7 +231,7 @@ def callbacks(width: int, height: int, n: int, out: str) -> None:
         t1 = time.perf_counter()
         if frame is not None:
             if texture[1] is not frame:
-                texture[0], texture[1] = viewport.DrawTexture(frame.image), frame
+                texture[0], texture[1] = viewport.DrawTexture(frame.image, frame.pixels), frame
             with offscreen.bind(), gpu.matrix.push_pop(), gpu.matrix.push_pop_projection():
                 gpu.matrix.load_identity()
                 gpu.matrix.load_projection_matrix(Matrix(
@@ -401,12 +416,19 @@ def report(rows: list[dict], cb: dict | None, size) -> str:
              "quarter of the side, or full when the last full frame took < 50 ms), to the full-"
              "resolution frame, and to the converged mean of 16 samples; maps rebuilt by the edit.", ""]
     header = ["scene", "edit", "first image ms", "full res ms", f"{SAMPLES} samples ms",
-              "grid uploads", "shadow maps", "TFMs"]
+              "grid uploads", "shadow maps", "TFMs", "UI thread stall ms"]
     body = [[r["scene"], r["edit"] + ("" if r.get("posted", True) else " (no request)"),
              f"{r['first_ms']:.0f}", f"{r['full_ms']:.0f}", f"{r['converged_ms']:.0f}",
-             str(r.get("grid_uploads", "")), str(r.get("shadow_maps", "")), str(r.get("tfms", ""))]
+             str(r.get("grid_uploads", "")), str(r.get("shadow_maps", "")), str(r.get("tfms", "")),
+             f"{r.get('stall_ms', 0.0):.0f}"]
             for r in rows]
     lines.append(markdown_table(header, body))
+    idle = [r["idle_stall_ms"] for r in rows if "idle_stall_ms" in r]
+    if idle:
+        lines += ["", "UI thread stall: the longest gap between the 1 ms wake-ups of a Python thread "
+                  "while the worker refined the image (the worker's GL waits release Python's GIL); "
+                  f"the same thread with the worker idle: {max(idle):.0f} ms (the machine's own "
+                  "scheduling noise)."]
     if cb:
         lines += ["", "Add-on callbacks on Blender's thread (demo scene, ms): view_update's body "
                   "(depsgraph read of what changed), view_draw's (request, plus texture upload and "

@@ -56,7 +56,7 @@ class TFMRenderEngine(bpy.types.RenderEngine):
         frame = session.frame()
         if frame is not None:
             if self._texture_of is not frame:
-                self._texture, self._texture_of = DrawTexture(frame.image), frame
+                self._texture, self._texture_of = DrawTexture(frame.image, frame.pixels), frame
             self._texture.draw(self, context.scene, region.width, region.height)
         self.update_stats("", f"TFM: {session.status}" if session.status else "TFM")
 

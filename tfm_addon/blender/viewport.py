@@ -14,7 +14,7 @@ import time
 import numpy as np
 
 from ..engine.output import RenderOutput
-from ..engine.progressive import ProgressiveView
+from ..engine.progressive import ProgressiveView, upload_pixels
 from ..engine.scene import Camera
 from .changes import Change, changes_from_depsgraph
 from .extract import Extraction, extract
@@ -160,13 +160,16 @@ def view_size(region, scale: float) -> tuple[int, int]:
 
 
 class DrawTexture:
-    """An RGBA float image uploaded as a GPUTexture; ``gpu`` is imported here, lazily."""
+    """An RGBA float image (top row first) uploaded as a GPUTexture; ``pixels``, when given, is
+    that image already prepared (progressive.upload_pixels, on the GL thread). ``gpu`` is imported
+    here, lazily."""
 
-    def __init__(self, image: np.ndarray):
+    def __init__(self, image: np.ndarray, pixels: np.ndarray | None = None):
         import gpu
 
         h, w, _ = image.shape
-        pixels = np.ascontiguousarray(np.nan_to_num(image[::-1], posinf=6.0e4), dtype=np.float32)
+        if pixels is None:
+            pixels = upload_pixels(image)
         buffer = gpu.types.Buffer('FLOAT', pixels.size, pixels.ravel())
         self.texture = gpu.types.GPUTexture((w, h), format='RGBA32F', data=buffer)
 

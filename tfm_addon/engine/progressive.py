@@ -40,6 +40,14 @@ class Frame:
     target: int
     warnings: tuple[str, ...] = ()
     seconds_since_request: float = 0.0
+    pixels: np.ndarray | None = None   # ready to upload: bottom row first, finite, contiguous
+
+
+def upload_pixels(image: np.ndarray) -> np.ndarray:
+    """``image`` (top row first) as a GPU texture wants it: bottom row first, float32, contiguous,
+    NaN as 0 and infinities clamped to the half-float range (done off the host's UI thread)."""
+    return np.ascontiguousarray(np.nan_to_num(image[::-1], nan=0.0, posinf=6.0e4, neginf=-6.0e4),
+                                dtype=np.float32)
 
 
 def coarse_settings(settings: RenderSettings, rebuild_maps: bool) -> RenderSettings:
@@ -156,12 +164,13 @@ class ProgressiveView:
     # ------------------------------------------------------------------ GL thread side
     def _publish(self, generation: int, t0: float, image: np.ndarray, stage: str, samples: int,
                  target: int, warnings) -> bool:
+        pixels = upload_pixels(image) if generation == self._generation else None
         with self._lock:
             if generation != self._generation:
                 self.counters["dropped"] += 1
                 return False
             self._frame = Frame(image, generation, stage, samples, target, tuple(warnings),
-                                time.perf_counter() - t0)
+                                time.perf_counter() - t0, pixels)
             self._redraw = True
             self.counters["published"] += 1
             converged = samples >= target and stage != "coarse"

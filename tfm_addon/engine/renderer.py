@@ -129,7 +129,7 @@ class Renderer:
         done = [0]
 
         def step(name: str, t0: float) -> None:
-            gl.ctx.finish()
+            gl.finish()   # lets the host's threads run while the pass completes
             timings[name] = timings.get(name, 0.0) + time.perf_counter() - t0
             done[0] += 1
             if progress is not None:
@@ -181,6 +181,7 @@ class Renderer:
                 step("scattering", t0)
             t0 = time.perf_counter()
             targets.compose(gl)
+            gl.finish()   # the read below then copies without waiting on the GPU
             combined = targets.read_combined()
             passes = targets.read_passes() if want_passes else {}
             timings["readback"] = time.perf_counter() - t0
