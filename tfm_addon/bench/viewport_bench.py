@@ -391,7 +391,7 @@ def run_aa(out: Path, width: int = 160, height: int = 90, n: int = 64, log=print
     return text
 
 
-def run(quick: bool, out: Path, log=print, blender: bool = True) -> str:
+def run(quick: bool, out: Path, log=print, blender: bool = True, aa: bool = True) -> str:
     """The viewport section: writes <out>/viewport.md and returns its text."""
     size = (240, 135) if quick else (960, 540)
     n_smoke = 32 if quick else 128
@@ -404,7 +404,7 @@ def run(quick: bool, out: Path, log=print, blender: bool = True) -> str:
     cb = run_callbacks(size[0], size[1], 32 if quick else 64, out / "viewport", log) if blender else None
     text = report(rows, cb, size)
     (out / "viewport.json").write_text(json.dumps(dict(size=list(size), rows=rows, callbacks=cb), indent=1))
-    if blender and not quick:
+    if blender and aa and not quick:
         text += "\n\n" + run_aa(out, log=log)
     (out / "viewport.md").write_text(text + "\n")
     return text
