@@ -182,9 +182,17 @@ def callbacks(width: int, height: int, n: int, out: str) -> None:
     demo = demo_scene(width=width, height=height, n=n)
     made = scene_builder.build(demo, str(folder), settings=RenderSettings(quality="AUTO"))
     scene = bpy.context.scene
-    # A second .vdb of the same size for the frame change.
-    alt = str(folder / "TFM_density_alt.vdb")
-    scene_builder.write_vdb(alt, np.roll(demo.medium.density, 3, axis=0))
+    # The medium as a two-frame .vdb sequence, for the frame change.
+    m = np.asarray(demo.medium.index_to_world, dtype=np.float64)
+    voxel = float(abs(np.linalg.det(m[:3, :3])) ** (1.0 / 3.0))
+    for frame, shift in ((1, 0), (2, 3)):
+        scene_builder.write_vdb(str(folder / f"seq_{frame:04d}.vdb"),
+                                np.roll(demo.medium.density, shift, axis=0), voxel_size_m=voxel)
+    volume = made["medium"].data
+    volume.filepath = str(folder / "seq_0001.vdb")
+    volume.is_sequence = True
+    volume.frame_start, volume.frame_duration, volume.sequence_mode = 1, 2, 'CLIP'
+    scene.frame_set(1)
     offscreen = gpu.types.GPUOffScreen(width, height, format='RGBA16F')
     session = viewport.ViewportSession()
     timings = []
@@ -204,9 +212,9 @@ def callbacks(width: int, height: int, n: int, out: str) -> None:
         seen.append(changes_from_depsgraph(depsgraph))
 
     bpy.app.handlers.depsgraph_update_post.append(handler)
+    bpy.app.handlers.frame_change_post.append(handler)   # a frame change's updates come here
 
     def view_update(label):
-        seen.clear()
         bpy.context.view_layer.update()
         flags = Change.NONE
         for f in seen:
@@ -261,11 +269,12 @@ def callbacks(width: int, height: int, n: int, out: str) -> None:
         "sigma change": lambda: setattr(node.inputs["Color"], "default_value", (0.8, 0.7, 0.6, 1.0)),
         "density scale": lambda: setattr(node.inputs["Density"], "default_value",
                                          node.inputs["Density"].default_value * 1.25),
-        "frame change (.vdb)": lambda: setattr(medium.data, "filepath", alt),
+        "frame change (.vdb)": lambda: scene.frame_set(2),
         "nothing changed": lambda: None,
     }
     matrix = Matrix(cam.matrix_world)
     for label, edit in edits.items():
+        seen.clear()
         edit()
         if label == "camera orbit":
             matrix = Matrix.Rotation(math.radians(5.0), 4, 'Z') @ matrix
@@ -279,6 +288,7 @@ def callbacks(width: int, height: int, n: int, out: str) -> None:
                             view_draw_ms=1000 * max(total, total2), upload_draw_ms=1000 * draw_new))
     offscreen.free()
     bpy.app.handlers.depsgraph_update_post.remove(handler)
+    bpy.app.handlers.frame_change_post.remove(handler)
     viewport.stop_polling()
     from tfm_addon.blender.volumes import grid_cache
 
