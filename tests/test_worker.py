@@ -162,3 +162,50 @@ def test_render_calls_progress_and_cancel_on_the_calling_thread():
         worker.render(scene, SETTINGS, cancel=cancel_at_once)
     assert worker.counters["renders"] == 1  # the cancelled frame never finished
     assert worker.close(10)
+
+
+
+def test_waiting_for_a_pass_lets_other_python_threads_run(renderer):
+    """moderngl keeps the GIL in its calls; the renderer's waits (GLContext.finish) must not, or
+    the host's UI thread stops for a whole pass. A thread that wakes every 0.5 ms counts its
+    wake-ups while the GL thread waits for queued passes."""
+    import dataclasses
+
+    from tfm_addon.engine.camera import view_plane
+    from tfm_addon.engine.passes.scattering import ScatteringTargets, run_light_pass
+
+    scene = smoke_scene(width=320, height=180, n=32)
+    heavy = dataclasses.replace(SETTINGS, view_steps=200)
+    renderer.render(scene, heavy)  # compiles and builds everything once
+    gl = renderer.gl
+    wakeups = [0]
+    stop = threading.Event()
+
+    def tick():
+        while not stop.is_set():
+            time.sleep(0.0005)
+            wakeups[0] += 1
+
+    thread = threading.Thread(target=tick)
+    with gl.ctx:
+        targets = ScatteringTargets(gl, (320, 180))
+        medium_gpu, _ = renderer._medium(scene, heavy)
+        plane = view_plane(scene.camera)
+        thread.start()
+        targets.begin(gl.ctx)
+        for _ in range(4):  # queued, not waited for
+            run_light_pass(gl, camera=scene.camera, plane=plane, medium=scene.medium, medium_gpu=medium_gpu,
+                           settings=heavy, ambient=(0.1, 0.1, 0.1), first=True)
+        before = wakeups[0]
+        t0 = time.perf_counter()
+        gl.finish()
+        waited = time.perf_counter() - t0
+        during = wakeups[0] - before
+        stop.set()
+        thread.join()
+        gl.ctx.disable(gl.ctx.BLEND)
+        targets.release()
+    if waited < 0.02:
+        pytest.skip(f"the GPU finished the passes in {waited * 1000:.1f} ms: nothing to wait for")
+    # Held GIL: no wake-up at all during the wait. Released: one per 0.5 ms or so (fewer on busy cores).
+    assert during >= 5, (during, waited)
