@@ -137,3 +137,21 @@ def test_coarse_then_full_then_samples_with_maps_built_once_per_change():
     assert float(np.abs(relit.image - final.combined).max()) <= 1e-4
     assert relit.image.shape == final.combined.shape
     assert worker.close(10)
+
+
+def test_a_failing_render_is_named_in_the_status_and_the_view_goes_idle():
+    class Broken:
+        def render(self, *args, **kwargs):
+            raise ValueError("boom")
+
+        def release(self):
+            pass
+
+    worker = RenderWorker(Broken)
+    view = ProgressiveView(worker)
+    view.request(1, smoke_scene(width=32, height=24, n=16), SETTINGS, 4)
+    job = view._job
+    assert job.wait(10)
+    assert view.status == "viewport failed: ValueError: boom" and view.state == "idle"
+    assert view.frame() is None
+    assert worker.close(5)

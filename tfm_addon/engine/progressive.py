@@ -211,6 +211,6 @@ class ProgressiveView:
         except Exception as ex:
             with self._lock:
                 if generation == self._generation:
-                    self._error = f"TFM viewport: {type(ex).__name__}: {ex}"
+                    self._error = f"viewport failed: {type(ex).__name__}: {ex}"
                     self._state = "idle"
             raise
