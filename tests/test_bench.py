@@ -198,3 +198,23 @@ def test_auto_rule_follows_optical_depth_sharpness_and_medium_kind():
     assert (a_fog.sampling, a_fog.view_steps) == ("PROJECTIVE", 32)
     empty = dataclasses.replace(thin, medium=None)
     assert auto_settings(empty, base) == base
+
+
+def test_viewport_section_times_every_edit_and_an_orbit_rebuilds_no_map(bench):
+    import json
+
+    data = json.loads((bench / "viewport.json").read_text())
+    rows = data["rows"]
+    edits = {r["edit"] for r in rows}
+    assert {"camera orbit", "light move", "sigma change", "nothing changed"} <= edits
+    for r in rows:
+        if r["edit"] == "nothing changed":
+            assert r["posted"] is False and r["tfms"] == 0
+        else:
+            assert 0 < r["first_ms"] <= r["full_ms"] <= r["converged_ms"], r
+        if r["edit"] == "camera orbit":
+            assert r["tfms"] == r["shadow_maps"] == r["grid_uploads"] == 0, r
+        if r["edit"] == "light move":
+            assert r["tfms"] >= 1 and r["grid_uploads"] == 0, r
+    if blender_available():
+        assert {e["edit"] for e in data["callbacks"]["edits"]} >= {"light move", "frame change (.vdb)"}

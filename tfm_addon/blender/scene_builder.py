@@ -151,9 +151,10 @@ def apply_settings(scene_settings, settings: RenderSettings) -> None:
 
 
 def build(scene: Scene, directory: str, *, bl_scene=None, settings: RenderSettings | None = None,
-          name: str = "TFM", use_node_material: bool = True) -> dict:
+          name: str = "TFM", use_node_material: bool = True, samples: int = 1) -> dict:
     """Add ``scene``'s objects to ``bl_scene`` (default: the context scene) and set its camera,
-    resolution, world and TFM settings. A heterogeneous medium's grid is written to
+    resolution, world and TFM settings (``samples``: antialiasing samples; 1, the pixel centres,
+    renders what Renderer.render renders for ``scene``). A heterogeneous medium's grid is written to
     ``directory``/<name>_density.vdb. Returns the created objects by role."""
     import bpy
 
@@ -224,6 +225,7 @@ def build(scene: Scene, directory: str, *, bl_scene=None, settings: RenderSettin
 
     bl_scene.render.engine = 'TFM'
     bl_scene.render.film_transparent = True if settings is None else settings.film_transparent
+    bl_scene.tfm.samples = samples
     if settings is not None:
         apply_settings(bl_scene.tfm, settings)
     return made

@@ -72,16 +72,20 @@ class _Cache:
                 item.release()
         self.fresh.clear()
 
-    def sweep(self, client: str | None = None) -> None:
+    def sweep(self, client: str | None = None, release: bool = True) -> None:
         """End a frame of ``client``: keep what it used, release what no client's last frame
-        used. ``client=None`` forgets every client (``clear``)."""
+        used. ``release=False`` adds what it used to what the client kept and releases nothing.
+        ``client=None`` forgets every client (``clear``)."""
         if client is None:
             self.kept.clear()
-        else:
+        elif release:
             self.kept[client] = set(self.used)
+        else:
+            self.kept.setdefault(client, set()).update(self.used)
         self.used.clear()
         self.fresh.clear()
-        self._release_unkept()
+        if release:
+            self._release_unkept()
 
     def forget(self, client: str) -> None:
         """Release what only ``client`` kept (it will render no more frames for now)."""
@@ -144,16 +148,17 @@ class Renderer:
     def render(self, scene: Scene, settings: RenderSettings | None = None,
                cancel: Callable[[], bool] | None = None,
                progress: Callable[[float], None] | None = None, passes: bool = True,
-               client: str = "final") -> RenderOutput:
+               client: str = "final", sweep: bool = True) -> RenderOutput:
         """Render ``scene``; raises RenderCancelled when ``cancel()`` turns true between passes.
         ``passes=False`` reads back the combined image alone (the viewport's case). ``client``
         names who asks ('viewport', 'final', 'preview', ...): each client's last frame keeps its
-        maps, whatever the other clients render in between."""
+        maps, whatever the other clients render in between. ``sweep=False`` also keeps what the
+        client's previous frames kept (the viewport's coarse image must not evict the full maps)."""
         gl = self.gl
         gl.check_thread()
         settings = effective_settings(scene, settings)
         with gl.ctx:     # current for the call, whatever other context the thread made current
-            return self._render(scene, settings, cancel, progress, passes, client)
+            return self._render(scene, settings, cancel, progress, passes, client, sweep)
 
     def forget_client(self, client: str) -> None:
         """Release the maps that only ``client``'s last frame kept."""
@@ -162,7 +167,7 @@ class Renderer:
                 for cache in self._caches:
                     cache.forget(client)
 
-    def _render(self, scene, settings, cancel, progress, want_passes, client) -> RenderOutput:
+    def _render(self, scene, settings, cancel, progress, want_passes, client, sweep=True) -> RenderOutput:
         gl = self.gl
         t_start = time.perf_counter()
         timings: dict[str, float] = {}
@@ -172,7 +177,7 @@ class Renderer:
         done = [0]
 
         def step(name: str, t0: float) -> None:
-            gl.ctx.finish()
+            gl.finish()   # lets the host's threads run while the pass completes
             timings[name] = timings.get(name, 0.0) + time.perf_counter() - t0
             done[0] += 1
             if progress is not None:
@@ -227,6 +232,7 @@ class Renderer:
                 step("scattering", t0)
             t0 = time.perf_counter()
             targets.compose(gl, settings.film_transparent, scene.background)
+            gl.finish()   # the read below then copies without waiting on the GPU
             combined = targets.read_combined()
             passes = targets.read_passes() if want_passes else {}
             timings["readback"] = time.perf_counter() - t0
@@ -248,7 +254,7 @@ class Renderer:
         finally:
             pass_state(gl.ctx)
         for cache in self._caches:
-            cache.sweep(client)
+            cache.sweep(client, release=sweep)
         self.counters["renders"] += 1
         timings["total"] = time.perf_counter() - t_start
         if not scene.lights:
@@ -366,7 +372,8 @@ class Renderer:
     def _tfm(self, scene, settings, light, frame, medium_gpu, shadow, res):
         """The light's TFM, or None when its rays meet no density. A cached TFM of the same
         inputs with more coefficients serves a request for fewer when both counts are multiples
-        of 4 (its first n coefficients are those an n-coefficient map holds)."""
+        of 4, or the request is for <= 2 (its first n coefficients are those an n-coefficient map
+        holds)."""
         medium = scene.medium
         n = int(min(max(settings.coefficients, 1), 16))
         if settings.density_weight is None:
@@ -376,7 +383,7 @@ class Renderer:
         # The grid as uploaded (medium_gpu.key), not its source: a downsampled grid has its own.
         base = (light.key, scene.solids_key, medium_gpu.key, res, settings.light_steps)
         key = base + (n, weight_key)
-        if n % 4 == 0 and key not in self._tfms.items:
+        if (n % 4 == 0 or n <= 2) and key not in self._tfms.items:
             wider = [k for k in self._tfms.items
                      if k[:len(base)] == base and len(k) == len(key) and k[-1] == weight_key
                      and k[-2] > n and k[-2] % 4 == 0]
@@ -422,14 +429,15 @@ def _keyed(medium_gpu: MediumGPU, key) -> MediumGPU:
 
 
 class _FewerCoefficients:
-    """A TFM read with its first ``n`` coefficients (n a multiple of 4)."""
+    """A TFM read with its first ``n`` coefficients (n a multiple of 4, or n <= 2: the shader
+    then ignores the rest of the first target)."""
 
     def __init__(self, tfm: TransmittanceMap, n: int):
         self.tfm, self.coefficients = tfm, n
 
     def defines(self, tfm_filter: str) -> dict[str, int]:
         return {**self.tfm.defines(tfm_filter), "N_COEFF": self.coefficients,
-                "N_TARGETS": self.coefficients // 4}
+                "N_TARGETS": max(1, self.coefficients // 4)}
 
     def bind(self, prog, sigma_t) -> None:
         self.tfm.bind(prog, sigma_t)

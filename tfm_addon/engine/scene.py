@@ -361,6 +361,9 @@ class RenderSettings:
     quarter of the lookups; mixes domains at the medium's edges as seen from the light).
     ``ambient``: whether the world colour lights the medium and the surfaces.
     ``max_grid_bytes``: memory budget for the density texture; larger grids are downsampled.
+    ``view_jitter``: None marches view rays at the step midpoints; a fraction of a step in
+    [0, 1) starts each pixel's march there plus a per-pixel hash (sampling.march_offset: a
+    different start per antialiasing sample). No map depends on it.
     ``quality``: 'CUSTOM' renders with the fields above; 'AUTO' lets
     ``quality.auto_settings(scene, settings)`` choose the coefficient count, density weighting,
     steps and sampling for the scene (the rule of docs/benchmark.md).
@@ -383,6 +386,7 @@ class RenderSettings:
     max_grid_bytes: int = 512 * 1024 * 1024
     quality: Literal["CUSTOM", "AUTO"] = "CUSTOM"
     film_transparent: bool = True
+    view_jitter: float | None = None
 
 
 @dataclass(frozen=True, eq=False)

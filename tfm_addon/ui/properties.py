@@ -89,6 +89,16 @@ class TFM_SceneSettings(bpy.types.PropertyGroup):
         name="Viewport Resolution", default=0.5, min=0.1, max=1.0, subtype='FACTOR',
         description="Resolution of the viewport image relative to the viewport",
     )
+    samples: IntProperty(
+        name="Samples", default=0, min=0, soft_max=256, max=4096,
+        description="Antialiasing samples per pixel of a final render, each at its own place in the "
+                    "pixel (one-pixel box filter) with its own view-march start; 0 chooses "
+                    "automatically (16), 1 renders pixel centres",
+    )
+    viewport_samples: IntProperty(
+        name="Viewport Samples", default=16, min=1, soft_max=256, max=4096,
+        description="Samples the viewport accumulates while nothing changes",
+    )
 
     @classmethod
     def register(cls):

@@ -64,6 +64,7 @@ def largest_density_integral(gl: GLContext, frame: LightFrame, medium: MediumGPU
     bind_light(prog, frame, (0, 0, 0), res, None, None)
     set_uniforms(prog, u_light_steps=int(light_steps), u_inv_alpha=1.0)
     gl.draw_fullscreen(prog)
+    gl.finish()  # wait with the GIL released; the read then only copies
     tau = np.frombuffer(tex.read(), dtype=np.float32).reshape(-1, 4)[:, 0]
     fbo.release()
     tex.release()

@@ -21,6 +21,7 @@ uniform float u_g;
 uniform vec3 u_ambient;
 uniform int u_view_steps;
 uniform int u_light_in_medium;
+uniform float u_view_jitter;   // < 0: march at step midpoints; else this sample's start offset
 layout(location = 0) out vec4 o_scatter;
 layout(location = 1) out vec4 o_surface;
 layout(location = 2) out vec4 o_transmittance;
@@ -79,6 +80,10 @@ void main() {
         t_far = u_clip.y * len;
     }
     ivec2 px = ivec2(gl_FragCoord.xy);
+    // Where in each step the march samples: the midpoint, or (antialiasing samples) the sample's
+    // offset plus a per-pixel hash, so that neighbouring pixels and successive samples differ.
+    float step_at = u_view_jitter < 0.0 ? 0.5
+        : fract(u_view_jitter + fract(52.9829189 * fract(dot(vec2(px), vec2(0.06711056, 0.00583715)))));
     vec4 g0 = texelFetch(u_gb0, px, 0);
     vec4 g1 = texelFetch(u_gb1, px, 0);
     bool hit = g1.w > 0.5;
@@ -139,7 +144,7 @@ void main() {
         vec3 dq = mat3(u_world_to_light) * d;
 #endif
         for (int i = 0; i < u_view_steps; ++i) {
-            float t = seg.x + (float(i) + 0.5) * dt;
+            float t = seg.x + (float(i) + step_at) * dt;
             float D = density_at_index(ob + db * t);
 #if EMISSION
             if (t >= emit.x && t <= emit.y)
@@ -203,7 +208,7 @@ void main() {
             float span = cs.y - cs.x;
             float s_prev = 0.0;
             for (int i = 0; i < n; ++i) {
-                float s_mid = (float(i) + 0.5) / float(n);
+                float s_mid = (float(i) + step_at) / float(n);
                 float s_next = float(i + 1) / float(n);
                 float u_mid = s_mid;
                 float u_next = s_next;

@@ -15,6 +15,9 @@ uniform sampler2D u_coef3;
 // distance r from the light, clamped to [0, 1]. The cosines cos(j pi x) come four at a time
 // from cos((j + 4) t) = 2 cos(4 t) cos(j t) - cos((j - 4) t); coefficients past N_COEFF are 0.
 float tfm_series(vec2 k, vec4 c0, vec4 c1, vec4 c2, vec4 c3, float r) {
+#if N_TARGETS == 1 && N_COEFF < 4
+    c0 *= vec4(1.0, float(N_COEFF > 1), float(N_COEFF > 2), 0.0);   // a wider map read with fewer
+#endif
     float x = (r - k.x) / max(k.y - k.x, 1e-6);
     if (x <= 0.0) return 1.0;
     float t1 = cos(PI * min(x, 1.0));
