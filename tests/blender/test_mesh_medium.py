@@ -18,7 +18,9 @@ from tfm_addon import scenes
 from tfm_addon.engine import Camera, RenderSettings, Scene, SpotLight, metrics
 
 SETTINGS = RenderSettings(view_steps=128, light_steps=128, map_resolution=256, coefficients=16)
-CYCLES_SAMPLES = 512
+# Suzanne at 2048 spp: its SSIM is 0.977 at 512 spp, 0.9807 at 2048 (see the assertion).
+CYCLES_SAMPLES = {"suzanne": 2048, "sphere": 512}
+AA_SAMPLES = 16           # TFM's antialiasing samples: Cycles' film is antialiased too
 
 
 def _mod(name):
@@ -53,11 +55,11 @@ def _add_medium(kind: str, builder):
 
 def _render_both(tmp_path, kind):
     builder = _mod("blender.scene_builder")
-    builder.build(_scene(kind), str(tmp_path), settings=SETTINGS)
+    builder.build(_scene(kind), str(tmp_path), settings=SETTINGS, samples=AA_SAMPLES)
     ob = _add_medium(kind, builder)
     tfm = render_passes(tmp_path, "tfm")["Combined"]
     messages = list(_mod("blender.final_render").last_messages)
-    builder.cycles_single_scattering(bpy.context.scene, samples=CYCLES_SAMPLES)
+    builder.cycles_single_scattering(bpy.context.scene, samples=CYCLES_SAMPLES[kind])
     t0 = time.perf_counter()
     cycles = render_passes(tmp_path, "cycles")["Combined"]
     return ob, tfm, cycles, time.perf_counter() - t0, messages
@@ -68,13 +70,14 @@ def test_mesh_medium_matches_cycles(blank, tmp_path, kind):
     _ob, tfm, cycles, seconds, messages = _render_both(tmp_path, kind)
     ssim = metrics.ssim(tfm, cycles)
     ratio = metrics.brightness_ratio(tfm, cycles)
-    print(f"{kind} mesh medium vs Cycles ({CYCLES_SAMPLES} spp, {seconds:.1f} s): SSIM {ssim:.4f}, "
+    print(f"{kind} mesh medium vs Cycles ({CYCLES_SAMPLES[kind]} spp, {seconds:.1f} s): SSIM {ssim:.4f}, "
           f"brightness ratio {ratio:.4f}; messages {messages}")
     # Suzanne's eyes are open caps inside the head: Cycles' volume stack leaves the medium at the
-    # first back face a ray meets, so its shadow rays skip the head behind the eyes (light leaks
-    # in there) and it comes out 1.6 % brighter around them; the grid holds the union of the shells
-    # (docs/architecture.md). 0.977 measured at 128 voxels, 0.978 against 2048 spp.
-    assert ssim >= (0.98 if kind == "sphere" else 0.975) and abs(ratio - 1.0) < 0.03
+    # first back face a ray meets, so its shadow rays skip the head behind the eyes (light leaks in
+    # there) and it comes out ~1.5 % brighter around them, while the grid holds the union of the
+    # shells (docs/architecture.md). Measured: SSIM 0.9807 (thin margin; deterministic seeds), the
+    # sphere 0.9985.
+    assert ssim >= 0.98 and abs(ratio - 1.0) < 0.03
     if kind == "sphere":
         assert messages == []
         # The shadow on the ground: darker than half the lit ground's brightness, below the
