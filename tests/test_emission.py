@@ -46,6 +46,20 @@ def test_homogeneous_box_emission(renderer):
     assert metrics.ssim(out, ref) >= 0.99
 
 
+def test_constant_emission_in_a_grid_stays_in_the_grid_box(renderer):
+    """A constant strength emits in the grid's box [-1, n] only (the reference's march), not out
+    to the far clip (it was 73x too bright: the emission box defaulted to [-2, 1e30])."""
+    base = scenes.fire_scene(64, 36, 24, kind="EMISSION")
+    scene = dataclasses.replace(base, medium=dataclasses.replace(
+        base.medium, emission_strength=GridValue(offset=0.5)))
+    out = renderer.render(scene, SETTINGS).combined[..., :3]
+    ref = render_reference(scene, view_steps=96, light_steps=96).combined[..., :3]
+    ratio = out.sum(axis=(0, 1)) / ref.sum(axis=(0, 1))
+    assert ref.max() > 1e-3
+    assert np.all(np.abs(ratio - 1.0) <= 0.01), ratio
+    assert metrics.ssim(out, ref) >= 0.99
+
+
 @pytest.mark.parametrize("colour", [blackbody_rec709, blackbody.color_rec709])
 def test_blackbody_colour_is_cycles_fit(colour):
     # Values of Cycles' svm_math_blackbody_color_rec709 beyond its range and in between.

@@ -332,7 +332,8 @@ class Renderer:
         def build():
             self.counters["attribute_uploads"] += 1
             factor = medium_attributes.downsample_factor(medium, medium_gpu.box_to_world)
-            return AttributesGPU(self.gl, medium_attributes.prepare_attributes(medium, factor))
+            return AttributesGPU(self.gl, medium_attributes.prepare_attributes(medium, factor),
+                                 medium_gpu.grid_size)
 
         return self._attributes.get(key, build)[0]
 
