@@ -192,7 +192,8 @@ class ProgressiveView:
                 small = dataclasses.replace(scene, camera=dataclasses.replace(
                     scene.camera, width_px=cw, height_px=ch))
                 out = renderer.render(small, coarse_settings(settings, rebuild), job.cancelled, None, False,
-                                      client=CLIENT, sweep=False)
+                                      client=CLIENT, sweep=False,
+                                      map_image_side=None if rebuild else max(w, h))
                 self.counters["coarse"] += 1
                 self._publish(generation, t0, out.combined, "coarse", 0, target, out.warnings)
                 yield

@@ -148,17 +148,19 @@ class Renderer:
     def render(self, scene: Scene, settings: RenderSettings | None = None,
                cancel: Callable[[], bool] | None = None,
                progress: Callable[[float], None] | None = None, passes: bool = True,
-               client: str = "final", sweep: bool = True) -> RenderOutput:
+               client: str = "final", sweep: bool = True, map_image_side: int | None = None) -> RenderOutput:
         """Render ``scene``; raises RenderCancelled when ``cancel()`` turns true between passes.
         ``passes=False`` reads back the combined image alone (the viewport's case). ``client``
         names who asks ('viewport', 'final', 'preview', ...): each client's last frame keeps its
         maps, whatever the other clients render in between. ``sweep=False`` also keeps what the
-        client's previous frames kept (the viewport's coarse image must not evict the full maps)."""
+        client's previous frames kept (the viewport's coarse image must not evict the full maps).
+        ``map_image_side``: the image side (pixels) a 'FOOTPRINT' TFM is capped by, default the
+        camera's larger side (the coarse image passes its full image's, to reuse the full maps)."""
         gl = self.gl
         gl.check_thread()
         settings = effective_settings(scene, settings)
         with gl.ctx:     # current for the call, whatever other context the thread made current
-            return self._render(scene, settings, cancel, progress, passes, client, sweep)
+            return self._render(scene, settings, cancel, progress, passes, client, sweep, map_image_side)
 
     def forget_client(self, client: str) -> None:
         """Release the maps that only ``client``'s last frame kept."""
@@ -167,7 +169,8 @@ class Renderer:
                 for cache in self._caches:
                     cache.forget(client)
 
-    def _render(self, scene, settings, cancel, progress, want_passes, client, sweep=True) -> RenderOutput:
+    def _render(self, scene, settings, cancel, progress, want_passes, client, sweep=True,
+                map_image_side=None) -> RenderOutput:
         gl = self.gl
         t_start = time.perf_counter()
         timings: dict[str, float] = {}
@@ -198,7 +201,7 @@ class Renderer:
             plans = []
             for light in lights:
                 t0 = time.perf_counter()
-                plans.append(self._plan_light(scene, settings, light, medium_gpu, casters))
+                plans.append(self._plan_light(scene, settings, light, medium_gpu, casters, map_image_side))
                 step("light_maps", t0)
 
             t0 = time.perf_counter()
@@ -337,7 +340,7 @@ class Renderer:
 
         return self._attributes.get(key, build)[0]
 
-    def _plan_light(self, scene, settings, light, medium_gpu, solids) -> _LightPlan:
+    def _plan_light(self, scene, settings, light, medium_gpu, solids, image_side=None) -> _LightPlan:
         gl = self.gl
         frame = LightFrame.of(light)
         res = int(min(settings.map_resolution, gl.max_texture_size))
@@ -363,7 +366,8 @@ class Renderer:
                 else:
                     tfm = self._tfm(scene, settings, light, frame, medium_gpu, shadow,
                                     tfm_resolution(settings, frame, medium_gpu, res,
-                                                   max(scene.camera.width_px, scene.camera.height_px)))
+                                                   image_side or max(scene.camera.width_px,
+                                                                     scene.camera.height_px)))
                     light_t = LIGHT_T_TFM if tfm is not None else LIGHT_T_NONE
         elif medium is not None and medium_gpu.kind != 0:
             unit = settings.method == "UNSHADOWED" or not light.cast_shadow
