@@ -314,3 +314,22 @@ def test_what_a_cancelled_viewport_frame_built_survives_a_preview(fresh):
     fresh.render(preview, SETTINGS, client="preview")
     delta, _ = _built(fresh, scene, client="viewport")
     assert sum(delta.get(k, 0) for k in ("shadow_maps", "tfms", "gbuffers", "grid_uploads")) == 0
+
+
+def test_a_run_of_cancelled_viewport_frames_holds_two_frames_of_maps(fresh):
+    """A light dragged in the viewport: each request's coarse frame (sweep=False) and cancelled
+    full frame build maps for a new light position. Only the last completed frame's maps and the
+    cancelled frame's stay (the cache held every position's maps until a frame completed)."""
+    scene = smoke_scene(width=40, height=24, n=24)
+    fresh.render(scene, SETTINGS, client="viewport")
+    light = scene.lights[0]
+    for i in range(6):
+        moved = replace(scene, lights=(replace(light, matrix_world=look_at((-2.0 + 0.3 * i, -1.5, 4.5),
+                                                                          (0, 0, 1.0))),))
+        small = replace(moved, camera=replace(moved.camera, width_px=10, height_px=6))
+        fresh.render(small, replace(SETTINGS, map_resolution=32), client="viewport", sweep=False)
+        with pytest.raises(RenderCancelled):           # after the light's maps
+            fresh.render(moved, SETTINGS, cancel=_cancel_after(2), client="viewport")
+    shadows = len(fresh._shadows.items)
+    tfms = sum(1 for k in fresh._tfms.items if k[-1] != "alpha")
+    assert (shadows, tfms) == (2, 2)

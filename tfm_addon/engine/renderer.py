@@ -55,6 +55,7 @@ class _Cache:
         self.used: set = set()
         self.fresh: set = set()
         self.kept: dict[str, set] = {}       # client -> keys its last completed frame used
+        self.done: dict[str, set] = {}       # client -> keys its last completed, sweeping frame used
 
     def get(self, key, build: Callable):
         self.used.add(key)
@@ -78,8 +79,10 @@ class _Cache:
         ``client=None`` forgets every client (``clear``)."""
         if client is None:
             self.kept.clear()
+            self.done.clear()
         elif release:
             self.kept[client] = set(self.used)
+            self.done[client] = set(self.used)
         else:
             self.kept.setdefault(client, set()).update(self.used)
         self.used.clear()
@@ -87,9 +90,19 @@ class _Cache:
         if release:
             self._release_unkept()
 
+    def cancelled(self, client: str) -> None:
+        """End a cancelled frame of ``client`` (its builds are complete): keep what it used with
+        what the client's last completed frame used, and release the rest, so that a run of
+        cancelled frames (a drag in the viewport) holds the maps of two frames, not of every one."""
+        self.kept[client] = self.done.get(client, set()) | self.used
+        self.used.clear()
+        self.fresh.clear()
+        self._release_unkept()
+
     def forget(self, client: str) -> None:
         """Release what only ``client`` kept (it will render no more frames for now)."""
         self.kept.pop(client, None)
+        self.done.pop(client, None)
         self._release_unkept()
 
     def _release_unkept(self) -> None:
@@ -242,11 +255,10 @@ class Renderer:
         except RenderCancelled:
             # Every pass finished (ctx.finish) before the check that cancelled: what the frame
             # cached is complete, and kept for this client's next frame (which, under latest-wins
-            # cancellation, likely reuses it) along with what its last completed frame used.
+            # cancellation, likely reuses it) along with what its last completed frame used; what
+            # earlier cancelled or coarse frames kept is released.
             for cache in self._caches:
-                cache.kept.setdefault(client, set()).update(cache.used)
-                cache.used.clear()
-                cache.fresh.clear()
+                cache.cancelled(client)
             raise
         except BaseException:
             # A pass failed midway: drop whatever this frame built, it may be partial.
