@@ -11,16 +11,7 @@ from tfm_addon.scenes import look_at, smoke_scene
 SETTINGS = RenderSettings(view_steps=32, light_steps=32, map_resolution=64)
 
 
-def replace(obj, **changes):
-    fields = {f.name: getattr(obj, f.name) for f in dataclasses.fields(obj)}
-    return type(obj)(**{**fields, **changes})
-
-
-@pytest.fixture
-def fresh():
-    r = Renderer()
-    yield r
-    r.release()
+replace = dataclasses.replace
 
 
 def _cancel_after(n):
