@@ -153,3 +153,20 @@ def test_attributes_are_downsampled_with_the_density():
         assert metrics.ssim(out.combined[..., :3], full[..., :3]) > 0.95
     finally:
         r.release()
+
+
+def test_every_sampler_of_the_light_map_and_probe_shaders_has_its_own_unit():
+    """One table (bindings.UNIT) gives every sampler those shaders declare a distinct unit (the
+    colour grid once shared unit 15 with the occupancy grid; the probe's points unit 10 with the
+    attribute grids)."""
+    import re
+    from pathlib import Path
+
+    from tfm_addon.engine.passes import bindings
+    shaders = Path(bindings.__file__).parent.parent / "shaders"
+    names = set()
+    for path in shaders.iterdir():
+        if path.suffix in (".glsl", ".frag", ".vert") and path.name != "composite.frag":
+            names |= set(re.findall(r"uniform\s+\w*sampler\w*\s+(\w+)\s*;", path.read_text()))
+    assert names and names <= set(bindings.UNIT), sorted(names - set(bindings.UNIT))
+    assert len(set(bindings.UNIT.values())) == len(bindings.UNIT)

@@ -9,12 +9,11 @@ from ..light import LightFrame
 from ..medium_grid import PreparedGrid
 from ..scene import Medium
 
-# Texture units, fixed for every program.
-# Texture units of the light passes, one table so that no two textures share a unit (the composite
-# pass reads its three inputs from units 11-13, outside the light passes).
+# Texture units of the light, map and probe passes, one table so that no two textures share a
+# unit (the composite pass, a program that reads nothing else, takes its three inputs from 11-13).
 UNIT = {"u_gb0": 0, "u_gb1": 1, "u_density": 2, "u_shadow": 3, "u_gobo": 4, "u_krange": 5,
         "u_coef0": 6, "u_coef1": 7, "u_coef2": 8, "u_coef3": 9, "u_attrs": 10, "u_color_grid": 11,
-        "u_shadow_depth": 14, "u_occupancy": 15}
+        "u_points": 12, "u_shadow_depth": 14, "u_occupancy": 15}
 
 # The density texture's format: (moderngl dtype, numpy type); values are stored divided by the
 # grid's maximum (``MediumGPU.density_scale``) so that half floats never overflow and the

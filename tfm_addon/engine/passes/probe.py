@@ -6,9 +6,9 @@ import numpy as np
 
 from ..gl_context import GLContext, set_uniforms
 from ..scene import Medium, RenderSettings
-from .bindings import MediumGPU, bind_light, bind_units, pass_state
+from .bindings import UNIT, MediumGPU, bind_light, bind_units, pass_state
 
-POINTS_UNIT = 10
+POINTS_UNIT = UNIT["u_points"]
 
 
 def probe_light_transmittance(

@@ -8,7 +8,7 @@ import numpy as np
 
 from ..gl_context import GLContext, set_uniforms
 from ..light import LightFrame
-from .bindings import MediumGPU, bind_light, bind_units, pass_state
+from .bindings import UNIT, MediumGPU, bind_light, bind_units, pass_state
 
 MAX_COEFFICIENTS = 16
 COEF_DTYPE = "f4"      # "f2" (half floats) gives the same SSIM on every bench scene, no faster on llvmpipe
@@ -105,9 +105,9 @@ class TransmittanceMap:
                 "TFM_FILTER": int(tfm_filter == "LINEAR")}
 
     def bind(self, prog, sigma_t) -> None:
-        self.krange.use(5)
+        self.krange.use(UNIT["u_krange"])
         for i, t in enumerate(self.coef):
-            t.use(6 + i)
+            t.use(UNIT[f"u_coef{i}"])
         set_uniforms(prog, u_tfm_exponent=tuple(float(self.alpha_d * s) for s in sigma_t))
 
     def release(self) -> None:
