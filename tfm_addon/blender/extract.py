@@ -148,11 +148,13 @@ def volume_simplify_level(depsgraph) -> int:
 
 
 _simplified: dict = {}  # (id of the full grid, level) -> (the full grid, simplified grid, matrix)
+_simplified_extras: dict = {}  # (id of a full attribute grid, level) -> (that grid, simplified)
 
 
 def clear_simplified() -> None:
-    """Drop the kept simplified grid (on unregister)."""
+    """Drop the kept simplified grids (on unregister)."""
     _simplified.clear()
+    _simplified_extras.clear()
 
 
 def simplify_grid(density: np.ndarray, index_to_object: np.ndarray, level: int):
@@ -393,10 +395,28 @@ def _grid_medium(matrix_world, grid, read: dict, label: str, notes: list[str], s
     extras = {name: a for name, a in grid.extras.items() if name in used}
     density, index_to_object = simplify_grid(grid.density, grid.index_to_object, simplify)
     if simplify > 0:
-        extras = {name: _downsample_channels(a, 2 ** simplify) for name, a in extras.items()}
+        extras = _simplify_extras(extras, simplify)
     return Medium(density=density, index_to_world=matrix_world @ index_to_object, grids=extras,
                   clipping=clipping,
                   source_key=digest(grid.key, sorted(extras), simplify) if grid.key else None, **fields)
+
+
+def _simplify_extras(extras: dict, level: int) -> dict:
+    """The attribute grids at the simplified density's resolution; the last ones are kept, like
+    ``simplify_grid``'s, so that a viewport edit that keeps the grids does not redo them."""
+    out, kept = {}, {}
+    for name, a in extras.items():
+        key = (id(a), level)
+        hit = _simplified_extras.get(key)
+        if hit is None or hit[0] is not a:
+            small = _downsample_channels(a, 2 ** level)
+            small.setflags(write=False)
+            hit = (a, small)
+        kept[key] = hit
+        out[name] = hit[1]
+    _simplified_extras.clear()
+    _simplified_extras.update(kept)
+    return out
 
 
 def _downsample_channels(a: np.ndarray, f: int) -> np.ndarray:
