@@ -137,6 +137,8 @@ def test_sigma_edits_under_auto_rebuild_a_tfm_only_when_the_coefficient_count_gr
     assert delta["tfms"] == 1 and delta.get("shadow_maps", 0) == 0
     delta, back = _built(fresh, scene, auto)                # fewer: the wider map serves, exactly
     assert delta.get("tfms", 0) == 0
+    # ... and keeps its automatic alpha (a light pass and a read-back to redo otherwise).
+    assert sum(1 for k in fresh._tfms.items if k[-1] == "alpha") == 1
     other = Renderer()
     try:
         want = other.render(scene, auto).combined

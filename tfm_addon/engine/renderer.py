@@ -405,6 +405,8 @@ class Renderer:
                      if k[:len(base)] == base and len(k) == len(key) and k[-1] == weight_key
                      and k[-2] > n and k[-2] % 4 == 0]
             if wider:
+                if base + ("alpha",) in self._tfms.items:
+                    self._tfms.used.add(base + ("alpha",))    # the wider map's alpha: kept with it
                 return _FewerCoefficients(self._tfms.get(min(wider, key=lambda k: k[-2]), None)[0], n)
         if settings.density_weight is None:
             alpha_d, _ = self._tfms.get(
