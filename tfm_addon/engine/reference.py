@@ -14,7 +14,9 @@ The model (units: metres, watts, radians; colours are scene-linear RGB):
 - Spot lights: intensity ``color * power / (4 pi)`` W/sr, Blender's smoothstep cone falloff, an
   optional gobo, inverse-square falloff.
 - Medium: ``sigma = D(p) * sigma_per_density``; D trilinear in a grid that fades to zero one voxel
-  beyond the outermost centres, or 1 inside a box (or everywhere) for a homogeneous medium.
+  beyond the outermost centres, or 1 inside a box (or everywhere) for a homogeneous medium. Grid
+  voxels that are NaN, infinite, negative or below ``Medium.clipping`` are 0 (attribute grids:
+  NaN and infinite voxels).
 - View rays: ``view_steps`` midpoint samples over the part of the valid range in front of the first
   solid and inside the medium's bounds. At each sample the in-scattered radiance is
   ``T_view * sigma_s * D * dt * (sum_lights phase * I * spot * gobo * V * T_light / r^2 + ambient)``
@@ -268,6 +270,12 @@ def _blackbody_term(t: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.where((b > 0)[:, None], power[:, None] * blackbody_rec709(t), 0.0)
 
 
+def _finite(a) -> np.ndarray:
+    """float64 copy with NaN and infinite values as 0."""
+    a = np.asarray(a, dtype=np.float64)
+    return np.where(np.isfinite(a), a, 0.0)
+
+
 class _Field:
     """The density D of a medium: its bounds, point look-ups and integrals toward a light."""
 
@@ -275,10 +283,11 @@ class _Field:
         self.light_steps = int(light_steps)
         self.pool = pool
         self.heterogeneous = medium.density is not None
-        self.attributes = {name: np.pad(np.asarray(g, np.float64), [(1, 1)] * 3 + [(0, 0)] * (g.ndim - 3))
+        self.attributes = {name: np.pad(_finite(g), [(1, 1)] * 3 + [(0, 0)] * (g.ndim - 3))
                            for name, g in medium.grids.items()}
         if self.heterogeneous:
-            grid = np.asarray(medium.density, dtype=np.float64)
+            grid = _finite(medium.density)
+            grid = np.where((grid > 0) & (grid >= float(medium.clipping)), grid, 0.0)
             self.grid = np.pad(grid, 1, mode="constant", constant_values=0.0)
             self.to_local = np.linalg.inv(np.asarray(medium.index_to_world, np.float64))
             self.lo = np.full(3, -1.0)
@@ -350,7 +359,7 @@ class _Field:
     def _voxel_value(medium: Medium, v) -> np.ndarray:
         if v.grid is None:
             return np.asarray(float(v.offset))
-        return v.scale * np.maximum(np.asarray(medium.grids[v.grid], np.float64), 0.0) + v.offset
+        return v.scale * np.maximum(_finite(medium.grids[v.grid]), 0.0) + v.offset
 
     def _march_sums(self, start: np.ndarray, step: np.ndarray) -> np.ndarray:
         """Sum of D over ``light_steps`` midpoints start + (k + 1/2) step (padded index space)."""
