@@ -73,12 +73,15 @@ def change_for_update(id_type: str, object_type: str | None = None, is_medium: b
 
 def _may_be_medium(ob, medium_source: str | None) -> bool:
     """Whether a mesh-like object is the medium now or may have become one: it is (or instances)
-    the extracted medium, or one of its materials has a volume shader."""
+    the extracted medium, a smoke / fire domain, or one of its materials has a volume shader."""
     if medium_source is not None:
         if medium_source == ob.name or medium_source.endswith(f"(instanced by {ob.name})") \
                 or medium_source.startswith(f"{ob.name} (instanced by "):
             return True
-    from . import materials
+    from . import fluid, materials
+
+    if fluid.domain_modifier(ob) is not None:
+        return True
 
     for slot in getattr(ob, "material_slots", ()):
         out = materials.output_node(slot.material) if slot.material is not None else None
