@@ -33,6 +33,8 @@ def enabled_passes(view_layer) -> tuple[tuple[str, str], ...]:
         return PASSES
     return tuple((blender_name, name) for blender_name, name in PASSES
                  if getattr(settings, f"use_pass_{name}", True))
+
+
 def sample_count(scene) -> int:
     """Antialiasing samples of a final render: scene.tfm.samples, or AUTO_SAMPLES for 0."""
     return int(scene.tfm.samples) or AUTO_SAMPLES
