@@ -86,8 +86,7 @@ def _bounds_of(m):
     """(world -> local matrix, lo, hi, local units per voxel): the medium's box in its own space."""
     if m.density is not None:
         to_local = np.linalg.inv(np.asarray(m.index_to_world, dtype=np.float64))
-        lo, hi = _cached(("bounds", m.density_key),
-                         lambda: nonzero_bounds(clean_density(m.density, m.clipping)[0]))
+        lo, hi = _cached(("bounds", m.density_key), lambda: _summary(m)[3])
         return to_local, np.asarray(lo), np.asarray(hi), 1.0
     if m.box_to_world is not None:
         return np.linalg.inv(np.asarray(m.box_to_world, dtype=np.float64)), -np.ones(3), np.ones(3), None
@@ -140,7 +139,7 @@ def medium_stats(scene: Scene) -> MediumStats | None:
         return None
     lights = [light for light in scene.lights if not is_dark(light)]
     to_local, lo, hi, _ = _bounds(scene)
-    grid = _cached(("grid", m.density_key), lambda: _grid_summary(m)) if m.density is not None else None
+    grid = _summary(m) if m.density is not None else None
     tau_max, light_len = 0.0, 0.0
     for light in lights:
         integral, chord = _cached(("light", m.density_key, light.key),
@@ -172,13 +171,17 @@ def _cached(key, build):
     return value
 
 
-def _grid_summary(m) -> tuple[np.ndarray, int, float]:
+def _summary(m):
+    return _cached(("grid", m.density_key), lambda: _grid_summary(m))
+
+
+def _grid_summary(m) -> tuple[np.ndarray, int, float, tuple]:
     """(the grid block-averaged to <= _COARSE_SIDE a side and padded by one voxel, the factor,
-    the sharpness)."""
+    the sharpness, its non-zero bounds), from one cleaning of the grid."""
     density, _ = clean_density(m.density, m.clipping)      # what the renderer uploads
     f = max(1, math.ceil(max(density.shape) / _COARSE_SIDE))
     coarse = np.pad(downsample(density, f) if f > 1 else density, 1)
-    return coarse, f, sharpness(density)
+    return coarse, f, sharpness(density), nonzero_bounds(density)
 
 
 def _light_part(m, light, grid) -> tuple[float, float]:
@@ -203,7 +206,7 @@ def _light_part(m, light, grid) -> tuple[float, float]:
     sigma = 1.0                 # the density integral; the caller multiplies by sigma
     if grid is None:
         return sigma * float((t1 - t0).max()), float(chord.max())
-    coarse, f, _ = grid
+    coarse, f = grid[:2]
     steps = int(min(512, max(16, math.ceil(2.0 * chord.max() / f))))
     s = (np.arange(steps) + 0.5) / steps
     t = t0[:, None] + s[None, :] * (t1 - t0)[:, None]
