@@ -12,10 +12,21 @@ import numpy as np
 from .camera import view_plane
 from .errors import RenderCancelled
 from .gl_context import GLContext
-from .light import LightFrame, cone_meets_box, is_dark
-from .medium_grid import prepare_grid
+from .light import LightFrame, cone_meets_box, face_meets_box, is_dark, light_faces
+from .medium_grid import grid_allowances, prepare_grid
 from .output import RenderOutput
-from .passes.bindings import MEDIUM_GRID, MediumGPU, gobo_texture
+from .passes.bindings import (
+    MAX_GRIDS,
+    MAX_MEDIA,
+    MEDIUM_BOX,
+    MEDIUM_EVERYWHERE,
+    MEDIUM_GRID,
+    MEDIUM_NONE,
+    MediaGPU,
+    MediumGPU,
+    MediumSlot,
+    gobo_texture,
+)
 from .passes.gbuffer import GBuffer
 from .passes.probe import probe_light_transmittance
 from .passes.scattering import (
@@ -30,7 +41,7 @@ from .passes.shadow_map import ShadowMap
 from .passes.solids import SolidsBuffer
 from .passes.tfm import TransmittanceMap, largest_density_integral
 from .quality import auto_settings
-from .scene import RenderSettings, Scene, SpotLight
+from .scene import Light, RenderSettings, Scene
 
 
 def effective_settings(scene: Scene, settings: RenderSettings | None) -> RenderSettings:
@@ -68,12 +79,15 @@ class _Cache:
 
 @dataclass
 class _LightPlan:
-    light: SpotLight
+    """One face of a light, as its light pass reads it."""
+
+    light: Light
     frame: LightFrame
     light_t: int
     shadow: ShadowMap | None
     tfm: TransmittanceMap | None
     gobo: object | None
+    tfm_sigma_t: np.ndarray | None = None
 
 
 class Renderer:
@@ -81,9 +95,11 @@ class Renderer:
     every call must come from that thread (see worker.RenderWorker).
 
     ``counters`` counts what was built: 'grid_uploads', 'shadow_maps', 'tfms', 'gbuffers',
-    'light_passes', 'renders'. A camera-only change rebuilds no light map; changing sigma_a or
-    sigma_s rebuilds nothing on the light side (unless a fixed density weight ties the map to
-    the extinction).
+    'light_passes', 'renders' (maps and passes per light face), and 'faces_culled' (faces of
+    point and area lights that reach neither a medium nor a visible solid: no maps, no pass).
+    A camera-only change rebuilds no light map; changing sigma_a or sigma_s of a lone medium
+    rebuilds nothing on the light side (unless a fixed density weight ties the map to the
+    extinction; with several media a map also depends on their relative extinction).
     """
 
     def __init__(self, gl: GLContext | None = None):
@@ -145,7 +161,9 @@ class Renderer:
             plans = []
             for light in lights:
                 t0 = time.perf_counter()
-                plans.append(self._plan_light(scene, settings, light, medium_gpu, casters))
+                faces = self._plan_light(scene, settings, light, medium_gpu, casters, seen.bounds,
+                                         warnings)
+                plans += faces
                 step("light_maps", t0)
 
             t0 = time.perf_counter()
@@ -172,7 +190,7 @@ class Renderer:
                 t0 = time.perf_counter()
                 run_light_pass(gl, first=(i == 0), light_t=plan.light_t, tfm=plan.tfm,
                                light=(plan.frame, plan.light.intensity_w_per_sr,
-                                      plan.shadow, plan.gobo),
+                                      plan.shadow, plan.gobo), tfm_sigma_t=plan.tfm_sigma_t,
                                **common)
                 self.counters["light_passes"] += 1
                 step("scattering", t0)
@@ -190,10 +208,12 @@ class Renderer:
         self.counters["renders"] += 1
         timings["total"] = time.perf_counter() - t_start
         if not scene.lights:
-            warnings.append("The scene has no spot light: only surfaces and ambient light are "
-                            "rendered, and the medium scatters no light beam.")
+            warnings.append("The scene has no spot light (nor any other light): only surfaces and "
+                            "ambient light are rendered, and the medium scatters no light beam.")
         elif not lights:
-            warnings.append("Every spot light has zero power, colour or cone angle: no light beam.")
+            warnings.append("Every light has zero power or colour (or a spot no cone angle): no "
+                            "light beam.")
+        warnings += _light_notes(lights)
         return RenderOutput(combined=combined, passes=passes, warnings=warnings, timings_s=timings)
 
     def light_transmittance_at(self, scene: Scene, settings: RenderSettings | None, light_index: int,
@@ -211,11 +231,21 @@ class Renderer:
         gl = self.gl
         medium_gpu, _ = self._medium(scene, settings)
         casters = self._solid_set(scene.shadow_casters)
-        plan = self._plan_light(scene, settings, scene.lights[light_index], medium_gpu, casters)
-        out = probe_light_transmittance(
-            gl, points, medium=scene.medium, medium_gpu=medium_gpu, settings=settings,
-            light=(plan.frame, plan.light.intensity_w_per_sr, plan.shadow,
-                   None), light_t=plan.light_t, tfm=plan.tfm)
+        plans = self._plan_light(scene, settings, scene.lights[light_index], medium_gpu, casters,
+                                 None, [])
+        pts = np.asarray(points, np.float64).reshape(-1, 3)
+        out = np.ones((len(pts), 3), np.float32)
+        for plan in plans:          # each point from the face it belongs to
+            q = pts @ plan.frame.world_to_light[:3, :3].T + plan.frame.world_to_light[:3, 3]
+            tan = np.asarray(plan.frame.tan_xy)
+            mine = np.ones(len(q), bool) if plan.light.kind in ("SPOT", "SUN") else (
+                (q[:, 2] < 0) & np.all(np.abs(q[:, :2]) <= -q[:, 2:3] * tan, axis=1))
+            if not mine.any():
+                continue
+            out[mine] = probe_light_transmittance(
+                gl, pts[mine], medium=scene.medium, medium_gpu=medium_gpu, settings=settings,
+                light=(plan.frame, plan.light.intensity_w_per_sr, plan.shadow, None),
+                light_t=plan.light_t, tfm=plan.tfm, tfm_sigma_t=plan.tfm_sigma_t)
         for cache in self._caches:
             cache.used.clear()          # a probe keeps every map for the next render
         return out
@@ -225,77 +255,153 @@ class Renderer:
         when every mesh is in both)."""
         return self._solids.get(tuple(m.key for m in meshes), lambda: SolidsBuffer(self.gl.ctx, meshes))[0]
 
-    def _medium(self, scene: Scene, settings: RenderSettings) -> tuple[MediumGPU, list[str]]:
-        medium = scene.medium
-        if medium is None or medium.is_homogeneous:
-            key = ("homogeneous", None if medium is None else medium.density_key)
-            return self._media.get(key, lambda: (MediumGPU(self.gl, medium, None), []))[0]
+    def _medium(self, scene: Scene, settings: RenderSettings) -> tuple[MediaGPU, list[str]]:
+        """The frame's media on the GPU: a single homogeneous medium analytically, otherwise
+        every medium marched (grids and boxes); distinct grids share the memory budget, the
+        largest downsampled first; instances of one grid share its texture."""
+        warnings: list[str] = []
+        media = list(scene.media)
+        if len(media) == 1 and media[0].is_homogeneous:
+            medium = media[0]
+            kind_gpu = MediumGPU(self.gl, medium, None)
+            gpu = MediaGPU(kind_gpu.kind, kind_gpu, [], [])
+            gpu.key = ("homogeneous", medium.density_key)
+            return gpu, warnings
+        everywhere = [m for m in media if m.is_homogeneous and m.box_to_world is None]
+        if everywhere:
+            warnings.append("Fog without bounds renders only alone; with other media it is skipped: "
+                            + ", ".join(f"'{m.name}'" for m in everywhere) + ".")
+            media = [m for m in media if not (m.is_homogeneous and m.box_to_world is None)]
+        if len(media) > MAX_MEDIA:
+            warnings.append(f"At most {MAX_MEDIA} media are rendered; skipped "
+                            + ", ".join(f"'{m.name}'" for m in media[MAX_MEDIA:]) + ".")
+            media = media[:MAX_MEDIA]
+        grids: dict[str, object] = {}
+        for m in media:
+            if m.density is not None and m.grid_key not in grids:
+                grids[m.grid_key] = m
+        if len(grids) > MAX_GRIDS:
+            kept = set(list(grids)[:MAX_GRIDS])
+            dropped = [m for m in media if m.density is not None and m.grid_key not in kept]
+            warnings.append(f"At most {MAX_GRIDS} distinct density grids are rendered at once; "
+                            "skipped " + ", ".join(f"'{m.name}'" for m in dropped) + ".")
+            media = [m for m in media if m.density is None or m.grid_key in kept]
+            grids = {k: v for k, v in grids.items() if k in kept}
+        allowance, budget_note = grid_allowances(
+            {k: (m.density.size * 4, m.name) for k, m in grids.items()}, settings.max_grid_bytes)
+        if budget_note:
+            warnings.append(budget_note)
+        textures: dict[str, MediumGPU] = {}
+        for k, m in grids.items():
+            key = (k, allowance[k], self.gl.max_3d_texture_size)
 
-        def build():
-            grid = prepare_grid(medium.density, medium.index_to_world, self.gl.max_3d_texture_size,
-                                settings.max_grid_bytes)
-            warnings = list(grid.warnings)
-            if grid.is_empty:
-                warnings.append("The density grid is empty: only the surfaces are rendered.")
-            self.counters["grid_uploads"] += 1
-            return MediumGPU(self.gl, medium, grid), warnings
+            def build(m=m, k=k, key=key):
+                grid = prepare_grid(m.density, np.eye(4), self.gl.max_3d_texture_size, allowance[k])
+                notes = list(grid.warnings)
+                if grid.is_empty:
+                    notes.append("The density grid is empty: only the surfaces are rendered.")
+                self.counters["grid_uploads"] += 1
+                gpu = MediumGPU(self.gl, m, grid)
+                gpu.key = key
+                return _Uploaded(gpu, notes)
 
-        return self._media.get((medium.density_key, settings.max_grid_bytes), build)[0]
+            entry = self._media.get(key, build)[0]
+            tex, notes = entry.texture, entry.notes
+            warnings += [f"Medium '{m.name}': {n}" if len(grids) > 1 else n for n in notes]
+            if tex.kind == MEDIUM_GRID:
+                textures[k] = tex
+        slots = []
+        for m in media:
+            if m.density is not None and m.grid_key not in textures:
+                continue                       # an empty grid
+            slots.append(MediumSlot(m, textures.get(m.grid_key) if m.density is not None else None))
+        if not slots:
+            gpu = MediaGPU(MEDIUM_NONE, None, [], [])
+            gpu.key = ("none",)
+            return gpu, warnings
+        used = [t for t in textures.values() if any(s.grid is t for s in slots)]
+        gpu = MediaGPU(MEDIUM_GRID, None, slots, used)
+        gpu.key = tuple(_slot_key(s) for s in slots)
+        return gpu, warnings
 
-    def _plan_light(self, scene, settings, light, medium_gpu, solids) -> _LightPlan:
+    def _plan_light(self, scene, settings, light, medium_gpu, solids, seen_bounds,
+                    warnings) -> list[_LightPlan]:
+        """The faces of a light that add something, each with its maps (built or cached)."""
         gl = self.gl
-        frame = LightFrame.of(light)
         res = int(min(settings.map_resolution, gl.max_texture_size))
-        shadow = None
-        if solids.vertex_count:
-            shadow, built = self._shadows.get((light.key, scene.solids_key, res),
-                                              lambda: ShadowMap(gl, frame, solids, res))
-            self.counters["shadow_maps"] += built
         gobo = None
         if light.gobo is not None:
             gobo = self._gobos.get(light.key, lambda: gobo_texture(gl, light.gobo))[0]
+        boxes = medium_gpu.boxes
+        plans = []
+        for frame in light_faces(light, boxes, solids.bounds):
+            reached = [i for i, box in enumerate(boxes) if _reaches(light, frame, box)]
+            everywhere = medium_gpu.kind == MEDIUM_EVERYWHERE
+            if (light.kind in ("POINT", "AREA") and not reached and not everywhere
+                    and (seen_bounds is None or not face_meets_box(frame, np.eye(4), *seen_bounds))):
+                self.counters["faces_culled"] += 1
+                continue
+            shadow = None
+            if solids.vertex_count:
+                shadow, built = self._shadows.get((light.key, frame.key, scene.solids_key, res),
+                                                  lambda frame=frame: ShadowMap(gl, frame, solids, res))
+                self.counters["shadow_maps"] += built
+            light_t, tfm, tfm_sigma = LIGHT_T_NONE, None, None
+            if medium_gpu.kind == MEDIUM_GRID:
+                if reached and light.use_tfm:
+                    if settings.method == "BRUTE_FORCE":
+                        light_t = LIGHT_T_MARCH
+                    else:
+                        tfm, tfm_sigma = self._tfm(scene, settings, light, frame, medium_gpu, shadow,
+                                                   res, reached, warnings)
+                        light_t = LIGHT_T_TFM if tfm is not None else LIGHT_T_NONE
+            elif medium_gpu.kind in (MEDIUM_BOX, MEDIUM_EVERYWHERE):
+                if everywhere or reached:
+                    light_t = LIGHT_T_ANALYTIC
+            plans.append(_LightPlan(light, frame, light_t, shadow, tfm, gobo, tfm_sigma))
+        return plans
 
-        medium = scene.medium
-        light_t, tfm = LIGHT_T_NONE, None
-        if medium_gpu.kind == MEDIUM_GRID:
-            reaches = cone_meets_box(frame, medium_gpu.box_to_world, medium_gpu.lo, medium_gpu.hi)
-            if reaches and light.use_tfm:
-                if settings.method == "BRUTE_FORCE":
-                    light_t = LIGHT_T_MARCH
-                else:
-                    tfm = self._tfm(scene, settings, light, frame, medium_gpu, shadow, res)
-                    light_t = LIGHT_T_TFM if tfm is not None else LIGHT_T_NONE
-        elif medium is not None and medium_gpu.kind != 0:
-            light_t = LIGHT_T_ANALYTIC
-        return _LightPlan(light, frame, light_t, shadow, tfm, gobo)
-
-    def _tfm(self, scene, settings, light, frame, medium_gpu, shadow, res):
-        """The light's TFM, or None when its rays meet no density."""
-        medium = scene.medium
+    def _tfm(self, scene, settings, light, frame, medium_gpu, shadow, res, reached, warnings):
+        """The face's TFM and the extinction per unit of its weighted density, or (None, None)
+        when its rays meet no density. The map stores the density of the media the face reaches,
+        each weighted by its largest extinction relative to the first one's (one medium: weight
+        1, so its sigma changes rebuild nothing)."""
+        slots = medium_gpu.slots
+        ref = slots[reached[0]].medium
+        k_ref = max(float(ref.sigma_t.max()), 1e-12)
+        weights = [0.0] * len(slots)
+        for i in reached:
+            weights[i] = 1.0 if i == reached[0] else float(slots[i].medium.sigma_t.max()) / k_ref
+        chroma = {tuple(np.round(slots[i].medium.sigma_t / max(float(slots[i].medium.sigma_t.max()),
+                                                                  1e-12), 3)) for i in reached}
+        if len(chroma) > 1:
+            warnings.append(f"Light '{light.name}': the media it reaches differ in extinction colour; "
+                            f"its transmittance map uses the colour of '{ref.name}' for all.")
         n = int(min(max(settings.coefficients, 1), 16))
         if settings.density_weight is None:
             weight_key = ("auto",)
         else:
-            weight_key = ("fixed", float(settings.density_weight), float(medium.sigma_t.max()))
-        base = (light.key, scene.solids_key, medium.density_key, res, settings.light_steps)
+            weight_key = ("fixed", float(settings.density_weight), k_ref)
+        media_key = tuple((_slot_key(slots[i]), round(weights[i], 9)) for i in reached)
+        base = (light.key, frame.key, scene.solids_key, media_key, res, settings.light_steps)
         key = base + (n, weight_key)
         if settings.density_weight is None:
             alpha_d, _ = self._tfms.get(
                 base + ("alpha",),
                 lambda: _Value(largest_density_integral(self.gl, frame, medium_gpu, res,
-                                                        settings.light_steps)))
+                                                        settings.light_steps, weights)))
             alpha_d = alpha_d.value
             if alpha_d <= 0.0:
-                return None
+                return None, None
         else:
-            alpha_d = max(float(settings.density_weight), 1e-6) / max(float(medium.sigma_t.max()), 1e-12)
+            alpha_d = max(float(settings.density_weight), 1e-6) / k_ref
 
         def build():
             self.counters["tfms"] += 1
             return TransmittanceMap(self.gl, frame, medium_gpu, shadow,
-                                    res, settings.light_steps, n, alpha_d)
+                                    res, settings.light_steps, n, alpha_d, weights)
 
-        return self._tfms.get(key, build)[0]
+        return self._tfms.get(key, build)[0], ref.sigma_t
 
     def clear_maps(self) -> None:
         """Drop every cached map and buffer (compiled programs stay): the next render is full."""
@@ -313,8 +419,40 @@ class Renderer:
 
 
 @dataclass
+class _Uploaded:
+    texture: MediumGPU
+    notes: list
+
+    def release(self) -> None:
+        self.texture.release()
+
+
+@dataclass
 class _Value:
     value: float
 
     def release(self) -> None:
         pass
+
+
+def _slot_key(slot: MediumSlot) -> tuple:
+    """What a marched medium's share of a map depends on: its grid texture and placement."""
+    grid = None if slot.grid is None else slot.grid.key
+    return (grid, tuple(np.round(slot.world_to_box, 12).ravel()))
+
+
+def _reaches(light: Light, frame: LightFrame, box) -> bool:
+    """Whether the light's face reaches the box (a spot: its cone, within the frustum)."""
+    if light.kind == "SPOT":
+        return cone_meets_box(frame, *box)
+    return face_meets_box(frame, *box)
+
+
+AREA_NOTE = ("Area light '{name}' is rendered as a point at its centre with a cosine profile "
+             "(Cycles' power normalisation; brightness within about 10 % of Cycles at a distance of a "
+             "few light sizes, see docs/architecture.md).")
+
+
+def _light_notes(lights) -> list[str]:
+    """One line per light kind the renderer approximates."""
+    return [AREA_NOTE.format(name=light.name) for light in lights if light.kind == "AREA"]

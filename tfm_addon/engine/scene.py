@@ -11,7 +11,7 @@ Conventions (Blender's, so that images compare with Cycles pixel for pixel):
 from __future__ import annotations
 
 import hashlib
-from dataclasses import dataclass, field
+from dataclasses import InitVar, dataclass, field
 from functools import cached_property
 from typing import Literal
 
@@ -81,14 +81,27 @@ class Camera:
         return np.array(self.matrix_world[:3, 3])
 
 
-@dataclass(frozen=True, eq=False)
-class SpotLight:
-    """A Blender spot light of zero radius.
+LIGHT_KINDS = ("SPOT", "POINT", "SUN", "AREA")
 
-    ``power_w`` is Blender's power in watts; the radiant intensity is
-    I = power_w / (4 pi) W/sr whatever the cone. ``spot_size_rad`` is the full cone angle,
-    ``spot_blend`` Blender's blend in [0, 1]. ``gobo`` is an optional projected texture, an
-    (h, w, 3) float32 array (top row first) stretched over the square that bounds the cone.
+
+@dataclass(frozen=True, eq=False)
+class Light:
+    """A Blender light: one concept whose ``kind`` chooses its emission and the projection of
+    its maps (light.py turns it into map faces).
+
+    ``kind``:
+    - 'SPOT': a cone; ``power_w`` watts, radiant intensity I = power_w / (4 pi) W/sr whatever the
+      cone; ``spot_size_rad`` is the full cone angle, ``spot_blend`` Blender's blend in [0, 1];
+      ``gobo`` is an optional projected texture, an (h, w, 3) float32 array (top row first)
+      stretched over the square that bounds the cone. One perspective map face.
+    - 'POINT': I = power_w / (4 pi) W/sr in every direction (radius treated as 0). Six cube faces.
+    - 'AREA': approximated by a point at its centre with a cosine emission profile about its
+      normal (local -Z): I(theta) = power_w / 4 * cos(theta) W/sr (Cycles' normalisation:
+      radiance power / (4 area)). ``size_m`` = (size, size_y) in metres, for the report only.
+      Five cube faces (the back one emits nothing).
+    - 'SUN': parallel light travelling along local -Z; ``power_w`` is Blender's strength, the
+      irradiance in W/m^2 on a surface facing it. One orthographic face fitted to the media.
+    Shadows: every kind is shadowed by the solids and the media.
     """
 
     matrix_world: np.ndarray
@@ -99,8 +112,12 @@ class SpotLight:
     gobo: np.ndarray | None = None
     use_tfm: bool = True
     name: str = "Spot"
+    kind: Literal["SPOT", "POINT", "SUN", "AREA"] = "SPOT"
+    size_m: tuple[float, float] = (0.0, 0.0)
 
     def __post_init__(self):
+        if self.kind not in LIGHT_KINDS:
+            raise ValueError(f"light kind must be one of {LIGHT_KINDS}, got {self.kind!r}")
         object.__setattr__(self, "matrix_world", _matrix(self.matrix_world))
         if self.gobo is not None:
             g = np.asarray(self.gobo, dtype=np.float32)
@@ -113,7 +130,8 @@ class SpotLight:
     @cached_property
     def key(self) -> str:
         """Everything the light's maps depend on (its colour and power do not change them)."""
-        return _digest(self.matrix_world, self.spot_size_rad, self.use_tfm,
+        cone = self.spot_size_rad if self.kind == "SPOT" else None
+        return _digest(self.kind, self.matrix_world, cone, self.use_tfm,
                        None if self.gobo is None else self.gobo)
 
     @property
@@ -127,8 +145,18 @@ class SpotLight:
 
     @property
     def intensity_w_per_sr(self) -> np.ndarray:
-        """Radiant intensity per colour channel, W/sr."""
-        return np.asarray(self.color, dtype=np.float64) * self.power_w / (4.0 * np.pi)
+        """Per colour channel: the radiant intensity in W/sr (on the axis for an area light), or
+        for a sun the irradiance in W/m^2."""
+        c = np.asarray(self.color, dtype=np.float64)
+        if self.kind == "SUN":
+            return c * self.power_w
+        if self.kind == "AREA":
+            return c * self.power_w / 4.0
+        return c * self.power_w / (4.0 * np.pi)
+
+
+SpotLight = Light
+"""The former name of :class:`Light` (kind 'SPOT' by default)."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -154,6 +182,7 @@ class Medium:
     density: np.ndarray | None = None
     index_to_world: np.ndarray | None = None
     box_to_world: np.ndarray | None = None
+    name: str = "Medium"
 
     def __post_init__(self):
         if self.density is not None:
@@ -175,6 +204,12 @@ class Medium:
     def sigma_t(self) -> np.ndarray:
         """Extinction per unit density, 1/m, per channel."""
         return np.asarray(self.sigma_a, dtype=np.float64) + np.asarray(self.sigma_s, dtype=np.float64)
+
+    @cached_property
+    def grid_key(self) -> str | None:
+        """What the density texture holds: the grid's values, not where it is placed (instances
+        of one volume share it). None for a homogeneous medium."""
+        return None if self.density is None else _digest(self.density)
 
     @cached_property
     def density_key(self) -> str:
@@ -269,19 +304,35 @@ class RenderSettings:
     quality: Literal["CUSTOM", "AUTO"] = "CUSTOM"
 
 
+_UNSET = object()
+
+
 @dataclass(frozen=True, eq=False)
 class Scene:
-    """Everything to render one frame. ``ambient`` is the world colour (radiance, W/(sr m^2))."""
+    """Everything to render one frame. ``ambient`` is the world colour (radiance, W/(sr m^2)).
+
+    ``media``: every participating medium; where they overlap their coefficients add up.
+    ``medium`` (a property) is the first of them, None without media. For compatibility the
+    constructor (and ``dataclasses.replace``) also takes ``medium=``: a Medium replaces
+    ``media[0]`` (or makes ``media == (medium,)``), None removes every medium.
+    """
 
     camera: Camera
-    lights: tuple[SpotLight, ...] = ()
-    medium: Medium | None = None
+    lights: tuple[Light, ...] = ()
+    medium: InitVar[Medium | None] = _UNSET
     meshes: tuple[Mesh, ...] = ()
     ambient: RGB = (0.0, 0.0, 0.0)
+    media: tuple[Medium, ...] = ()
 
-    def __post_init__(self):
+    def __post_init__(self, medium):
         object.__setattr__(self, "lights", tuple(self.lights))
         object.__setattr__(self, "meshes", tuple(self.meshes))
+        media = tuple(m for m in self.media if m is not None)
+        if medium is None:
+            media = ()
+        elif medium is not _UNSET and (not media or medium is not media[0]):
+            media = (medium, *media[1:])
+        object.__setattr__(self, "media", media)
 
     @cached_property
     def solids_key(self) -> str:
@@ -297,3 +348,7 @@ class Scene:
     def shadow_casters(self) -> tuple[Mesh, ...]:
         """The meshes in the lights' shadow maps."""
         return tuple(m for m in self.meshes if m.cast_shadow)
+
+
+Scene.medium = property(lambda self: self.media[0] if self.media else None,
+                        doc="The first medium (None without media).")

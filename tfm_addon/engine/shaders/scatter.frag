@@ -25,26 +25,28 @@ layout(location = 1) out vec4 o_surface;
 layout(location = 2) out vec4 o_transmittance;
 
 #if HAS_LIGHT
-// Radiance arriving at p (q in light space) from the light, past solids and medium; r is set to
-// the distance to the light.
+// Radiance arriving at p (q in light space) from the light face, past solids and medium; r is
+// set to the light distance (light.py: the faces of a point light split the sphere).
 vec3 light_arriving(vec3 p, vec3 q, out float r) {
-    r = length(q);
-    float spot = q.z < 0.0 ? spot_falloff(q) : 0.0;
-    if (spot <= 0.0) return vec3(0.0);
+    r = light_distance(q);
+    if (!in_face(q)) return vec3(0.0);
+    float emit = emission_profile(q, r);
+    if (emit <= 0.0) return vec3(0.0);
     vec2 uv = light_uv(q);
-    float vis = solid_visibility(uv, r);
+    float vis = solid_visibility(shadow_uv(q), r);
     if (vis <= 0.0) return vec3(0.0);
-    return u_intensity * (spot * vis / (r * r)) * gobo(uv) * light_transmittance(p, q, r);
+    return u_intensity * (emit * vis) * gobo(uv) * light_transmittance(p, q, r);
 }
 
 // Part of the ray (o, d) inside the pyramid that bounds the light's cone.
 vec2 frustum_interval(vec3 o, vec3 d, vec2 range) {
     vec3 oq = light_space(o);
     vec3 dq = mat3(u_world_to_light) * d;
-    vec4 A = vec4(-oq.z * u_tan_half - oq.x, -oq.z * u_tan_half + oq.x,
-                  -oq.z * u_tan_half - oq.y, -oq.z * u_tan_half + oq.y);
-    vec4 B = vec4(-dq.z * u_tan_half - dq.x, -dq.z * u_tan_half + dq.x,
-                  -dq.z * u_tan_half - dq.y, -dq.z * u_tan_half + dq.y);
+    if (u_face_ortho == 1) return range;       // a sun lights the whole segment
+    vec4 A = vec4(-oq.z * u_tan_half.x - oq.x, -oq.z * u_tan_half.x + oq.x,
+                  -oq.z * u_tan_half.y - oq.y, -oq.z * u_tan_half.y + oq.y);
+    vec4 B = vec4(-dq.z * u_tan_half.x - dq.x, -dq.z * u_tan_half.x + dq.x,
+                  -dq.z * u_tan_half.y - dq.y, -dq.z * u_tan_half.y + dq.y);
     for (int i = 0; i < 4; ++i) {
         if (abs(B[i]) < 1e-12) {
             if (A[i] < 0.0) return vec2(1.0, 0.0);
@@ -97,11 +99,11 @@ void main() {
         surface += albedo * u_ambient;
 #endif
 #if HAS_LIGHT
-        vec3 l = u_light_pos - P;
-        float ndl = dot(n, normalize(l));
+        vec3 qP = light_space(P);
+        float ndl = dot(n, toward_light(P, qP, light_distance(qP)));
         if (ndl > 0.0) {
             float r;
-            surface += albedo / PI * ndl * light_arriving(P, light_space(P), r);
+            surface += albedo / PI * ndl * light_arriving(P, qP, r);
         }
 #endif
     }
@@ -109,44 +111,61 @@ void main() {
 #if MEDIUM != 0
 #if MEDIUM == 2
     vec2 seg = vec2(t_near, t_end);
+#elif MEDIUM == 3
+    vec2 seg = media_interval(o, d);
+    seg = vec2(max(seg.x, t_near), min(seg.y, t_end));
 #else
     vec2 seg = box_interval(o, d);
     seg = vec2(max(seg.x, t_near), min(seg.y, t_end));
 #endif
     if (seg.y > seg.x) {
 #if MEDIUM == 3
-        // Density grid: one march for the view transmittance and the scattered light.
+        // Every medium along the ray: one march for the view transmittance and the scattered
+        // light; overlapping media add their coefficients, the phase is their sigma_s mixture.
         float dt = (seg.y - seg.x) / float(u_view_steps);
-        float tau = 0.0;
-        float sigma_t_min = min(min(u_sigma_t.r, u_sigma_t.g), u_sigma_t.b);
-        // Positions along the ray, incrementally in box and light space.
-        vec3 ob = (u_world_to_box * vec4(o, 1.0)).xyz;
-        vec3 db = (u_world_to_box * vec4(d, 0.0)).xyz;
+        vec3 tau = vec3(0.0);
 #if HAS_LIGHT
         vec3 oq = light_space(o);
         vec3 dq = mat3(u_world_to_light) * d;
 #endif
         for (int i = 0; i < u_view_steps; ++i) {
             float t = seg.x + (float(i) + 0.5) * dt;
-            float D = density_at_index(ob + db * t);
-            if (D > 0.0) {
-                vec3 tv = exp(-u_sigma_t * (tau + 0.5 * D * dt));
+            vec3 p = o + d * t;
+            float D[N_MEDIA];
+            bool any_d = false;
+            for (int m = 0; m < N_MEDIA; ++m) {
+                D[m] = medium_density(m, p);
+                any_d = any_d || D[m] > 0.0;
+            }
+            if (any_d) {
+                vec3 st = vec3(0.0);
+                vec3 ss = vec3(0.0);
+                for (int m = 0; m < N_MEDIA; ++m) {
+                    st += u_med_sigma_t[m] * D[m];
+                    ss += u_med_sigma_s[m] * D[m];
+                }
+                vec3 tv = exp(-(tau + 0.5 * st * dt));
                 vec3 src = vec3(0.0);
 #if FIRST_PASS
-                src += u_ambient;
+                src += ss * u_ambient;
 #endif
 #if HAS_LIGHT
                 vec3 q = oq + dq * t;
                 float r;
-                vec3 li = light_arriving(o + d * t, q, r);
-                if (any(greaterThan(li, vec3(0.0)))) src += li * hg_phase(-dot(q, dq) / r, phase_g);
+                vec3 li = light_arriving(p, q, r);
+                if (any(greaterThan(li, vec3(0.0)))) {
+                    float c = -dot(light_travel(q, r), dq);
+                    vec3 ssp = vec3(0.0);
+                    for (int m = 0; m < N_MEDIA; ++m) ssp += u_med_sigma_s[m] * (D[m] * hg_phase(c, u_med_g[m]));
+                    src += li * ssp;
+                }
 #endif
-                scatter += tv * u_sigma_s * D * dt * src;
-                tau += D * dt;
-                if (sigma_t_min * tau > 14.0) break;
+                scatter += tv * dt * src;
+                tau += st * dt;
+                if (min(min(tau.r, tau.g), tau.b) > 14.0) break;
             }
         }
-        transmittance = exp(-u_sigma_t * tau);
+        transmittance = exp(-tau);
 #else
         // Homogeneous: analytic transmittance and ambient term.
         float len = seg.y - seg.x;
@@ -192,7 +211,7 @@ void main() {
                 vec3 li = light_arriving(o + d * t, q, r);
                 if (any(greaterThan(li, vec3(0.0)))) {
                     vec3 tv = exp(-u_sigma_t * (t - seg.x));
-                    scatter += tv * u_sigma_s * dt * li * hg_phase(-dot(q, dq) / r, phase_g);
+                    scatter += tv * u_sigma_s * dt * li * hg_phase(-dot(light_travel(q, r), dq), phase_g);
                 }
             }
         }
