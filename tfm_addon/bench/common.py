@@ -93,7 +93,8 @@ def scene_digest(scene: Scene) -> str:
     h = hashlib.blake2b(digest_size=12)
     cam = scene.camera
     parts = [cam.key, repr(scene.ambient)]
-    parts += [light.key + repr((light.power_w, light.color, light.spot_blend)) for light in scene.lights]
+    parts += [light.key + repr((light.power_w, light.color, light.spot_blend, light.gobo_key))
+              for light in scene.lights]
     parts += [m.key for m in scene.meshes]
     if scene.medium is not None:
         parts.append(scene.medium.key)

@@ -52,18 +52,58 @@ _BY_ID_TYPE = {
 }
 
 
-def change_for_update(id_type: str, object_type: str | None = None) -> Change:
-    """What one depsgraph update of an ID of ``id_type`` (and object type, for objects) affects."""
+_UNKNOWN = object()
+
+
+def change_for_update(id_type: str, object_type: str | None = None, is_medium: bool | None = None) -> Change:
+    """What one depsgraph update of an ID of ``id_type`` (and object type, for objects) affects.
+
+    ``is_medium``: for a mesh-like object or mesh data, whether it is (or may have become) the
+    medium; None when unknown, which flags the medium too (the conservative answer)."""
     if id_type == 'OBJECT':
-        return _BY_OBJECT_TYPE.get(object_type, Change.GEOMETRY)
-    return _BY_ID_TYPE.get(id_type, Change.NONE)
+        flags = _BY_OBJECT_TYPE.get(object_type, Change.GEOMETRY)
+        if object_type in MESH_OBJECT_TYPES and is_medium is False:
+            flags &= ~Change.MEDIUM
+        return flags
+    flags = _BY_ID_TYPE.get(id_type, Change.NONE)
+    if id_type == 'MESH' and is_medium is False:
+        flags &= ~Change.MEDIUM
+    return flags
 
 
-def changes_from_depsgraph(depsgraph) -> Change:
-    """Fold ``depsgraph.updates`` into one set of flags."""
+def _may_be_medium(ob, medium_source: str | None) -> bool:
+    """Whether a mesh-like object is the medium now or may have become one: it is (or instances)
+    the extracted medium, or one of its materials has a volume shader."""
+    if medium_source is not None:
+        if medium_source == ob.name or medium_source.endswith(f"(instanced by {ob.name})") \
+                or medium_source.startswith(f"{ob.name} (instanced by "):
+            return True
+    from . import materials
+
+    for slot in getattr(ob, "material_slots", ()):
+        out = materials.output_node(slot.material) if slot.material is not None else None
+        if out is not None and out.inputs["Volume"].is_linked:
+            return True
+    return False
+
+
+def changes_from_depsgraph(depsgraph, medium_source=_UNKNOWN) -> Change:
+    """Fold ``depsgraph.updates`` into one set of flags.
+
+    ``medium_source``: the label of the object the current medium comes from
+    (``Extraction.medium_source``, None without a medium). Given, an edit of a mesh that is not
+    the medium and has no volume shader flags the solids alone, so the grid is not re-read; a
+    mesh data update is then the solids' (Blender sends its object's update with it). Not given,
+    every mesh update flags the medium too."""
+    known = medium_source is not _UNKNOWN
     flags = Change.NONE
     for update in depsgraph.updates:
         ident = update.id
         object_type = ident.type if ident.id_type == 'OBJECT' else None
-        flags |= change_for_update(ident.id_type, object_type)
+        is_medium = None
+        if known and ident.id_type == 'MESH':
+            is_medium = False
+        elif known and object_type in MESH_OBJECT_TYPES:
+            is_medium = _may_be_medium(ident, medium_source)
+        flags |= change_for_update(ident.id_type, object_type, is_medium)
     return flags

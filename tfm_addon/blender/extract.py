@@ -318,7 +318,8 @@ def _volume_medium(instance, cache: GridCache, notes: list[str], simplify: int =
         return Medium(sigma_a=sigma_a, sigma_s=sigma_s, anisotropy=g, box_to_world=box)
     density, index_to_object = simplify_grid(grid.density, grid.index_to_object, simplify)
     return Medium(sigma_a=sigma_a, sigma_s=sigma_s, anisotropy=g, density=density,
-                  index_to_world=np.array(instance.matrix_world) @ index_to_object)
+                  index_to_world=np.array(instance.matrix_world) @ index_to_object,
+                  clipping=float(getattr(volume.render, "clipping", 0.0)))
 
 
 def _mesh_medium(instance, material, notes: list[str]) -> Medium:

@@ -35,6 +35,17 @@ def image_pixels(image) -> np.ndarray:
     return np.ascontiguousarray(rgb[::-1], dtype=np.float32)
 
 
+def cone_scale(matrix_world, name: str, warnings: list[str]) -> tuple[float, float]:
+    """(sx / sz, sy / sz) of the object's scale: Cycles scales a spot's cone by it (an ellipse
+    for a non-uniform scale); a zero scale renders a round cone with a warning."""
+    m = np.array(matrix_world, dtype=np.float64).reshape(4, 4)
+    sx, sy, sz = np.linalg.norm(m[:3, :3], axis=0)
+    if min(sx, sy, sz) <= 1e-12 * max(sx, sy, sz, 1e-300):
+        warnings.append(f"Light '{name}': a zero scale axis; rendered as a round cone")
+        return 1.0, 1.0
+    return float(sx / sz), float(sy / sz)
+
+
 def spot_light(light_object, matrix_world, warnings: list[str]) -> SpotLight:
     """The renderer's SpotLight for an evaluated spot light object placed at ``matrix_world``."""
     light = light_object.data
@@ -54,4 +65,6 @@ def spot_light(light_object, matrix_world, warnings: list[str]) -> SpotLight:
         gobo=gobo,
         use_tfm=True if settings is None else bool(settings.use_tfm),
         name=light_object.name,
+        cone_scale=cone_scale(matrix_world, light_object.name, warnings),
+        cast_shadow=bool(getattr(light, "use_shadow", True)),
     )

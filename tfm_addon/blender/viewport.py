@@ -39,7 +39,7 @@ class ViewportSession:
             self._generation += 1
         else:
             if changes is None:
-                changes = changes_from_depsgraph(depsgraph)
+                changes = changes_from_depsgraph(depsgraph, self.extraction.medium_source)
             parts = changes & ~Change.CAMERA  # the viewport's camera is the view
             if parts:
                 self.extraction = extract(depsgraph, parts=parts, previous=self.extraction)
@@ -55,7 +55,8 @@ class ViewportSession:
         if key != self._image_key:
             scene, settings = self.extraction.scene(camera), self.extraction.settings
             # The viewport shows the combined image only: skip reading back the passes.
-            self._image = get_worker().call(lambda r: r.render(scene, settings, passes=False))
+            self._image = get_worker().call(lambda r: r.render(scene, settings, passes=False,
+                                                               client="viewport"))
             self._image_key = key
             self.renders += 1
         return self._image

@@ -23,6 +23,33 @@ PROFILE_SPOT, PROFILE_UNIFORM, PROFILE_COSINE = 0, 1, 2
 """How a face's light falls off with direction: the spot cone, none, cos(theta) about an axis."""
 
 
+def _cone_scale(light: SpotLight) -> tuple[float, float]:
+    sx, sy = (float(s) if math.isfinite(s) and s > 0 else 1.0 for s in light.cone_scale)
+    return sx, sy
+
+
+def lit_half_angle(light: SpotLight) -> float:
+    """The half angle (radians, in the cone's scaled space) that the renderer lights: the spot's
+    own, or less where its widest half-width would pass the maps' MAX_HALF_ANGLE_RAD."""
+    half = 0.5 * max(float(light.spot_size_rad), 0.0)
+    widest = max(_cone_scale(light))
+    return min(half, math.atan(math.tan(MAX_HALF_ANGLE_RAD) / widest))
+
+
+def cone_warning(light: SpotLight) -> str | None:
+    """The render report's line for a cone wider than the maps cover, or None."""
+    if light.kind != "SPOT":
+        return None
+    half = 0.5 * max(float(light.spot_size_rad), 0.0)
+    lit = lit_half_angle(light)
+    if lit >= half - 1e-9:
+        return None
+    widest = math.degrees(2.0 * math.atan(math.tan(lit) * max(_cone_scale(light))))
+    return (f"Spot '{light.name}': its cone ({math.degrees(2 * half):.0f} degrees) is wider than the "
+            f"{2 * math.degrees(MAX_HALF_ANGLE_RAD):.0f} degrees its maps cover; it is rendered "
+            f"as a {widest:.0f} degree cone.")
+
+
 @dataclass(frozen=True)
 class LightFrame:
     """One projection face of a light: what the shaders need to build and read its maps.
@@ -46,6 +73,7 @@ class LightFrame:
     shadow_rect: tuple[float, float, float, float] | None = None
     far: float = 0.0
     index: int = 0
+    cone_scale: tuple[float, float] = (1.0, 1.0)
 
     @property
     def tan_half(self) -> float:
@@ -61,15 +89,17 @@ class LightFrame:
     @staticmethod
     def of(light: SpotLight) -> LightFrame:
         m = np.array(light.matrix_world, dtype=np.float64)
-        half = 0.5 * max(float(light.spot_size_rad), 0.0)
+        half = lit_half_angle(light)
         cos_half = math.cos(half)
-        t = math.tan(min(max(half, 1e-4), MAX_HALF_ANGLE_RAD))
+        scale = _cone_scale(light)
+        t = math.tan(max(half, 1e-4))
         return LightFrame(
             world_to_light=np.linalg.inv(_rigid(m)),
             position=m[:3, 3].copy(),
             cos_half=cos_half,
             spot_smooth=(1.0 - cos_half) * max(float(light.spot_blend), 0.0),
-            tan_xy=(t, t),
+            tan_xy=(t * scale[0], t * scale[1]),
+            cone_scale=scale,
         )
 
     def clip_matrix(self, near: float, far: float) -> np.ndarray:
@@ -217,7 +247,8 @@ def is_dark(light: Light) -> bool:
 
 def cone_meets_box(frame: LightFrame, box_to_world: np.ndarray, lo, hi) -> bool:
     """Whether the light's cone (within its map frustum) meets the box [lo, hi]^3 placed by
-    ``box_to_world``. Exact for a convex box and a cone of half angle below 90 degrees."""
+    ``box_to_world``. Exact for a convex box and a round cone of half angle below 90 degrees;
+    an elliptical cone is tested by the round cone around it (may say yes where it misses)."""
     lo, hi = np.asarray(lo, float), np.asarray(hi, float)
     corners_box = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1])
                             for z in (lo[2], hi[2])])
@@ -229,7 +260,7 @@ def cone_meets_box(frame: LightFrame, box_to_world: np.ndarray, lo, hi) -> bool:
     apex = inv[:3, 3]
     if np.all(apex >= lo - 1e-9) and np.all(apex <= hi + 1e-9):
         return True
-    cos_h = max(frame.cos_half, math.cos(math.atan(frame.tan_half)))
+    cos_h = math.cos(math.atan(frame.tan_half))     # the round cone around the map frustum
 
     def inside(q):
         n = np.linalg.norm(q, axis=-1)

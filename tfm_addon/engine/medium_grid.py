@@ -28,19 +28,31 @@ class PreparedGrid:
         return np.ascontiguousarray(padded.transpose(2, 1, 0))
 
 
-def prepare_grid(density: np.ndarray, index_to_world: np.ndarray, max_side: int,
-                 max_bytes: int) -> PreparedGrid:
-    """Clean a grid and downsample it until it fits ``max_side`` voxels per axis (padding
-    included) and ``max_bytes`` of float32; each change adds a warning for the user."""
-    warnings = []
+def clean_density(density: np.ndarray, clipping: float = 0.0) -> tuple[np.ndarray, list[str]]:
+    """The grid every consumer reads (upload, AUTO statistics, bounds): float32 with NaN, infinite
+    and negative values set to 0, one warning per kind found; and values below ``clipping``
+    (Cycles' volume.render.clipping, density units) set to 0 without a warning (Blender's
+    documented behaviour: lower densities are empty space)."""
     d = np.asarray(density, dtype=np.float32)
-    bad = ~np.isfinite(d)
-    negative = d < 0
-    if bad.any() or negative.any():
-        warnings.append(
-            f"The density grid had {int(bad.sum())} NaN/infinite and {int(negative.sum())} negative "
-            "values; they were set to 0.")
-        d = np.where(bad | negative, np.float32(0.0), d)
+    warnings = []
+    finite = np.isfinite(d)
+    if finite.all() and (d.size == 0 or float(d.min()) >= 0.0) and clipping <= 0.0:
+        return d, warnings
+    kinds = (("NaN", np.isnan(d)), ("infinite", np.isinf(d)), ("negative", finite & (d < 0)))
+    for name, mask in kinds:
+        count = int(np.count_nonzero(mask))
+        if count:
+            warnings.append(f"The density grid has {count} {name} voxel{'s' if count > 1 else ''}; "
+                            "rendered as 0.")
+    keep = finite & (d >= max(float(clipping), 0.0)) & (d > 0)
+    return np.where(keep, d, np.float32(0.0)), warnings
+
+
+def prepare_grid(density: np.ndarray, index_to_world: np.ndarray, max_side: int,
+                 max_bytes: int, clipping: float = 0.0) -> PreparedGrid:
+    """Clean a grid (``clean_density``) and downsample it until it fits ``max_side`` voxels per
+    axis (padding included) and ``max_bytes`` of float32; each change adds a warning."""
+    d, warnings = clean_density(density, clipping)
     m = np.asarray(index_to_world, dtype=np.float64)
     if d.size:
         side_factor = max(math.ceil(n / (max_side - 2)) for n in d.shape)

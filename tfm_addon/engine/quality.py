@@ -24,7 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .light import LightFrame, is_dark
-from .medium_grid import downsample
+from .medium_grid import clean_density, downsample
 from .scene import RenderSettings, Scene
 
 # (largest optical depth, coefficients): the first row whose depth is >= tau applies.
@@ -162,9 +162,10 @@ def _cached(key, build):
 def _grid_summary(m) -> tuple[np.ndarray, int, float]:
     """(the grid block-averaged to <= _COARSE_SIDE a side and padded by one voxel, the factor,
     the sharpness)."""
-    f = max(1, math.ceil(max(m.density.shape) / _COARSE_SIDE))
-    coarse = np.pad(downsample(np.asarray(m.density, np.float32), f) if f > 1 else m.density, 1)
-    return coarse, f, sharpness(m.density)
+    density, _ = clean_density(m.density, m.clipping)      # what the renderer uploads
+    f = max(1, math.ceil(max(density.shape) / _COARSE_SIDE))
+    coarse = np.pad(downsample(density, f) if f > 1 else density, 1)
+    return coarse, f, sharpness(density)
 
 
 def _light_part(m, light, grid) -> tuple[float, float]:

@@ -12,7 +12,7 @@ import numpy as np
 from .camera import view_plane
 from .errors import RenderCancelled
 from .gl_context import GLContext
-from .light import LightFrame, cone_meets_box, face_meets_box, is_dark, light_faces
+from .light import LightFrame, cone_meets_box, cone_warning, face_meets_box, is_dark, light_faces
 from .medium_grid import grid_allowances, prepare_grid
 from .output import RenderOutput
 from .passes.bindings import (
@@ -26,6 +26,7 @@ from .passes.bindings import (
     MediumGPU,
     MediumSlot,
     gobo_texture,
+    pass_state,
 )
 from .passes.gbuffer import GBuffer
 from .passes.probe import probe_light_transmittance
@@ -34,6 +35,7 @@ from .passes.scattering import (
     LIGHT_T_MARCH,
     LIGHT_T_NONE,
     LIGHT_T_TFM,
+    LIGHT_T_UNIT,
     ScatteringTargets,
     run_light_pass,
 )
@@ -51,26 +53,58 @@ def effective_settings(scene: Scene, settings: RenderSettings | None) -> RenderS
 
 
 class _Cache:
-    """GPU resources by the key of what they depend on; what a frame did not use is released."""
+    """GPU resources by the key of what they depend on, shared by the renderer's clients
+    (viewport, final, preview...). An entry lives while the last completed frame of any client
+    used it: a frame releases what neither it nor another client's last frame used, so one
+    client never evicts another's maps. An entry is stored only once its build returned
+    (complete); ``fresh`` holds the keys built by the frame in flight, which ``drop_fresh``
+    releases when that frame fails."""
 
     def __init__(self):
         self.items: dict = {}
         self.used: set = set()
+        self.fresh: set = set()
+        self.kept: dict[str, set] = {}       # client -> keys its last completed frame used
 
     def get(self, key, build: Callable):
         self.used.add(key)
         if key not in self.items:
-            self.items[key] = build()
-            return self.items[key], True
+            item = build()
+            self.items[key] = item
+            self.fresh.add(key)
+            return item, True
         return self.items[key], False
 
-    def sweep(self) -> None:
+    def drop_fresh(self) -> None:
+        for key in self.fresh:
+            item = self.items.pop(key, None)
+            if hasattr(item, "release"):
+                item.release()
+        self.fresh.clear()
+
+    def sweep(self, client: str | None = None) -> None:
+        """End a frame of ``client``: keep what it used, release what no client's last frame
+        used. ``client=None`` forgets every client (``clear``)."""
+        if client is None:
+            self.kept.clear()
+        else:
+            self.kept[client] = set(self.used)
+        self.used.clear()
+        self.fresh.clear()
+        self._release_unkept()
+
+    def forget(self, client: str) -> None:
+        """Release what only ``client`` kept (it will render no more frames for now)."""
+        self.kept.pop(client, None)
+        self._release_unkept()
+
+    def _release_unkept(self) -> None:
+        live = set().union(*self.kept.values())
         for key in list(self.items):
-            if key not in self.used:
+            if key not in live:
                 item = self.items.pop(key)
                 if hasattr(item, "release"):
                     item.release()
-        self.used.clear()
 
     def clear(self) -> None:
         self.used.clear()
@@ -123,16 +157,26 @@ class Renderer:
 
     def render(self, scene: Scene, settings: RenderSettings | None = None,
                cancel: Callable[[], bool] | None = None,
-               progress: Callable[[float], None] | None = None, passes: bool = True) -> RenderOutput:
+               progress: Callable[[float], None] | None = None, passes: bool = True,
+               client: str = "final") -> RenderOutput:
         """Render ``scene``; raises RenderCancelled when ``cancel()`` turns true between passes.
-        ``passes=False`` reads back the combined image alone (the viewport's case)."""
+        ``passes=False`` reads back the combined image alone (the viewport's case). ``client``
+        names who asks ('viewport', 'final', 'preview', ...): each client's last frame keeps its
+        maps, whatever the other clients render in between."""
         gl = self.gl
         gl.check_thread()
         settings = effective_settings(scene, settings)
         with gl.ctx:     # current for the call, whatever other context the thread made current
-            return self._render(scene, settings, cancel, progress, passes)
+            return self._render(scene, settings, cancel, progress, passes, client)
 
-    def _render(self, scene, settings, cancel, progress, want_passes) -> RenderOutput:
+    def forget_client(self, client: str) -> None:
+        """Release the maps that only ``client``'s last frame kept."""
+        if self._gl is not None:
+            with self._gl.ctx:
+                for cache in self._caches:
+                    cache.forget(client)
+
+    def _render(self, scene, settings, cancel, progress, want_passes, client) -> RenderOutput:
         gl = self.gl
         t_start = time.perf_counter()
         timings: dict[str, float] = {}
@@ -199,12 +243,25 @@ class Renderer:
             combined = targets.read_combined()
             passes = targets.read_passes() if want_passes else {}
             timings["readback"] = time.perf_counter() - t0
-        except BaseException:
+        except RenderCancelled:
+            # Every pass finished (ctx.finish) before the check that cancelled: what the frame
+            # cached is complete, and kept for this client's next frame (which, under latest-wins
+            # cancellation, likely reuses it) along with what its last completed frame used.
             for cache in self._caches:
+                cache.kept.setdefault(client, set()).update(cache.used)
+                cache.used.clear()
+                cache.fresh.clear()
+            raise
+        except BaseException:
+            # A pass failed midway: drop whatever this frame built, it may be partial.
+            for cache in self._caches:
+                cache.drop_fresh()
                 cache.used.clear()
             raise
+        finally:
+            pass_state(gl.ctx)
         for cache in self._caches:
-            cache.sweep()
+            cache.sweep(client)
         self.counters["renders"] += 1
         timings["total"] = time.perf_counter() - t_start
         if not scene.lights:
@@ -214,6 +271,7 @@ class Renderer:
             warnings.append("Every light has zero power or colour (or a spot no cone angle): no "
                             "light beam.")
         warnings += _light_notes(lights)
+        warnings += [w for w in map(cone_warning, lights) if w]
         return RenderOutput(combined=combined, passes=passes, warnings=warnings, timings_s=timings)
 
     def light_transmittance_at(self, scene: Scene, settings: RenderSettings | None, light_index: int,
@@ -248,6 +306,7 @@ class Renderer:
                 light_t=plan.light_t, tfm=plan.tfm, tfm_sigma_t=plan.tfm_sigma_t)
         for cache in self._caches:
             cache.used.clear()          # a probe keeps every map for the next render
+            cache.fresh.clear()
         return out
 
     def _solid_set(self, meshes) -> SolidsBuffer:
@@ -296,7 +355,8 @@ class Renderer:
             key = (k, allowance[k], self.gl.max_3d_texture_size)
 
             def build(m=m, k=k, key=key):
-                grid = prepare_grid(m.density, np.eye(4), self.gl.max_3d_texture_size, allowance[k])
+                grid = prepare_grid(m.density, np.eye(4), self.gl.max_3d_texture_size, allowance[k],
+                                    m.clipping)
                 notes = list(grid.warnings)
                 if grid.is_empty:
                     notes.append("The density grid is empty: only the surfaces are rendered.")
@@ -331,7 +391,8 @@ class Renderer:
         res = int(min(settings.map_resolution, gl.max_texture_size))
         gobo = None
         if light.gobo is not None:
-            gobo = self._gobos.get(light.key, lambda: gobo_texture(gl, light.gobo))[0]
+            gobo, built = self._gobos.get(light.gobo_key, lambda: gobo_texture(gl, light.gobo))
+            self.counters["gobos"] += built
         boxes = medium_gpu.boxes
         plans = []
         for frame in light_faces(light, boxes, solids.bounds):
@@ -342,13 +403,15 @@ class Renderer:
                 self.counters["faces_culled"] += 1
                 continue
             shadow = None
-            if solids.vertex_count:
+            if solids.vertex_count and light.cast_shadow:
                 shadow, built = self._shadows.get((light.key, frame.key, scene.solids_key, res),
                                                   lambda frame=frame: ShadowMap(gl, frame, solids, res))
                 self.counters["shadow_maps"] += built
             light_t, tfm, tfm_sigma = LIGHT_T_NONE, None, None
             if medium_gpu.kind == MEDIUM_GRID:
-                if reached and light.use_tfm:
+                if reached and not light.cast_shadow:
+                    light_t = LIGHT_T_UNIT          # nothing shadows it, the media neither
+                elif reached and light.use_tfm:
                     if settings.method == "BRUTE_FORCE":
                         light_t = LIGHT_T_MARCH
                     else:
@@ -357,7 +420,7 @@ class Renderer:
                         light_t = LIGHT_T_TFM if tfm is not None else LIGHT_T_NONE
             elif medium_gpu.kind in (MEDIUM_BOX, MEDIUM_EVERYWHERE):
                 if everywhere or reached:
-                    light_t = LIGHT_T_ANALYTIC
+                    light_t = LIGHT_T_ANALYTIC if light.cast_shadow else LIGHT_T_UNIT
             plans.append(_LightPlan(light, frame, light_t, shadow, tfm, gobo, tfm_sigma))
         return plans
 
@@ -385,6 +448,13 @@ class Renderer:
         media_key = tuple((_slot_key(slots[i]), round(weights[i], 9)) for i in reached)
         base = (light.key, frame.key, scene.solids_key, media_key, res, settings.light_steps)
         key = base + (n, weight_key)
+        if n % 4 == 0 and key not in self._tfms.items:
+            wider = [k for k in self._tfms.items
+                     if k[:len(base)] == base and len(k) == len(key) and k[-1] == weight_key
+                     and k[-2] > n and k[-2] % 4 == 0]
+            if wider:
+                return (_FewerCoefficients(self._tfms.get(min(wider, key=lambda k: k[-2]), None)[0], n),
+                        ref.sigma_t)
         if settings.density_weight is None:
             alpha_d, _ = self._tfms.get(
                 base + ("alpha",),
@@ -416,6 +486,20 @@ class Renderer:
             self.clear_maps()
             self._gl.release()
             self._gl = None
+
+
+class _FewerCoefficients:
+    """A TFM read with its first ``n`` coefficients (n a multiple of 4)."""
+
+    def __init__(self, tfm: TransmittanceMap, n: int):
+        self.tfm, self.coefficients = tfm, n
+
+    def defines(self, tfm_filter: str) -> dict[str, int]:
+        return {**self.tfm.defines(tfm_filter), "N_COEFF": self.coefficients,
+                "N_TARGETS": self.coefficients // 4}
+
+    def bind(self, prog, sigma_t) -> None:
+        self.tfm.bind(prog, sigma_t)
 
 
 @dataclass

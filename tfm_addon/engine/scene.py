@@ -102,6 +102,11 @@ class Light:
     - 'SUN': parallel light travelling along local -Z; ``power_w`` is Blender's strength, the
       irradiance in W/m^2 on a surface facing it. One orthographic face fitted to the media.
     Shadows: every kind is shadowed by the solids and the media.
+    Spot only: ``cone_scale`` = (sx / sz, sy / sz) of the light object's scale: Cycles renders a
+    spot of a non-uniformly scaled object as an elliptical cone whose half-widths at unit
+    distance are tan(spot_size / 2) times these. ``cast_shadow`` False (Blender's
+    ``use_shadow``): nothing shadows the light, neither the solids nor the media (as Cycles
+    renders it), for every kind.
     """
 
     matrix_world: np.ndarray
@@ -114,6 +119,8 @@ class Light:
     name: str = "Spot"
     kind: Literal["SPOT", "POINT", "SUN", "AREA"] = "SPOT"
     size_m: tuple[float, float] = (0.0, 0.0)
+    cone_scale: tuple[float, float] = (1.0, 1.0)
+    cast_shadow: bool = True
 
     def __post_init__(self):
         if self.kind not in LIGHT_KINDS:
@@ -129,10 +136,16 @@ class Light:
 
     @cached_property
     def key(self) -> str:
-        """Everything the light's maps depend on (its colour and power do not change them)."""
-        cone = self.spot_size_rad if self.kind == "SPOT" else None
-        return _digest(self.kind, self.matrix_world, cone, self.use_tfm,
-                       None if self.gobo is None else self.gobo)
+        """Everything the light's shadow maps and TFMs depend on: its kind and geometry
+        (placement, cone). Colour, power, blend, gobo and use_tfm do not change what those maps
+        hold."""
+        cone = (self.spot_size_rad, tuple(float(s) for s in self.cone_scale)) if self.kind == "SPOT" else None
+        return _digest(self.kind, self.matrix_world, cone)
+
+    @cached_property
+    def gobo_key(self) -> str | None:
+        """What the gobo texture depends on (None without a gobo)."""
+        return None if self.gobo is None else _digest(self.gobo)
 
     @property
     def position(self) -> np.ndarray:
@@ -174,6 +187,10 @@ class Medium:
     Homogeneous (``density`` is None): D = 1 inside ``box_to_world``'s image of the cube
     [-1, 1]^3, or everywhere when ``box_to_world`` is None (fog filling the scene, up to the
     camera's clip_end).
+
+    ``clipping``: grid densities below it are empty (Blender's volume ``render.clipping``, which
+    Cycles applies; 0.001 by default in Blender, 0 here). NaN, infinite and negative densities are
+    rendered as 0 (``medium_grid.clean_density``, with a warning each).
     """
 
     sigma_a: RGB = (0.1, 0.1, 0.1)
@@ -183,6 +200,7 @@ class Medium:
     index_to_world: np.ndarray | None = None
     box_to_world: np.ndarray | None = None
     name: str = "Medium"
+    clipping: float = 0.0
 
     def __post_init__(self):
         if self.density is not None:
@@ -209,14 +227,14 @@ class Medium:
     def grid_key(self) -> str | None:
         """What the density texture holds: the grid's values, not where it is placed (instances
         of one volume share it). None for a homogeneous medium."""
-        return None if self.density is None else _digest(self.density)
+        return None if self.density is None else _digest(self.density, float(self.clipping))
 
     @cached_property
     def density_key(self) -> str:
         """What the light-side maps depend on: the density field, not sigma."""
         if self.density is None:
             return _digest("homogeneous", self.box_to_world)
-        return _digest(self.density, self.index_to_world)
+        return _digest(self.density, self.index_to_world, float(self.clipping))
 
     @cached_property
     def key(self) -> str:

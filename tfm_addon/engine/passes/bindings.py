@@ -23,6 +23,22 @@ GRID_UNITS = (2, 11, 12, 13)
 MAX_GRIDS = len(GRID_UNITS)
 
 
+def pass_state(ctx, *, depth_test: bool = False, blend: bool = False) -> None:
+    """Set every fixed-function state a pass depends on, whatever the previous pass (or a
+    cancelled frame) left: blending (additive when on), depth test, face culling."""
+    ctx.disable(ctx.CULL_FACE)
+    if depth_test:
+        ctx.enable(ctx.DEPTH_TEST)
+    else:
+        ctx.disable(ctx.DEPTH_TEST)
+    if blend:
+        ctx.enable(ctx.BLEND)
+        ctx.blend_func = ctx.ONE, ctx.ONE
+        ctx.blend_equation = ctx.FUNC_ADD
+    else:
+        ctx.disable(ctx.BLEND)
+
+
 def bind_units(prog) -> None:
     for name, unit in UNIT.items():
         if name in prog:
@@ -189,6 +205,7 @@ def bind_light(prog, frame: LightFrame, intensity, map_res: int, shadow, gobo) -
                  u_face_ortho=int(frame.ortho), u_profile=int(frame.profile),
                  u_emit_axis=tuple(float(a) for a in frame.emit_axis),
                  u_shadow_rect=tuple(float(x) for x in rect),
+                 u_cone_scale=tuple(float(s) for s in frame.cone_scale),
                  u_map_res=float(map_res), u_has_shadow=int(shadow is not None),
                  u_has_gobo=int(gobo is not None))
     if shadow is not None:

@@ -5,6 +5,7 @@ from __future__ import annotations
 from ..camera import ViewPlane, camera_to_world, clip_matrix
 from ..gl_context import GLContext, set_matrix, set_uniforms
 from ..scene import Camera
+from .bindings import pass_state
 from .solids import FORMAT, SolidsBuffer
 
 
@@ -22,9 +23,9 @@ class GBuffer:
         depth = ctx.depth_renderbuffer(size)
         fbo = ctx.framebuffer([self.albedo_distance, self.normal_hit], depth)
         fbo.use()
+        pass_state(ctx, depth_test=True)
         fbo.clear(0, 0, 0, 0, depth=1.0)
         if solids.vertex_count:
-            ctx.enable(ctx.DEPTH_TEST)
             prog = gl.program("gbuffer.vert", "gbuffer.frag")
             c2w = camera_to_world(camera)
             set_matrix(prog, "u_camera_clip", clip_matrix(camera))
@@ -33,8 +34,8 @@ class GBuffer:
             vao = ctx.vertex_array(prog, [(solids.vbo, FORMAT, "in_position", "in_normal", "in_albedo",
                                             "in_holdout")])
             vao.render(vertices=solids.vertex_count)
-            ctx.disable(ctx.DEPTH_TEST)
             vao.release()
+        pass_state(ctx)
         fbo.release()
         depth.release()
 

@@ -6,7 +6,7 @@ import numpy as np
 
 from ..gl_context import GLContext, set_uniforms
 from ..scene import Medium, RenderSettings
-from .bindings import MEDIUM_GRID, MediaGPU, bind_light, bind_units
+from .bindings import MEDIUM_GRID, MediaGPU, bind_light, bind_units, pass_state
 
 POINTS_UNIT = 10
 
@@ -32,6 +32,7 @@ def probe_light_transmittance(
     dst = gl.ctx.texture((n, 1), 4, dtype="f4")
     fbo = gl.ctx.framebuffer([dst])
     fbo.use()
+    pass_state(gl.ctx)
     defines = {"MEDIUM": medium_gpu.kind, "LIGHT_T": light_t}
     if medium_gpu.kind == MEDIUM_GRID:
         defines.update(medium_gpu.defines())

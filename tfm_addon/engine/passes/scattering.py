@@ -7,10 +7,11 @@ import numpy as np
 from ..camera import ViewPlane, camera_to_world
 from ..gl_context import GLContext, set_matrix, set_uniforms
 from ..scene import Camera, Medium, RenderSettings
-from .bindings import MEDIUM_GRID, MEDIUM_NONE, MediaGPU, bind_light, bind_units
+from .bindings import MEDIUM_GRID, MEDIUM_NONE, MediaGPU, bind_light, bind_units, pass_state
 
 # How a light pass finds the transmittance from the light (the shader's LIGHT_T).
-LIGHT_T_TFM, LIGHT_T_MARCH, LIGHT_T_ANALYTIC, LIGHT_T_NONE = 0, 1, 2, 3
+# LIGHT_T_UNIT: the light reaches the medium but its transmittance is taken as 1 ('UNSHADOWED').
+LIGHT_T_TFM, LIGHT_T_MARCH, LIGHT_T_ANALYTIC, LIGHT_T_NONE, LIGHT_T_UNIT = 0, 1, 2, 3, 4
 
 
 class ScatteringTargets:
@@ -28,14 +29,12 @@ class ScatteringTargets:
 
     def begin(self, ctx) -> None:
         self.fbo.use()
+        pass_state(ctx, blend=True)
         self.fbo.clear(0, 0, 0, 0)
-        ctx.enable(ctx.BLEND)
-        ctx.blend_func = ctx.ONE, ctx.ONE
-        ctx.blend_equation = ctx.FUNC_ADD
 
     def compose(self, gl: GLContext) -> None:
         """Write the combined image (blending off)."""
-        gl.ctx.disable(gl.ctx.BLEND)
+        pass_state(gl.ctx)
         self.combined_fbo.use()
         prog = gl.program("fullscreen.vert", "composite.frag")
         for unit, (name, tex) in enumerate(zip(("u_scatter", "u_surface", "u_transmittance"),
@@ -90,6 +89,7 @@ def run_light_pass(gl: GLContext, *, camera: Camera, plane: ViewPlane, medium: M
     if medium_kind == MEDIUM_GRID:
         defines.update(medium_gpu.defines())
     prog = gl.program("fullscreen.vert", "scatter.frag", defines)
+    pass_state(gl.ctx, blend=True)          # adds into the targets ScatteringTargets.begin bound
     bind_units(prog)
     camera_uniforms(prog, camera, plane)
     medium_gpu.bind(prog)

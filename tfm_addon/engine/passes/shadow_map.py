@@ -6,6 +6,7 @@ import numpy as np
 
 from ..gl_context import GLContext, set_matrix, set_uniforms
 from ..light import LightFrame
+from .bindings import pass_state
 from .solids import POSITION_ONLY, SolidsBuffer
 
 
@@ -23,15 +24,16 @@ class ShadowMap:
         self.depth.repeat_x = self.depth.repeat_y = False
         fbo = ctx.framebuffer([self.texture], self.depth)
         fbo.use()
-        ctx.enable(ctx.DEPTH_TEST)
+        pass_state(ctx, depth_test=True)
         fbo.clear(1e30, 0, 0, 0, depth=1.0)
         lo, hi = solids.bounds
         box = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
         if frame.ortho:
-            far = frame.far * 1.01 + 1e-3
+            far = frame.far * 1.01
         else:
-            far = float(np.linalg.norm(box - frame.position, axis=1).max()) * 1.01 + 1e-3
-        near = max(far * 1e-5, 1e-4)
+            far = float(np.linalg.norm(box - frame.position, axis=1).max()) * 1.01
+        far = far if far > 0.0 else 1.0         # scale-free: near and far follow the scene
+        near = far * 1e-5
         self.far = far
         prog = gl.program("shadow_map.vert", "shadow_map.frag")
         set_matrix(prog, "u_light_clip", frame.clip_matrix(near, far))
@@ -39,7 +41,7 @@ class ShadowMap:
         set_uniforms(prog, u_light_pos=tuple(frame.position), u_shadow_far=far, u_face_ortho=int(frame.ortho))
         vao = ctx.vertex_array(prog, [(solids.vbo, POSITION_ONLY, "in_position")])
         vao.render(vertices=solids.vertex_count)
-        ctx.disable(ctx.DEPTH_TEST)
+        pass_state(ctx)
         vao.release()
         fbo.release()
 

@@ -8,7 +8,7 @@ import numpy as np
 
 from ..gl_context import GLContext, set_uniforms
 from ..light import LightFrame
-from .bindings import MediaGPU, bind_light, bind_units
+from .bindings import MediaGPU, bind_light, bind_units, pass_state
 
 MAX_COEFFICIENTS = 16
 
@@ -22,6 +22,7 @@ def largest_density_integral(gl: GLContext, frame: LightFrame, medium: MediaGPU,
     tex = ctx.texture((res, res), 4, dtype="f4")
     fbo = ctx.framebuffer([tex])
     fbo.use()
+    pass_state(ctx)
     prog = gl.program("fullscreen.vert", "tfm_build.frag", {"OPTICAL_DEPTH_ONLY": 1, "N_COEFF": 1,
                                                             "N_TARGETS": 1, **medium.defines()})
     bind_units(prog)
@@ -54,6 +55,7 @@ class TransmittanceMap:
             t.repeat_x = t.repeat_y = False
         fbo = ctx.framebuffer([self.krange, *self.coef])
         fbo.use()
+        pass_state(ctx)
         prog = gl.program("fullscreen.vert", "tfm_build.frag", {"N_COEFF": n, "N_TARGETS": targets,
                                                                 **medium.defines()})
         bind_units(prog)

@@ -117,6 +117,7 @@ uniform int u_face_ortho;        // 1: orthographic face (a sun)
 uniform int u_profile;           // 0 spot cone, 1 uniform, 2 cosine about u_emit_axis
 uniform vec3 u_emit_axis;        // face space
 uniform vec4 u_shadow_rect;      // ortho: face-space centre and half extents of the shadow map
+uniform vec2 u_cone_scale;       // an elliptical cone's x, y scale (object scale x/z, y/z)
 uniform float u_map_res;         // texels per side of the shadow map and TFM
 uniform int u_has_shadow;
 uniform sampler2D u_shadow;      // distance from the light to the nearest solid, metres
@@ -161,7 +162,8 @@ float emission_profile(vec3 q, float r) {
 }
 
 float spot_falloff(vec3 q) {
-    float c = -q.z / max(length(q), 1e-20);
+    vec3 s = vec3(q.xy / u_cone_scale, q.z);       // Cycles' elliptical cone: scaled, then round
+    float c = -s.z / max(length(s), 1e-30);
     if (c <= u_cos_half) return 0.0;
     if (u_spot_smooth <= 0.0) return 1.0;
     float x = clamp((c - u_cos_half) / u_spot_smooth, 0.0, 1.0);
@@ -170,11 +172,15 @@ float spot_falloff(vec3 q) {
 
 // Fraction of the light reaching distance r along the map direction uv past the solids:
 // the hardware's 2x2 percentage-closer filter on the linear depth (distance / far).
+// The bias is scale-free: g_bias_texels texel footprints at r, plus 2e-4 of the map's depth
+// range. A lit surface needs a few footprints (else it shadows itself); a point of the medium is
+// no occluder and needs none (a larger bias lets light leak through a solid just before it).
+float g_bias_texels = 0.0;
 float solid_visibility(vec2 uv, float r) {
     if (u_has_shadow == 0) return 1.0;
     if (u_face_ortho == 1 && (any(lessThan(uv, vec2(0.0))) || any(greaterThan(uv, vec2(1.0))))) return 1.0;
     float footprint = u_face_ortho == 1 ? max(u_shadow_rect.z, u_shadow_rect.w) : r * max(u_tan_half.x, u_tan_half.y);
-    float bias = 3.0 * footprint / u_map_res + 2e-3;
+    float bias = g_bias_texels * footprint / u_map_res + 2e-4 * u_shadow_far;
     return texture(u_shadow_depth, vec3(uv, (r - bias) / u_shadow_far));
 }
 

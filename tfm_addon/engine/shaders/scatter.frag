@@ -103,7 +103,9 @@ void main() {
         float ndl = dot(n, toward_light(P, qP, light_distance(qP)));
         if (ndl > 0.0) {
             float r;
+            g_bias_texels = 3.0;    // the solid's own shadow-map texels must not shadow it
             surface += albedo / PI * ndl * light_arriving(P, qP, r);
+            g_bias_texels = 0.0;
         }
 #endif
     }
