@@ -18,7 +18,7 @@ import sys
 import time
 from pathlib import Path
 
-SECTIONS = ("methods", "table1", "sweeps", "blender", "issue2")
+SECTIONS = ("methods", "table1", "sweeps", "blender", "issue2", "lights")
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -119,6 +119,12 @@ def main(argv: list[str] | None = None) -> int:
         issue2_text = renderer_bench.report(issue2_rows)
         (out / "renderer.md").write_text(issue2_text + "\n")
         progress.step("issue 2 table")
+    if "lights" in sections:
+        from . import lights_bench
+
+        size = lights_bench.QUICK if args.quick else lights_bench.PAPER if args.gpu else lights_bench.FULL
+        lights_rows = lights_bench.run(size, log=progress.log)
+        (out / "lights.md").write_text(lights_bench.report(lights_rows) + "\n")
     progress.close()
     text = summary.write(out / "summary.md", config=config, machine=machine,
                          seconds=time.perf_counter() - t_start, rows=rows, checks=checks, table1=table1_rows,

@@ -13,7 +13,7 @@ The model (units: metres, watts, radians; colours are scene-linear RGB):
   along the light ray) plus the unattenuated ambient ``albedo * ambient``.
 - Lights: spots of intensity ``color * power / (4 pi)`` W/sr with Blender's smoothstep cone
   falloff and an optional gobo; point lights of the same intensity in every direction; area
-  lights as a point at their centre of intensity ``color * power / 4 * cos(theta)`` W/sr about
+  lights as a point at their centre of intensity ``color * power / pi * cos(theta)`` W/sr about
   their -Z; all with inverse-square falloff. Suns: parallel light along their -Z, irradiance
   ``color * strength`` W/m^2, shadowed along the whole ray toward the sun.
 - Media: each ``sigma = D(p) * sigma_per_density``; D trilinear in a grid that fades to zero one
@@ -321,7 +321,7 @@ class _Light:
         if self.kind == "SUN":
             self.intensity = c * light.power_w
         elif self.kind == "AREA":
-            self.intensity = c * light.power_w / 4.0
+            self.intensity = c * light.power_w / math.pi
         else:
             self.intensity = c * light.power_w / (4.0 * math.pi)
         self.cos_half = math.cos(light.spot_size_rad / 2.0)

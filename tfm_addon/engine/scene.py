@@ -96,8 +96,9 @@ class Light:
       stretched over the square that bounds the cone. One perspective map face.
     - 'POINT': I = power_w / (4 pi) W/sr in every direction (radius treated as 0). Six cube faces.
     - 'AREA': approximated by a point at its centre with a cosine emission profile about its
-      normal (local -Z): I(theta) = power_w / 4 * cos(theta) W/sr (Cycles' normalisation:
-      radiance power / (4 area)). ``size_m`` = (size, size_y) in metres, for the report only.
+      normal (local -Z): I(theta) = power_w / pi * cos(theta) W/sr, so that it emits power_w
+      watts (measured against Cycles: its brightness matches this normalisation, not P / 4).
+      ``size_m`` = (size, size_y) in metres, for the report only.
       Five cube faces (the back one emits nothing).
     - 'SUN': parallel light travelling along local -Z; ``power_w`` is Blender's strength, the
       irradiance in W/m^2 on a surface facing it. One orthographic face fitted to the media.
@@ -164,7 +165,7 @@ class Light:
         if self.kind == "SUN":
             return c * self.power_w
         if self.kind == "AREA":
-            return c * self.power_w / 4.0
+            return c * self.power_w / np.pi
         return c * self.power_w / (4.0 * np.pi)
 
 
