@@ -271,6 +271,7 @@ class Renderer:
             warnings.append("Every light has zero power or colour (or a spot no cone angle): no "
                             "light beam.")
         warnings += _light_notes(lights)
+        warnings = list(dict.fromkeys(warnings))       # once each, however many faces said it
         warnings += [w for w in map(cone_warning, lights) if w]
         return RenderOutput(combined=combined, passes=passes, warnings=warnings, timings_s=timings)
 
