@@ -533,9 +533,9 @@ def _reaches(light: Light, frame: LightFrame, box) -> bool:
     return face_meets_box(frame, *box)
 
 
-AREA_NOTE = ("Area light '{name}' is rendered as a point at its centre with a cosine profile "
-             "(Cycles' power normalisation; brightness within about 10 % of Cycles at a distance of a "
-             "few light sizes, see docs/architecture.md).")
+AREA_NOTE = ("Area light '{name}' is rendered as a point at its centre with a cosine profile, "
+             "without soft shadows (measured within 4 % of Cycles' brightness for a light no larger "
+             "than its distance to the medium; docs/architecture.md).")
 
 
 def _light_notes(lights) -> list[str]:
