@@ -18,7 +18,7 @@ import sys
 import time
 from pathlib import Path
 
-SECTIONS = ("methods", "table1", "sweeps", "blender", "issue2", "lights")
+SECTIONS = ("methods", "table1", "sweeps", "blender", "issue2", "emission", "lights")
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -119,6 +119,13 @@ def main(argv: list[str] | None = None) -> int:
         issue2_text = renderer_bench.report(issue2_rows)
         (out / "renderer.md").write_text(issue2_text + "\n")
         progress.step("issue 2 table")
+    if "emission" in sections:
+        from . import emission_bench
+
+        size = (emission_bench.QUICK if args.quick else emission_bench.PAPER if args.gpu
+                else emission_bench.FULL)
+        emission_rows = emission_bench.run(size, log=progress.log)
+        (out / "emission.md").write_text(emission_bench.report(emission_rows) + "\n")
     if "lights" in sections:
         from . import lights_bench
 

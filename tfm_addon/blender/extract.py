@@ -12,9 +12,10 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from ..engine.medium_grid import downsample
-from ..engine.scene import Camera, Medium, Mesh, RenderSettings, Scene, SpotLight
+from ..engine.scene import Camera, GridValue, Medium, Mesh, RenderSettings, Scene, SpotLight
+from ..engine.scene import _digest as digest
+from . import fluid, materials, meshes
 from . import lights as lights_module
-from . import materials, meshes
 from .camera import camera_from_object
 from .changes import Change
 from .volumes import GridCache, NoGridThisFrame, VolumeReadError, grid_cache
@@ -197,6 +198,7 @@ def _walk_instances(depsgraph, parts: Change, cache: GridCache) -> dict:
     arrays: dict = {}  # evaluated mesh data -> (vertices, triangles), shared by its instances
     simplify = volume_simplify_level(depsgraph) if Change.MEDIUM in parts else 0
     unrendered: dict[str, list[str]] = {}   # kind of object TFM does not render -> names
+    colour_notes: list[str] = []
 
     for instance in depsgraph.object_instances:
         ob = instance.object
@@ -219,8 +221,22 @@ def _walk_instances(depsgraph, parts: Change, cache: GridCache) -> dict:
             if found is not None:
                 found_media.append(replace(found, name=_label(instance)))
                 sources.append(_label(instance))
+        elif kind == 'MESH' and fluid.domain_modifier(ob, depsgraph.mode == 'RENDER') is not None:
+            if Change.MEDIUM in parts:   # a smoke / fire domain: its cache, never its mesh
+                media.append(_label(instance))
+                found = _fluid_medium(instance, depsgraph.scene.frame_current, cache,
+                                      notes[Change.MEDIUM], simplify)
+                _medium_visibility_notes(depsgraph, instance, notes[Change.MEDIUM])
+                if found is not None:
+                    found_media.append(replace(found, name=_label(instance)))
+                    sources.append(_label(instance))
         elif kind in meshes.MESH_TYPES and parts & (Change.SOLIDS | Change.MEDIUM):
             material = meshes.first_material(ob)
+            if Change.SOLIDS in parts and materials.has_surface_and_volume(material):
+                note = (f"Material '{material.name}' has a surface and a volume shader: the surface is "
+                        f"rendered as an opaque diffuse solid and the volume inside it is not rendered")
+                if note not in notes[Change.SOLIDS]:
+                    notes[Change.SOLIDS].append(note)
             if materials.has_volume_only(material):
                 if Change.MEDIUM in parts:
                     media.append(_label(instance))
@@ -242,9 +258,10 @@ def _walk_instances(depsgraph, parts: Change, cache: GridCache) -> dict:
             vertices, tris = arrays[key]
             solids.append(Mesh(vertices=vertices, triangles=tris,
                                matrix_world=np.array(instance.matrix_world),
-                               color=meshes.diffuse_color(ob), name=_label(instance),
+                               color=meshes.diffuse_color(ob, colour_notes), name=_label(instance),
                                **meshes.visibility(instance, depsgraph.view_layer)))
 
+    notes[Change.SOLIDS].extend(dict.fromkeys(colour_notes))   # once per material
     if Change.LIGHTS in parts:
         if skipped_lights:
             notes[Change.LIGHTS].append(
@@ -281,21 +298,58 @@ def _box_matrix(lo, hi) -> np.ndarray:
     return m
 
 
-def _sigma(material, settings, label: str, notes: list[str]):
-    """(sigma_a, sigma_s, g, grid the material reads or None, constant density?) for a medium."""
+def _grid_value(e: materials.Expr) -> GridValue:
+    return GridValue(e.grid, e.scale, e.offset) if e.grid else GridValue(offset=e.offset)
+
+
+def _sigma(material, settings, label: str, notes: list[str], available=None) -> dict:
+    """What a medium's material gives: 'fields' (Medium keyword arguments besides the grids), the
+    density 'grid' the material reads (None: constant), 'constant' (the density is constant), and
+    'grids' (every grid it reads). ``available``: the volume's grid names (None: unknown)."""
     use_nodes = settings is None or settings.use_node_material
     if use_nodes and material is not None:
-        sigma, reason = materials.read_volume_material(material)
+        sigma, reason = materials.read_volume_material(material, available)
         if sigma is not None:
-            for note in sigma.notes:
-                notes.append(f"{label}: {note} is not rendered")
-            return sigma.sigma_a, sigma.sigma_s, sigma.anisotropy, sigma.grid, sigma.grid is None
+            notes.extend(f"{label}: {note}" for note in sigma.notes)
+            fields = dict(sigma_a=sigma.sigma_a, sigma_s=sigma.sigma_s, anisotropy=sigma.anisotropy,
+                          color_grid=sigma.color_grid, emission_color=sigma.emission_color,
+                          emission_strength=_grid_value(sigma.emission_strength),
+                          blackbody_intensity=_grid_value(sigma.blackbody_intensity),
+                          blackbody_tint=sigma.blackbody_tint, temperature=_grid_value(sigma.temperature))
+            return dict(fields=fields, grid=sigma.grid, constant=sigma.grid is None, grids=sigma.grids)
         notes.append(f"{label}: {reason}")
     if settings is None:
-        return (0.1, 0.1, 0.1), (1.0, 1.0, 1.0), 0.0, None, False
+        return dict(fields=dict(sigma_a=(0.1, 0.1, 0.1), sigma_s=(1.0, 1.0, 1.0), anisotropy=0.0),
+                    grid=None, constant=False, grids=())
     k = settings.density_scale
-    return (tuple(k * c for c in settings.sigma_a), tuple(k * c for c in settings.sigma_s),
-            settings.anisotropy, None, False)
+    fields = dict(sigma_a=tuple(k * c for c in settings.sigma_a),
+                  sigma_s=tuple(k * c for c in settings.sigma_s), anisotropy=settings.anisotropy)
+    grids: tuple = ()
+    strength = float(getattr(settings, "emission_strength", 0.0))
+    if strength > 0.0:
+        name = getattr(settings, "emission_grid", "")
+        has = bool(name) and (available is None or name in available)
+        fields.update(emission_color=tuple(settings.emission_color),
+                      emission_strength=GridValue(name, strength, 0.0) if has else GridValue(offset=strength))
+        grids = (name,) if has else ()
+    return dict(fields=fields, grid=None, constant=False, grids=grids)
+
+
+def _drop_missing(fields: dict, extras: dict, label: str, notes: list[str],
+                  why: str = "was not found") -> dict:
+    """Fields whose grids were not read fall back to their constants, with a note."""
+    out = dict(fields)
+    for key in ("emission_strength", "blackbody_intensity", "temperature"):
+        v = out.get(key)
+        if isinstance(v, GridValue) and v.grid is not None and (v.grid not in extras
+                                                                or extras[v.grid].ndim != 3):
+            notes.append(f"{label}: grid '{v.grid}' {why} (or is not a float grid); its socket reads "
+                         f"{v.offset:g}")
+            out[key] = GridValue(offset=v.offset)
+    if out.get("color_grid") and (out["color_grid"] not in extras or extras[out["color_grid"]].ndim != 4):
+        notes.append(f"{label}: colour grid '{out['color_grid']}' {why} (or is not a vector grid)")
+        out["color_grid"] = None
+    return out
 
 
 def _volume_medium(instance, cache: GridCache, notes: list[str], simplify: int = 0) -> Medium | None:
@@ -307,10 +361,18 @@ def _volume_medium(instance, cache: GridCache, notes: list[str], simplify: int =
     generated = (not volume.filepath or len(ob.original.modifiers) > 0
                  or (instance.is_instance and instance.parent is not None
                      and len(instance.parent.original.modifiers) > 0))
-    sigma_a, sigma_s, g, material_grid, constant = _sigma(
-        meshes.first_material(ob), settings, label, notes)
     try:
-        grid, grid_notes = cache.read(volume, preferred, _label(instance), generated=generated)
+        available = [name for name, _ in cache.grid_types(volume, _label(instance))]
+    except NoGridThisFrame:
+        return None
+    except VolumeReadError as ex:
+        notes.append(f"{ex}; rendering without it")
+        return None
+    read = _sigma(meshes.first_material(ob), settings, label, notes, available)
+    material_grid = read["grid"]
+    try:
+        grid, grid_notes = cache.read(volume, preferred, _label(instance), generated=generated,
+                                      extras=tuple(read["grids"]))
     except NoGridThisFrame:
         return None
     except VolumeReadError as ex:
@@ -320,23 +382,69 @@ def _volume_medium(instance, cache: GridCache, notes: list[str], simplify: int =
     if material_grid and material_grid != grid.grid_name:
         notes.append(f"{label}: the material reads grid '{material_grid}', the density comes from "
                      f"grid '{grid.grid_name}' (set in the volume's TFM panel)")
-    to_world = np.array(instance.matrix_world) @ grid.index_to_object
-    if constant:
+    return _grid_medium(np.array(instance.matrix_world), grid, read, label, notes, simplify,
+                        float(getattr(volume.render, "clipping", 0.0)))
+
+
+def _grid_medium(matrix_world, grid, read: dict, label: str, notes: list[str], simplify: int = 0,
+                 clipping: float = 0.0) -> Medium:
+    """The medium of a grid read for an object placed by ``matrix_world``; ``simplify`` halves
+    the grids that many times (Simplify's volume resolution), ``clipping`` empties lower densities."""
+    fields = read["fields"]
+    to_world = matrix_world @ grid.index_to_object
+    if read["constant"]:
         n = np.asarray(grid.density.shape, dtype=np.float64)
         box = to_world @ _box_matrix(-0.5 * np.ones(3), n - 0.5)
-        return Medium(sigma_a=sigma_a, sigma_s=sigma_s, anisotropy=g, box_to_world=box)
+        fields = _drop_missing(fields, {}, label, notes, "is not rendered with a constant density")
+        return Medium(box_to_world=box, **fields)
+    fields = _drop_missing(fields, grid.extras, label, notes)
+    used = {v.grid for v in (fields.get("emission_strength"), fields.get("blackbody_intensity"),
+                             fields.get("temperature")) if isinstance(v, GridValue) and v.grid}
+    used |= {fields["color_grid"]} if fields.get("color_grid") else set()
+    extras = {name: a for name, a in grid.extras.items() if name in used}
     density, index_to_object = simplify_grid(grid.density, grid.index_to_object, simplify)
-    return Medium(sigma_a=sigma_a, sigma_s=sigma_s, anisotropy=g, density=density,
-                  index_to_world=np.array(instance.matrix_world) @ index_to_object,
-                  clipping=float(getattr(volume.render, "clipping", 0.0)))
+    if simplify > 0:
+        extras = {name: _downsample_channels(a, 2 ** simplify) for name, a in extras.items()}
+    return Medium(density=density, index_to_world=matrix_world @ index_to_object, grids=extras,
+                  clipping=clipping,
+                  source_key=digest(grid.key, sorted(extras), simplify) if grid.key else None, **fields)
+
+
+def _downsample_channels(a: np.ndarray, f: int) -> np.ndarray:
+    """A scalar (nx, ny, nz) or colour (nx, ny, nz, c) grid at 1/f of its resolution, as
+    ``simplify_grid`` does the density."""
+    if a.ndim == 3:
+        return downsample(a, f)
+    return np.stack([downsample(a[..., c], f) for c in range(a.shape[-1])], axis=-1)
+
+
+def _fluid_medium(instance, frame: int, cache: GridCache, notes: list[str],
+                  simplify: int = 0) -> Medium | None:
+    """A Mantaflow gas domain, from its baked cache for ``frame``."""
+    ob = instance.object
+    label = f"Fluid domain '{_label(instance)}'"
+    attributes = ("density", "flame", "heat", "temperature", "color")
+    read = _sigma(meshes.first_material(ob), None, label, notes, attributes)
+    try:
+        grid, _all, warnings = fluid.read_domain(ob, frame, cache, tuple(read["grids"]), _label(instance))
+    except VolumeReadError as ex:
+        notes.append(f"{ex}; rendering without it")
+        return None
+    notes.extend(warnings)
+    notes.extend(grid.warnings)
+    if read["grid"] not in (None, "density"):
+        notes.append(f"{label}: the material reads grid '{read['grid']}' as density; the domain's "
+                     f"density is used")
+    return _grid_medium(np.array(instance.matrix_world), grid, read, label, notes, simplify)
 
 
 def _mesh_medium(instance, material, notes: list[str]) -> Medium:
     """A mesh with a volume-only material: a homogeneous medium filling its bounding box."""
     ob = instance.object
     corners = np.array([tuple(c) for c in ob.bound_box], dtype=np.float64)
-    sigma_a, sigma_s, g, _grid, _constant = _sigma(material, None, f"Object '{_label(instance)}'",
-                                                   notes)
-    notes.append(f"Object '{_label(instance)}': a mesh medium fills its bounding box")
+    label = f"Object '{_label(instance)}'"
+    read = _sigma(material, None, label, notes)
+    notes.append(f"{label}: a mesh medium fills its bounding box")
     box = np.array(instance.matrix_world) @ _box_matrix(corners.min(axis=0), corners.max(axis=0))
-    return Medium(sigma_a=sigma_a, sigma_s=sigma_s, anisotropy=g, box_to_world=box)
+    return Medium(box_to_world=box, **_drop_missing(read["fields"], {}, label, notes,
+                                                    "is not rendered in a mesh medium"))

@@ -36,10 +36,11 @@ def first_material(evaluated_object):
     return None
 
 
-def diffuse_color(evaluated_object) -> tuple[float, float, float]:
+def diffuse_color(evaluated_object, notes: list[str] | None = None) -> tuple[float, float, float]:
     """Albedo: the Principled BSDF base colour (or Diffuse BSDF colour) of the first material,
-    else the object's viewport colour."""
-    color = materials.surface_color(first_material(evaluated_object))
+    materials.FALLBACK_GREY (with a line in ``notes``) for a surface it cannot read, else the
+    object's viewport colour."""
+    color = materials.surface_color(first_material(evaluated_object), notes)
     if color is None:
         color = tuple(evaluated_object.color[:3])
     return tuple(float(min(max(c, 0.0), 1.0)) for c in color)

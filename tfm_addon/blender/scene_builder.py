@@ -76,6 +76,45 @@ def volume_material(name: str, sigma_a, sigma_s, anisotropy: float = 0.0, grid: 
     return mat
 
 
+def _drive(nt, socket, value, x: float) -> None:
+    """Set ``socket`` to a GridValue: its constant, or Attribute -> Math (multiply add)."""
+    if value.grid is None:
+        socket.default_value = value.offset
+        return
+    attribute = nt.nodes.new('ShaderNodeAttribute')
+    attribute.attribute_name = value.grid
+    attribute.location = (x - 400, socket.node.location[1])
+    math_node = nt.nodes.new('ShaderNodeMath')
+    math_node.operation = 'MULTIPLY_ADD'
+    math_node.location = (x - 200, socket.node.location[1])
+    nt.links.new(attribute.outputs["Fac"], math_node.inputs[0])
+    math_node.inputs[1].default_value = value.scale
+    math_node.inputs[2].default_value = value.offset
+    nt.links.new(math_node.outputs[0], socket)
+
+
+def medium_material(name: str, medium: Medium):
+    """A Principled Volume material for ``medium`` as Cycles would render it: density from grid
+    'density', the colour grid as Color Attribute, Emission Strength and Blackbody Intensity driven
+    by Attribute -> Math nodes, the temperature grid as Temperature Attribute."""
+    mat = volume_material(name, medium.sigma_a, medium.sigma_s, medium.anisotropy)
+    nt = mat.node_tree
+    node = next(n for n in nt.nodes if n.bl_idname == 'ShaderNodeVolumePrincipled')
+    node.inputs["Color Attribute"].default_value = medium.color_grid or ""
+    node.inputs["Emission Color"].default_value = (*medium.emission_color, 1.0)
+    _drive(nt, node.inputs["Emission Strength"], medium.emission_strength, node.location[0])
+    _drive(nt, node.inputs["Blackbody Intensity"], medium.blackbody_intensity, node.location[0])
+    node.inputs["Blackbody Tint"].default_value = (*medium.blackbody_tint, 1.0)
+    t = medium.temperature
+    if t.grid is not None and t.offset == 0.0:
+        node.inputs["Temperature"].default_value = t.scale
+        node.inputs["Temperature Attribute"].default_value = t.grid
+    else:
+        node.inputs["Temperature Attribute"].default_value = ""
+        _drive(nt, node.inputs["Temperature"], t, node.location[0])
+    return mat
+
+
 def diffuse_material(name: str, color):
     """A Diffuse BSDF material (the engine's solids are Lambertian)."""
     import bpy
@@ -224,12 +263,14 @@ def _build_medium(medium: Medium, directory: str, collection, name: str, use_nod
 
     m = np.asarray(medium.index_to_world, dtype=np.float64)
     voxel = float(abs(np.linalg.det(m[:3, :3])) ** (1.0 / 3.0))
-    share_key = (medium.grid_key, medium.sigma_a, medium.sigma_s, medium.anisotropy, round(voxel, 9))
+    share_key = (medium.grid_key, medium.grids_key, medium.emission_key, medium.color_grid,
+                 medium.sigma_a, medium.sigma_s, medium.anisotropy, round(voxel, 9))
     if shared is not None and share_key in shared:
         ob = _link(bpy.data.objects.new(f"{name} Smoke", shared[share_key]), collection)
         ob.matrix_world = to_blender_matrix(m @ np.diag([1.0 / voxel] * 3 + [1.0]))
         return ob
-    path = write_vdb(os.path.join(directory, f"{name}_density.vdb"), medium.density, voxel)
+    path = write_vdb(os.path.join(directory, f"{name}_density.vdb"), medium.density, voxel,
+                     extra_grids=dict(medium.grids))
     data = bpy.data.volumes.new(f"{name} Smoke")
     if shared is not None:
         shared[share_key] = data
@@ -239,8 +280,7 @@ def _build_medium(medium: Medium, directory: str, collection, name: str, use_nod
     data.tfm.use_node_material = use_node_material
     data.tfm.sigma_a, data.tfm.sigma_s = medium.sigma_a, medium.sigma_s
     data.tfm.density_scale, data.tfm.anisotropy = 1.0, medium.anisotropy
-    data.materials.append(volume_material(f"{name} Smoke", medium.sigma_a, medium.sigma_s,
-                                          medium.anisotropy))
+    data.materials.append(medium_material(f"{name} Smoke", medium))
     ob = _link(bpy.data.objects.new(data.name, data), collection)
     ob.matrix_world = to_blender_matrix(m @ np.diag([1.0 / voxel] * 3 + [1.0]))
     return ob
@@ -266,3 +306,46 @@ def cycles_single_scattering(bl_scene, samples: int = 256) -> None:
     bl_scene.render.film_transparent = True
     bl_scene.view_settings.view_transform = 'Standard'
 
+
+
+def write_fluid_cache_frame(cache_directory: str, frame: int, grids: dict[str, np.ndarray],
+                            cell_size: float) -> str:
+    """Write one frame of a Mantaflow smoke cache as Blender lays it out
+    (``<cache_directory>/data/fluid_data_####.vdb``, grids 'density', 'flame', 'temperature',
+    'color_r'...). For tests and demos: baking itself does not run in the bpy module."""
+    from .fluid import cache_file
+
+    path = cache_file(cache_directory, frame)
+    density = grids["density"]
+    extra = {k: v for k, v in grids.items() if k != "density"}
+    return write_vdb(path, density, voxel_size_m=cell_size, extra_grids=extra)
+
+
+def fluid_domain(name: str, corner_min, corner_max, resolution_max: int, cache_directory: str,
+                 material=None, collection=None, enabled: bool = True):
+    """A box mesh with a Fluid modifier set up as a smoke / fire domain whose OpenVDB cache is
+    ``cache_directory`` (not baked here). ``enabled`` False turns the modifier off in the viewport
+    and render, so that Blender never evaluates it (Mantaflow is broken in the bpy module).
+    Setting the cache up empties ``cache_directory`` (Blender frees the cache): write the cache
+    files (``write_fluid_cache_frame``) after this."""
+    import bpy
+
+    lo, hi = np.asarray(corner_min, float), np.asarray(corner_max, float)
+    mesh = bpy.data.meshes.new(name)
+    corners = [(x, y, z) for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])]
+    faces = [(0, 1, 3, 2), (4, 6, 7, 5), (0, 4, 5, 1), (2, 3, 7, 6), (0, 2, 6, 4), (1, 5, 7, 3)]
+    mesh.from_pydata(corners, [], faces)
+    if material is not None:
+        mesh.materials.append(material)
+    ob = bpy.data.objects.new(name, mesh)
+    (collection or bpy.context.scene.collection).objects.link(ob)
+    modifier = ob.modifiers.new("Fluid", 'FLUID')
+    modifier.show_viewport = modifier.show_render = enabled
+    modifier.fluid_type = 'DOMAIN'
+    settings = modifier.domain_settings
+    settings.domain_type = 'GAS'
+    settings.resolution_max = resolution_max
+    settings.cache_directory = cache_directory
+    settings.cache_data_format = 'OPENVDB'
+    settings.cache_type = 'ALL'
+    return ob

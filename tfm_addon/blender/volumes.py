@@ -13,11 +13,12 @@ import hashlib
 import os
 import tempfile
 from collections import OrderedDict
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 FLOAT_GRID_TYPES = ("FLOAT", "DOUBLE")
+VECTOR_GRID_TYPES = ("VECTOR_FLOAT", "VECTOR_DOUBLE")
 
 
 class VolumeReadError(Exception):
@@ -30,15 +31,22 @@ class NoGridThisFrame(VolumeReadError):
 
 @dataclass(frozen=True, eq=False)
 class DensityGrid:
-    """A dense copy of one float grid.
+    """A dense copy of one float grid and the other grids the material reads, on one lattice.
 
     ``density``: (nx, ny, nz) float32 in x, y, z index order, voxel centres at integer indices.
     ``index_to_object``: 4x4 matrix from this array's indices to the Volume object's space.
+    ``extras``: more grids by name, (nx, ny, nz) or (nx, ny, nz, 3) float32, same lattice.
+    ``key``: what the arrays were read from (file and its stamp, or the saved data's hash, and the
+    grid names), so the renderer's cache keys need not hash the arrays.
     """
 
     density: np.ndarray
     index_to_object: np.ndarray
     grid_name: str
+    extras: dict = field(default_factory=dict)
+    key: str = ""
+    warnings: tuple[str, ...] = ()
+    first_index: tuple[int, int, int] = (0, 0, 0)  # the file's voxel index of array index 0
 
 
 def choose_grid(available: list[tuple[str, str]], preferred: str, label: str) -> tuple[str, str | None]:
@@ -86,11 +94,70 @@ def dense_array(grid) -> tuple[np.ndarray, tuple[int, int, int]]:
     if grid.activeVoxelCount() == 0:
         raise VolumeReadError(f"grid '{grid.name}' has no active voxels")
     lo, hi = grid.evalActiveVoxelBoundingBox()
+    return _copy(grid, tuple(int(v) for v in lo), tuple(int(v) for v in hi)), tuple(int(v) for v in lo)
+
+
+def _copy(grid, lo, hi) -> np.ndarray:
+    """The voxels lo..hi (inclusive) of a float or vec3 grid as float32."""
     shape = tuple(int(h - l + 1) for l, h in zip(lo, hi, strict=True))
-    dtype = np.float64 if grid.valueTypeName == "double" else np.float32
-    array = np.zeros(shape, dtype=dtype)
+    kind = grid.valueTypeName
+    if kind.startswith("vec3"):
+        array = np.zeros((*shape, 3), dtype=np.float64 if kind == "vec3d" else np.float32)
+    else:
+        array = np.zeros(shape, dtype=np.float64 if kind == "double" else np.float32)
     grid.copyToArray(array, ijk=tuple(int(v) for v in lo))
-    return np.ascontiguousarray(array, dtype=np.float32), tuple(int(v) for v in lo)
+    return np.ascontiguousarray(array, dtype=np.float32)
+
+
+def read_grid_set(openvdb, path: str, density_name: str, extras, label: str, warnings: list[str],
+                  key: str) -> DensityGrid:
+    """The density grid and the ``extras`` of a .vdb file, densely over the union of their active
+    boxes (extras whose transform differs from the density's are skipped with a warning)."""
+    try:
+        density = openvdb.read(path, density_name)
+    except Exception as ex:
+        raise VolumeReadError(f"Volume '{label}': cannot read grid '{density_name}' from '{path}': {ex}") \
+            from ex
+    if density.activeVoxelCount() == 0:
+        raise VolumeReadError(f"Volume '{label}': grid '{density_name}' has no active voxels")
+    to_object, exact = index_to_world_matrix(density.transform)
+    if not exact:
+        raise VolumeReadError(f"Volume '{label}': grid '{density_name}' has a frustum transform, "
+                              f"which is not supported")
+    grids = {density_name: density}
+    for name in extras:
+        if name == density_name or name in grids:
+            continue
+        try:
+            g = openvdb.read(path, name)
+        except Exception:
+            continue
+        m, _ = index_to_world_matrix(g.transform)
+        if not np.allclose(m, to_object, rtol=1e-5, atol=1e-9):
+            warnings.append(f"Volume '{label}': grid '{name}' is not on the lattice of '{density_name}'; "
+                            f"it is not rendered")
+            continue
+        if g.activeVoxelCount() > 0:
+            grids[name] = g
+    boxes = [g.evalActiveVoxelBoundingBox() for g in grids.values()]
+    lo = tuple(min(int(b[0][k]) for b in boxes) for k in range(3))
+    hi = tuple(max(int(b[1][k]) for b in boxes) for k in range(3))
+    arrays = {}
+    for name, g in grids.items():
+        try:
+            arrays[name] = _copy(g, lo, hi)
+        except Exception as ex:   # a grid of another value type (int, bool, ...)
+            if name == density_name:
+                raise VolumeReadError(f"Volume '{label}': cannot read grid '{name}': {ex}") from ex
+            warnings.append(f"Volume '{label}': grid '{name}' ({g.valueTypeName}) is not read")
+    for a in arrays.values():
+        a.setflags(write=False)
+    shift = np.eye(4)
+    shift[:3, 3] = lo
+    d = arrays.pop(density_name)
+    return DensityGrid(density=d, index_to_object=to_object @ shift, grid_name=density_name,
+                       extras=arrays, key=key, warnings=tuple(warnings),
+                       first_index=lo)
 
 
 class GridCache:
@@ -108,8 +175,20 @@ class GridCache:
     def __len__(self):
         return len(self._entries)
 
-    def read(self, volume, preferred: str, label: str, *, generated: bool) -> tuple[DensityGrid, list[str]]:
-        """Read the density grid of an evaluated Volume data-block.
+    def grid_types(self, volume, label: str) -> list[tuple[str, str]]:
+        """(name, Blender data type) of an evaluated Volume's grids (loading them)."""
+        grids = volume.grids
+        if volume.is_sequence and not grids.frame_filepath:
+            raise NoGridThisFrame(f"Volume '{label}': the sequence has no file for this frame")
+        if len(grids) == 0 and not grids.load():
+            where = grids.frame_filepath or volume.filepath
+            raise VolumeReadError(f"Volume '{label}': cannot read '{where}': {grids.error_message}")
+        return [(g.name, g.data_type) for g in grids]
+
+    def read(self, volume, preferred: str, label: str, *, generated: bool,
+             extras: tuple[str, ...] = ()) -> tuple[DensityGrid, list[str]]:
+        """Read the density grid (and the grids named in ``extras`` that exist) of an evaluated
+        Volume data-block.
 
         ``generated``: the evaluated grids may differ from the file (modifiers, Geometry Nodes,
         instancing from nodes), so they are saved and hashed instead of read from the file.
@@ -117,25 +196,24 @@ class GridCache:
         """
         from .openvdb_module import import_openvdb
 
-        grids = volume.grids
-        if volume.is_sequence and not grids.frame_filepath:
-            raise NoGridThisFrame(f"Volume '{label}': the sequence has no file for this frame")
-        if len(grids) == 0 and not grids.load():
-            where = grids.frame_filepath or volume.filepath
-            raise VolumeReadError(f"Volume '{label}': cannot read '{where}': {grids.error_message}")
+        types = self.grid_types(volume, label)
         warnings = []
-        name, warning = choose_grid([(g.name, g.data_type) for g in grids], preferred, label)
+        name, warning = choose_grid(types, preferred, label)
         if warning:
             warnings.append(warning)
+        present = dict(types)
+        extras = tuple(sorted(e for e in set(extras) if e in present and e != name))
 
         path = _file_path(volume)
+        grids = volume.grids
         if not generated and path and volume.packed_file is None and os.path.isfile(path):
             st = os.stat(path)
-            key = ("file", path, st.st_mtime_ns, st.st_size, name)
+            key = ("file", path, st.st_mtime_ns, st.st_size, name, extras)
             cached = self._lookup(key)
             if cached is None:
-                cached = self._store(key, self._read_file(import_openvdb(), path, name, label))
-            return cached, warnings
+                cached = self._store(key, self._read_file(import_openvdb(), path, name, label,
+                                                          extras, repr(key)))
+            return cached, warnings + list(cached.warnings)
 
         with tempfile.TemporaryDirectory(prefix="tfm_volume_") as tmp:
             saved = os.path.join(tmp, "grids.vdb")
@@ -143,11 +221,25 @@ class GridCache:
                 raise VolumeReadError(f"Volume '{label}': cannot save its grids: {grids.error_message}")
             with open(saved, "rb") as f:
                 digest = hashlib.blake2b(f.read(), digest_size=16).hexdigest()
-            key = ("data", digest, name)
+            key = ("data", digest, name, extras)
             cached = self._lookup(key)
             if cached is None:
-                cached = self._store(key, self._read_file(import_openvdb(), saved, name, label))
-        return cached, warnings
+                cached = self._store(key, self._read_file(import_openvdb(), saved, name, label,
+                                                          extras, repr(key)))
+        return cached, warnings + list(cached.warnings)
+
+    def read_path(self, path: str, density_name: str, label: str, extras: tuple[str, ...] = ()
+                  ) -> DensityGrid:
+        """The grids of a .vdb file by path (a fluid cache), cached by the file's stamp."""
+        from .openvdb_module import import_openvdb
+
+        st = os.stat(path)
+        key = ("file", path, st.st_mtime_ns, st.st_size, density_name, tuple(sorted(extras)))
+        cached = self._lookup(key)
+        if cached is None:
+            cached = self._store(key, self._read_file(import_openvdb(), path, density_name, label,
+                                                      tuple(sorted(extras)), repr(key)))
+        return cached
 
     def _lookup(self, key):
         grid = self._entries.get(key)
@@ -162,24 +254,9 @@ class GridCache:
             self._entries.popitem(last=False)
         return grid
 
-    def _read_file(self, openvdb, path, name, label) -> DensityGrid:
+    def _read_file(self, openvdb, path, name, label, extras=(), key="") -> DensityGrid:
         self.reads += 1
-        try:
-            grid = openvdb.read(path, name)
-        except Exception as ex:
-            raise VolumeReadError(f"Volume '{label}': cannot read grid '{name}' from '{path}': {ex}") from ex
-        try:
-            array, lo = dense_array(grid)
-        except VolumeReadError as ex:
-            raise VolumeReadError(f"Volume '{label}': {ex}") from None
-        to_object, exact = index_to_world_matrix(grid.transform)
-        if not exact:
-            raise VolumeReadError(f"Volume '{label}': grid '{name}' has a frustum transform, "
-                                  f"which is not supported")
-        shift = np.eye(4)
-        shift[:3, 3] = lo
-        array.setflags(write=False)
-        return DensityGrid(density=array, index_to_object=to_object @ shift, grid_name=name)
+        return read_grid_set(openvdb, path, name, extras, label, [], key)
 
 
 def _file_path(volume) -> str:

@@ -24,6 +24,12 @@ The model (units: metres, watts, radians; colours are scene-linear RGB):
   ``T_view * sigma_s * D * dt * (sum_lights phase * I * spot * gobo * V * T_light / r^2 + ambient)``
   with Henyey-Greenstein phase; ``T_light`` is a ``light_steps`` midpoint march toward the light
   over the part of that segment inside the medium's bounds (analytic for a homogeneous medium).
+  A colour grid C multiplies sigma_s per channel at the sample (not the extinction).
+- Emission: ``T_view * L_e(p) * dt`` at every sample, zero-density ones included, with
+  ``L_e = emission_color * max(strength, 0) + tint * B``, B the blackbody term
+  ``1e-6 sigma_SB / pi * ((1 - b) + b T^4) * bb(T)`` where the intensity b > 0 (Cycles' Principled
+  Volume); each grid-driven quantity is ``scale * max(G, 0) + offset``, strength trilinear in G,
+  B evaluated per voxel and blended trilinearly (what Cycles' stochastic look-ups converge to).
 """
 
 from __future__ import annotations
@@ -219,6 +225,53 @@ class _Solids:
 # Medium
 # --------------------------------------------------------------------------------------------
 
+# Cycles' blackbody fit in Rec.709 (a/t + b t + c for red and green, a cubic for blue), by
+# temperature segment; beyond 12000 K and below 800 K constant.
+_BB_EDGES = np.array([965.0, 1167.0, 1449.0, 1902.0, 3315.0, 6365.0])
+_BB_RG = np.array([
+    [[1.61919106e+03, -2.05010916e-03, 5.02995757e+00], [-4.88999748e+02, 6.04330754e-04, -7.55807526e-02]],
+    [[2.48845471e+03, -1.11330907e-03, 3.22621544e+00], [-7.55994277e+02, 3.16730098e-04, 4.78306139e-01]],
+    [[3.34143193e+03, -4.86551192e-04, 1.76486769e+00], [-1.02363977e+03, 1.20223470e-04, 9.36662319e-01]],
+    [[4.09461742e+03, -1.27446582e-04, 7.25731635e-01], [-1.26571316e+03, 4.87340896e-06, 1.27054498e+00]],
+    [[4.67028036e+03, 2.91258199e-05, 1.26703442e-01], [-1.42529332e+03, -4.01150431e-05, 1.43972784e+00]],
+    [[4.59509185e+03, 2.87495649e-05, 1.50345020e-01], [-1.17554822e+03, -2.16378048e-05, 1.30408023e+00]],
+    [[3.78717450e+03, 9.35907826e-06, 3.99075871e-01], [-5.00799571e+02, -4.59832026e-06, 1.09098763e+00]],
+])
+_BB_B = np.array([
+    [5.96945309e-11, -4.85742887e-08, -9.70622247e-05, -4.07936148e-03],
+    [2.40430366e-11, 5.55021075e-08, -1.98503712e-04, 2.89312858e-02],
+    [-1.40949732e-11, 1.89878968e-07, -3.56632824e-04, 9.10767778e-02],
+    [-3.61460868e-11, 2.84822009e-07, -4.93211319e-04, 1.56723440e-01],
+    [-1.97075738e-11, 1.75359352e-07, -2.50542825e-04, -2.22783266e-02],
+    [-1.61997957e-13, -1.64216008e-08, 3.86216271e-04, -7.38077418e-01],
+    [6.72650283e-13, -2.73078809e-08, 4.24098264e-04, -7.52335691e-01],
+])
+_BB_HOT = np.array([0.8262954810464208, 0.9945080501520986, 1.566307710274283])
+_BB_COLD = np.array([5.413294490189271, -0.20319390035873933, -0.0822535242887164])
+_STEFAN_BOLTZMANN = 5.670373e-8
+
+
+def blackbody_rec709(t: np.ndarray) -> np.ndarray:
+    """Cycles' blackbody colour (n, 3) for temperatures t (n,) in kelvin (may be negative)."""
+    t = np.asarray(t, np.float64)
+    seg = np.searchsorted(_BB_EDGES, t, side="right")
+    rg = _BB_RG[seg]  # (n, 2, 3)
+    b = _BB_B[seg]
+    ts = np.maximum(t, 1.0)
+    red_green = rg[:, :, 0] / ts[:, None] + rg[:, :, 1] * ts[:, None] + rg[:, :, 2]
+    blue = ((b[:, 0] * ts + b[:, 1]) * ts + b[:, 2]) * ts + b[:, 3]
+    out = np.concatenate([red_green, blue[:, None]], axis=1)
+    out[t >= 12000.0] = _BB_HOT
+    out[t < 800.0] = _BB_COLD
+    return out
+
+
+def _blackbody_term(t: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """(n, 3): 1e-6 sigma / pi * ((1 - b) + b T^4) * colour(T) where b > 0, else 0."""
+    power = _STEFAN_BOLTZMANN * 1e-6 / math.pi * ((1.0 - b) + b * t ** 4)
+    return np.where((b > 0)[:, None], power[:, None] * blackbody_rec709(t), 0.0)
+
+
 class _Field:
     """The density D of a medium: its bounds, point look-ups and integrals toward a light."""
 
@@ -226,6 +279,8 @@ class _Field:
         self.light_steps = int(light_steps)
         self.pool = pool
         self.heterogeneous = medium.density is not None
+        self.attributes = {name: np.pad(np.asarray(g, np.float64), [(1, 1)] * 3 + [(0, 0)] * (g.ndim - 3))
+                           for name, g in medium.grids.items()}
         if self.heterogeneous:
             grid = np.asarray(medium.density, dtype=np.float64)
             self.grid = np.pad(grid, 1, mode="constant", constant_values=0.0)
@@ -259,6 +314,47 @@ class _Field:
         idx = self._points_local(p) + 1.0  # padded grid
         return ndimage.map_coordinates(self.grid, idx.T, order=1, mode="constant", cval=0.0,
                                        output=np.float64)
+
+    def attribute(self, name: str, p: np.ndarray) -> np.ndarray:
+        """Grid ``name`` trilinear at the points (n, 3): (n,) or (n, 3) for a colour grid."""
+        g = self.attributes[name]
+        idx = (self._points_local(p) + 1.0).T
+        if g.ndim == 3:
+            return ndimage.map_coordinates(g, idx, order=1, mode="constant", cval=0.0, output=np.float64)
+        return np.stack([ndimage.map_coordinates(g[..., k], idx, order=1, mode="constant", cval=0.0,
+                                                 output=np.float64) for k in range(3)], axis=1)
+
+    def value(self, v, p: np.ndarray) -> np.ndarray:
+        """A GridValue at the points (n, 3)."""
+        if v.grid is None:
+            return np.full(len(p), float(v.offset))
+        return v.scale * np.maximum(self.attribute(v.grid, p), 0.0) + v.offset
+
+    def emission(self, medium: Medium, p: np.ndarray) -> np.ndarray:
+        """Emitted radiance per metre (n, 3), W/(sr m^3), at the points p (n, 3)."""
+        out = np.maximum(self.value(medium.emission_strength, p), 0.0)[:, None] * \
+            np.asarray(medium.emission_color, np.float64)
+        tint = np.asarray(medium.blackbody_tint, np.float64)
+        bb, t = medium.blackbody_intensity, medium.temperature
+        if bb.grid is None and t.grid is None:
+            if bb.offset > 0:
+                out += tint * _blackbody_term(np.array([max(t.offset, 0.0)]), np.array([bb.offset]))[0]
+            return out
+        # Cycles reads the attributes stochastically (one voxel with trilinear odds): it converges
+        # to the trilinear blend of each voxel's blackbody term.
+        if "__blackbody" not in self.attributes:
+            shape = medium.density.shape
+            b_vox = np.broadcast_to(self._voxel_value(medium, bb), shape).reshape(-1)
+            t_vox = np.broadcast_to(np.maximum(self._voxel_value(medium, t), 0.0), shape).reshape(-1)
+            term = _blackbody_term(t_vox, b_vox).reshape(*shape, 3)
+            self.attributes["__blackbody"] = np.pad(term, [(1, 1)] * 3 + [(0, 0)])
+        return out + tint * self.attribute("__blackbody", p)
+
+    @staticmethod
+    def _voxel_value(medium: Medium, v) -> np.ndarray:
+        if v.grid is None:
+            return np.asarray(float(v.offset))
+        return v.scale * np.maximum(np.asarray(medium.grids[v.grid], np.float64), 0.0) + v.offset
 
     def _march_sums(self, start: np.ndarray, step: np.ndarray) -> np.ndarray:
         """Sum of D over ``light_steps`` midpoints start + (k + 1/2) step (padded index space)."""
@@ -427,18 +523,25 @@ class _Media:
             hi = np.where(hit, np.maximum(hi, b), hi)
         return lo, hi
 
-    def densities(self, p: np.ndarray) -> list[np.ndarray]:
-        """D of each medium at p (0 outside its bounds)."""
+    def inside(self, p: np.ndarray) -> list[np.ndarray]:
+        """Whether the points lie in each medium's bounds (n,) bool each."""
         out = []
         for f in self.fields:
             if f.to_local is None:
-                out.append(np.ones(len(p)))
+                out.append(np.ones(len(p), bool))
                 continue
             a, b = f.interval(p, np.zeros_like(p) + np.array([1.0, 0.0, 0.0]))
-            inside = (a <= 0) & (b >= 0)
+            out.append((a <= 0) & (b >= 0))
+        return out
+
+    def densities(self, p: np.ndarray, inside=None) -> list[np.ndarray]:
+        """D of each medium at p (0 outside its bounds)."""
+        inside = self.inside(p) if inside is None else inside
+        out = []
+        for f, ins in zip(self.fields, inside, strict=True):
             dens = np.zeros(len(p))
-            if inside.any():
-                dens[inside] = f.density(p[inside])
+            if ins.any():
+                dens[ins] = f.density(p[ins])
             out.append(dens)
         return out
 
@@ -497,13 +600,23 @@ def _march_view(o: np.ndarray, d: np.ndarray, t0: np.ndarray, t1: np.ndarray, me
     dt = (t1 - t0) / steps
     t = t0[:, None] + (np.arange(steps) + 0.5)[None, :] * dt[:, None]
     p = (o[:, None, :] + t[:, :, None] * d[:, None, :]).reshape(-1, 3)
-    dens = [x.reshape(n, steps) for x in media.densities(p)]
+    inside = media.inside(p)
+    dens = [x.reshape(n, steps) for x in media.densities(p, inside)]
     ext = sum(dm[:, :, None] * st for dm, st in zip(dens, media.sigma_t, strict=True))   # (n, s, 3)
-    ss = sum(dm[:, :, None] * sc for dm, sc in zip(dens, media.sigma_s, strict=True))
+    # Each medium's scattering per unit density: sigma_s, times its colour grid where it has one.
+    tints = [f.attribute(m.color_grid, p).reshape(n, steps, 3) if m.color_grid is not None else 1.0
+             for f, m in zip(media.fields, media.media, strict=True)]
+    ss = sum(dm[:, :, None] * sc * c for dm, sc, c in zip(dens, media.sigma_s, tints, strict=True))
     tau = (np.cumsum(ext, axis=1) - 0.5 * ext) * dt[:, None, None]
     t_view = np.exp(-tau)
     t_end = np.exp(-ext.sum(axis=1) * dt[:, None])
     weight = t_view * dt[:, None, None]                              # (n, steps, 3)
+    emitted = np.zeros((n, 3))
+    for f, m, ins in zip(media.fields, media.media, inside, strict=True):
+        if m.has_emission and ins.any():
+            glow = np.zeros((n * steps, 3))
+            glow[ins] = f.emission(m, p[ins])
+            emitted += np.einsum("nsk,nsk->nk", weight, glow.reshape(n, steps, 3))
     source = (ss.reshape(-1, 3) * ambient).copy()
     any_dens = sum(dm for dm in dens) > 0
     if lights and any(np.any(sc != 0) for sc in media.sigma_s):
@@ -511,6 +624,7 @@ def _march_view(o: np.ndarray, d: np.ndarray, t0: np.ndarray, t1: np.ndarray, me
         pa = p[active]
         da = np.repeat(d, steps, axis=0)[active]
         dens_a = [dm.reshape(-1)[active] for dm in dens]
+        tint_a = [c if np.isscalar(c) else c.reshape(-1, 3)[active] for c in tints]
         for light in lights:
             unit, fac = light.emission(pa)
             live = np.flatnonzero((fac > 0).any(axis=1))
@@ -520,11 +634,12 @@ def _march_view(o: np.ndarray, d: np.ndarray, t0: np.ndarray, t1: np.ndarray, me
             if len(live) == 0:
                 continue
             cos = -np.einsum("nk,nk->n", unit[live], da[live])
-            phase_ss = sum(dm[live, None] * sc * _henyey_greenstein(cos, float(m.anisotropy))[:, None]
-                           for dm, sc, m in zip(dens_a, media.sigma_s, media.media, strict=True))
+            phase_ss = sum(dm[live, None] * sc * (c if np.isscalar(c) else c[live])
+                           * _henyey_greenstein(cos, float(m.anisotropy))[:, None]
+                           for dm, sc, c, m in zip(dens_a, media.sigma_s, tint_a, media.media, strict=True))
             trans = np.exp(-media.optical_depth_to(pa[live], light.ends(pa[live])))
             source[active[live]] += phase_ss * fac[live] * trans
-    scattering = np.einsum("nsk,nsk->nk", weight, source.reshape(n, steps, 3))
+    scattering = np.einsum("nsk,nsk->nk", weight, source.reshape(n, steps, 3)) + emitted
     return scattering, t_end
 
 

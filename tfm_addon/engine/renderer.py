@@ -9,6 +9,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from . import medium_attributes
 from .camera import view_plane
 from .errors import RenderCancelled
 from .gl_context import GLContext
@@ -28,6 +29,7 @@ from .passes.bindings import (
     gobo_texture,
     pass_state,
 )
+from .passes.emission import AttributesGPU
 from .passes.gbuffer import GBuffer
 from .passes.probe import probe_light_transmittance
 from .passes.scattering import (
@@ -146,8 +148,9 @@ class Renderer:
         self._gobos = _Cache()
         self._gbuffers = _Cache()
         self._targets = _Cache()
+        self._attributes = _Cache()
         self._caches = [self._media, self._solids, self._shadows, self._tfms, self._gobos,
-                        self._gbuffers, self._targets]
+                        self._gbuffers, self._targets, self._attributes]
 
     @property
     def gl(self) -> GLContext:
@@ -198,6 +201,8 @@ class Renderer:
             t0 = time.perf_counter()
             medium_gpu, medium_warnings = self._medium(scene, settings)
             warnings += medium_warnings
+            attributes = self._medium_attributes(scene, settings, medium_gpu)
+            warnings += attributes.warnings if attributes is not None else []
             casters = self._solid_set(scene.shadow_casters)
             seen = self._solid_set(scene.camera_meshes)
             step("scene", t0)
@@ -224,7 +229,8 @@ class Renderer:
             gbuffer.bind()
             ambient = scene.ambient if settings.ambient else (0.0, 0.0, 0.0)
             common = dict(camera=scene.camera, plane=plane, medium=scene.medium,
-                          medium_gpu=medium_gpu, settings=settings, ambient=ambient)
+                          medium_gpu=medium_gpu, settings=settings, ambient=ambient,
+                          attributes=attributes)
             if not plans:
                 t0 = time.perf_counter()
                 run_light_pass(gl, first=True, **common)
@@ -380,10 +386,40 @@ class Renderer:
             gpu = MediaGPU(MEDIUM_NONE, None, [], [])
             gpu.key = ("none",)
             return gpu, warnings
+        others = [s.medium.name for s in slots[1:]
+                  if s.medium.has_emission or s.medium.color_grid is not None]
+        if others:
+            warnings.append("Only the first medium's emission and colour grid are rendered; not those of "
+                            + ", ".join(f"'{n}'" for n in others) + ".")
         used = [t for t in textures.values() if any(s.grid is t for s in slots)]
         gpu = MediaGPU(MEDIUM_GRID, None, slots, used)
         gpu.key = tuple(_slot_key(s) for s in slots)
         return gpu, warnings
+
+    def _medium_attributes(self, scene: Scene, settings: RenderSettings,
+                           medium_gpu: MediaGPU) -> AttributesGPU | None:
+        """The first medium's emission and colour-grid textures, or None when it has neither.
+        Keyed by the grids, the lattice they are uploaded on and, for the blackbody term
+        evaluated per voxel, the temperature and intensity; not by the emission colour, strength
+        or tint. (Only the first medium emits or reads a colour grid: the others are named.)"""
+        medium = scene.medium
+        if medium is None or medium_gpu.kind == MEDIUM_NONE:
+            return None
+        if medium_gpu.kind == MEDIUM_GRID and medium_gpu.slots[0].medium is not medium:
+            return None
+        if not medium.has_emission and medium.color_grid is None:
+            return None
+        if medium_gpu.kind != MEDIUM_GRID:
+            return self._attributes.get(("constant",), lambda: AttributesGPU(self.gl, None))[0]
+        lattice = medium_gpu.slots[0].grid.key if medium_gpu.slots[0].grid is not None else None
+        key = (medium.grids_key, medium.density_key, lattice, medium_attributes.key(medium))
+
+        def build():
+            self.counters["attribute_uploads"] += 1
+            factor = medium_attributes.downsample_factor(medium, medium_gpu.box_to_world)
+            return AttributesGPU(self.gl, medium_attributes.prepare_attributes(medium, factor))
+
+        return self._attributes.get(key, build)[0]
 
     def _plan_light(self, scene, settings, light, medium_gpu, solids, seen_bounds,
                     warnings) -> list[_LightPlan]:
@@ -505,8 +541,13 @@ class _FewerCoefficients:
 
 @dataclass
 class _Uploaded:
+    """A grid's texture and the notes its preparation raised (unpacks as that pair)."""
+
     texture: MediumGPU
     notes: list
+
+    def __iter__(self):
+        return iter((self.texture, self.notes))
 
     def release(self) -> None:
         self.texture.release()

@@ -11,6 +11,8 @@ Conventions (Blender's, so that images compare with Cycles pixel for pixel):
 from __future__ import annotations
 
 import hashlib
+from collections import Counter
+from collections.abc import Mapping
 from dataclasses import InitVar, dataclass, field
 from functools import cached_property
 from typing import Literal
@@ -26,11 +28,17 @@ def _matrix(m) -> np.ndarray:
     return a
 
 
+# Bytes of arrays hashed into cache keys, for tests ('bytes', 'arrays').
+HASHED = Counter()
+
+
 def _digest(*parts) -> str:
     """A content hash of numbers and arrays, used as a cache key."""
     h = hashlib.blake2b(digest_size=16)
     for p in parts:
         if isinstance(p, np.ndarray):
+            HASHED["arrays"] += 1
+            HASHED["bytes"] += p.nbytes
             h.update(str(p.dtype).encode() + str(p.shape).encode())
             h.update(np.ascontiguousarray(p).tobytes())
         else:
@@ -173,6 +181,21 @@ SpotLight = Light
 """The former name of :class:`Light` (kind 'SPOT' by default)."""
 
 
+@dataclass(frozen=True)
+class GridValue:
+    """A quantity that varies over a medium: ``scale * max(G(p), 0) + offset``, with G the grid of
+    ``Medium.grids`` named ``grid`` (trilinear like the density), or the constant ``offset`` when
+    ``grid`` is None. Units are those of the quantity it gives."""
+
+    grid: str | None = None
+    scale: float = 1.0
+    offset: float = 0.0
+
+    @property
+    def is_zero(self) -> bool:
+        return (self.grid is None or self.scale == 0.0) and self.offset == 0.0
+
+
 @dataclass(frozen=True, eq=False)
 class Medium:
     """A participating medium of one material at varying density D.
@@ -192,6 +215,21 @@ class Medium:
     ``clipping``: grid densities below it are empty (Blender's volume ``render.clipping``, which
     Cycles applies; 0.001 by default in Blender, 0 here). NaN, infinite and negative densities are
     rendered as 0 (``medium_grid.clean_density``, with a warning each).
+
+    ``grids``: more grids by name on the density's lattice (same shape, same ``index_to_world``):
+    (nx, ny, nz) float32 scalars or (nx, ny, nz, 3) colours. ``color_grid`` names an RGB grid
+    that scales sigma_s per channel (Principled Volume's Color Attribute; the extinction is
+    unchanged, which is exact for a black Absorption Color and colours <= 1).
+
+    Emission (Cycles' volume emission, not scaled by density), radiance per metre of ray,
+    W/(sr m^2) per m: ``emission_color * max(emission_strength, 0)`` plus the blackbody term
+    ``blackbody_tint * sigma_SB / pi * 1e-6 * mix(1, T^4, blackbody_intensity) * bb(T)`` where
+    ``blackbody_intensity`` > 0, T = ``temperature`` in kelvin and bb Cycles' Rec.709 blackbody
+    colour. Emission lights nothing: it is added along view rays only.
+
+    ``source_key``: when given, a key that changes whenever ``density``, ``index_to_world`` or
+    ``grids`` change (the file, frame and grid names they were read from); the arrays are then
+    not hashed for the cache keys.
     """
 
     sigma_a: RGB = (0.1, 0.1, 0.1)
@@ -202,6 +240,14 @@ class Medium:
     box_to_world: np.ndarray | None = None
     name: str = "Medium"
     clipping: float = 0.0
+    grids: Mapping[str, np.ndarray] = field(default_factory=dict)
+    color_grid: str | None = None
+    emission_color: RGB = (1.0, 1.0, 1.0)
+    emission_strength: GridValue = field(default_factory=lambda: GridValue(offset=0.0))
+    blackbody_intensity: GridValue = field(default_factory=lambda: GridValue(offset=0.0))
+    blackbody_tint: RGB = (1.0, 1.0, 1.0)
+    temperature: GridValue = field(default_factory=lambda: GridValue(offset=1000.0))
+    source_key: str | None = None
 
     def __post_init__(self):
         if self.density is not None:
@@ -214,6 +260,44 @@ class Medium:
             object.__setattr__(self, "index_to_world", _matrix(m))
         if self.box_to_world is not None:
             object.__setattr__(self, "box_to_world", _matrix(self.box_to_world))
+        grids = {}
+        for name, g in dict(self.grids).items():
+            a = np.ascontiguousarray(g, dtype=np.float32)
+            if self.density is None or a.shape[:3] != self.density.shape or a.ndim not in (3, 4):
+                raise ValueError(f"grid '{name}' of shape {a.shape} is not on the density's lattice")
+            a.setflags(write=False)
+            grids[name] = a
+        object.__setattr__(self, "grids", grids)
+        for value in (self.emission_strength, self.blackbody_intensity, self.temperature):
+            if value.grid is not None and (value.grid not in grids or grids[value.grid].ndim != 3):
+                raise ValueError(f"no scalar grid '{value.grid}' in the medium's grids")
+        if self.color_grid is not None and (self.color_grid not in grids
+                                            or grids[self.color_grid].ndim != 4):
+            raise ValueError(f"no colour grid '{self.color_grid}' in the medium's grids")
+
+    @property
+    def has_emission(self) -> bool:
+        """Whether the medium emits light anywhere."""
+        strength = self.emission_strength
+        glows = any(c != 0.0 for c in self.emission_color) and (
+            strength.offset > 0.0 or (strength.grid is not None and strength.scale > 0.0))
+        bb = self.blackbody_intensity
+        burns = any(c != 0.0 for c in self.blackbody_tint) and (
+            bb.offset > 0.0 or (bb.grid is not None and bb.scale > 0.0))
+        return glows or burns
+
+    @cached_property
+    def emission_key(self) -> str:
+        """What the emission term depends on besides the grids (no light map depends on it)."""
+        return _digest(self.emission_color, self.emission_strength, self.blackbody_intensity,
+                       self.blackbody_tint, self.temperature)
+
+    @cached_property
+    def grids_key(self) -> str:
+        """The extra grids' content (the attribute textures depend on it)."""
+        if self.source_key is not None:
+            return _digest("source", self.source_key, self.index_to_world, sorted(self.grids))
+        return _digest(*[x for name in sorted(self.grids) for x in (name, self.grids[name])])
 
     @property
     def is_homogeneous(self) -> bool:
@@ -228,18 +312,26 @@ class Medium:
     def grid_key(self) -> str | None:
         """What the density texture holds: the grid's values, not where it is placed (instances
         of one volume share it). None for a homogeneous medium."""
-        return None if self.density is None else _digest(self.density, float(self.clipping))
+        if self.density is None:
+            return None
+        if self.source_key is not None:
+            return _digest("source", self.source_key, self.density.shape, float(self.clipping))
+        return _digest(self.density, float(self.clipping))
 
     @cached_property
     def density_key(self) -> str:
         """What the light-side maps depend on: the density field, not sigma."""
         if self.density is None:
             return _digest("homogeneous", self.box_to_world)
+        if self.source_key is not None:
+            return _digest("source", self.source_key, self.index_to_world, self.density.shape,
+                           float(self.clipping))
         return _digest(self.density, self.index_to_world, float(self.clipping))
 
     @cached_property
     def key(self) -> str:
-        return _digest(self.density_key, self.sigma_a, self.sigma_s, self.anisotropy)
+        return _digest(self.density_key, self.sigma_a, self.sigma_s, self.anisotropy,
+                       self.grids_key, self.color_grid, self.emission_key)
 
 
 @dataclass(frozen=True, eq=False)

@@ -99,6 +99,9 @@ class TFM_PT_volume_medium(_TFMPanel, bpy.types.Panel):
         col.prop(tfm, "sigma_s")
         col.prop(tfm, "density_scale")
         col.prop(tfm, "anisotropy")
+        col.prop(tfm, "emission_color")
+        col.prop(tfm, "emission_strength")
+        col.prop_search(tfm, "emission_grid", volume, "grids")
 
 
 class TFM_PT_light(_TFMPanel, bpy.types.Panel):

@@ -127,6 +127,18 @@ class TFM_VolumeSettings(bpy.types.PropertyGroup):
         name="Anisotropy", default=0.0, min=-0.99, max=0.99, subtype='FACTOR',
         description="Henyey-Greenstein g: negative scatters backward, positive forward",
     )
+    emission_color: FloatVectorProperty(
+        name="Emission Color", subtype='COLOR', size=3, default=(1.0, 0.5, 0.15), min=0.0, soft_max=1.0,
+        description="Colour of the light the medium emits (not scaled by density)",
+    )
+    emission_strength: FloatProperty(
+        name="Emission Strength", default=0.0, min=0.0, soft_max=50.0,
+        description="Emitted radiance per metre, times the emission grid where the volume has it",
+    )
+    emission_grid: StringProperty(
+        name="Emission Grid", default="flame",
+        description="Grid that scales the emission strength; without it the whole volume glows",
+    )
 
     @classmethod
     def register(cls):

@@ -176,6 +176,8 @@ class MediaGPU:
             u_med_weight=[float(w) for w in weights] + [0.0] * pad,
             u_med_slot=[index[id(s.grid)] if s.grid is not None else -1 for s in slots] + [-1] * pad,
         )
+        if slots[0].grid is not None:      # the first medium's lattice (its colour grid reads it)
+            set_uniforms(prog, u_grid_size=tuple(float(x) for x in slots[0].grid.grid_size))
         sizes = [tuple(float(x) for x in g.grid_size) for g in self.grids]
         sizes += [(1.0, 1.0, 1.0)] * (MAX_GRIDS - len(sizes))
         _set_arrays(prog, u_grid_sizes=sizes)

@@ -74,16 +74,22 @@ def camera_uniforms(prog, camera: Camera, plane: ViewPlane) -> None:
 
 def run_light_pass(gl: GLContext, *, camera: Camera, plane: ViewPlane, medium: Medium | None,
                    medium_gpu: MediaGPU, settings: RenderSettings, ambient, first: bool,
-                   light=None, light_t: int = LIGHT_T_NONE, tfm=None, tfm_sigma_t=None) -> None:
+                   light=None, light_t: int = LIGHT_T_NONE, tfm=None, tfm_sigma_t=None,
+                   attributes=None) -> None:
     """Add one pass into the bound ScatteringTargets. ``light`` is (face, intensity, ShadowMap
     or None, gobo texture or None) or None for the ambient-only first pass; ``tfm_sigma_t`` the
-    extinction per unit of the TFM's weighted density (default: ``medium``'s)."""
+    extinction per unit of the TFM's weighted density (default: ``medium``'s). ``attributes``
+    (emission.AttributesGPU or None): the first medium's emission, added by the first pass, and
+    colour grid."""
     medium_kind = medium_gpu.kind
     if light is not None and light_t == LIGHT_T_NONE and not first:
         medium_kind = MEDIUM_NONE          # this light never reaches the medium
+    emits = attributes is not None and first and medium_kind != MEDIUM_NONE and medium.has_emission
+    colored = attributes is not None and attributes.color is not None and medium_kind == MEDIUM_GRID
     defines = {"MEDIUM": medium_kind, "LIGHT_T": light_t, "FIRST_PASS": int(first),
                "HAS_LIGHT": int(light is not None),
-               "PROJECTIVE": int(settings.sampling == "PROJECTIVE")}
+               "PROJECTIVE": int(settings.sampling == "PROJECTIVE"),
+               "EMISSION": int(emits), "COLOR_GRID": int(colored)}
     if tfm is not None:
         defines.update(tfm.defines(settings.tfm_filter))
     if medium_kind == MEDIUM_GRID:
@@ -103,4 +109,6 @@ def run_light_pass(gl: GLContext, *, camera: Camera, plane: ViewPlane, medium: M
         bind_light(prog, frame, intensity, settings.map_resolution, shadow, gobo)
     if tfm is not None:
         tfm.bind(prog, medium.sigma_t if tfm_sigma_t is None else tfm_sigma_t)
+    if emits or colored:
+        attributes.bind(prog, medium)
     gl.draw_fullscreen(prog)

@@ -7,6 +7,7 @@
 // PROJECTIVE: space the samples of a homogeneous medium uniformly in the light's map space.
 #include "common.glsl"
 #include "transmittance.glsl"
+#include "emission.glsl"
 
 uniform sampler2D u_gb0;       // albedo, distance
 uniform sampler2D u_gb1;       // normal, hit
@@ -126,6 +127,12 @@ void main() {
         // light; overlapping media add their coefficients, the phase is their sigma_s mixture.
         float dt = (seg.y - seg.x) / float(u_view_steps);
         vec3 tau = vec3(0.0);
+        // The first medium's index space: its emission and colour grid (fire's attributes).
+        vec3 ob = (u_world_to_box * vec4(o, 1.0)).xyz;
+        vec3 db = (u_world_to_box * vec4(d, 0.0)).xyz;
+#if EMISSION
+        vec2 emit = emission_interval(ob, db);
+#endif
 #if HAS_LIGHT
         vec3 oq = light_space(o);
         vec3 dq = mat3(u_world_to_light) * d;
@@ -135,17 +142,23 @@ void main() {
             vec3 p = o + d * t;
             float D[N_MEDIA];
             bool any_d = false;
+            vec3 st = vec3(0.0);
             for (int m = 0; m < N_MEDIA; ++m) {
                 D[m] = medium_density(m, p);
                 any_d = any_d || D[m] > 0.0;
+                st += u_med_sigma_t[m] * D[m];
             }
+#if EMISSION
+            if (t >= emit.x && t <= emit.y)
+                scatter += exp(-(tau + 0.5 * st * dt)) * emission_at_index(ob + db * t) * dt;
+#endif
             if (any_d) {
-                vec3 st = vec3(0.0);
+                vec3 tint0 = vec3(1.0);     // the first medium's scattering colour per voxel
+#if COLOR_GRID
+                tint0 = color_at_index(ob + db * t);
+#endif
                 vec3 ss = vec3(0.0);
-                for (int m = 0; m < N_MEDIA; ++m) {
-                    st += u_med_sigma_t[m] * D[m];
-                    ss += u_med_sigma_s[m] * D[m];
-                }
+                for (int m = 0; m < N_MEDIA; ++m) ss += u_med_sigma_s[m] * (m == 0 ? tint0 : vec3(1.0)) * D[m];
                 vec3 tv = exp(-(tau + 0.5 * st * dt));
                 vec3 src = vec3(0.0);
 #if FIRST_PASS
@@ -158,7 +171,8 @@ void main() {
                 if (any(greaterThan(li, vec3(0.0)))) {
                     float c = -dot(light_travel(q, r), dq);
                     vec3 ssp = vec3(0.0);
-                    for (int m = 0; m < N_MEDIA; ++m) ssp += u_med_sigma_s[m] * (D[m] * hg_phase(c, u_med_g[m]));
+                    for (int m = 0; m < N_MEDIA; ++m)
+                        ssp += u_med_sigma_s[m] * (m == 0 ? tint0 : vec3(1.0)) * (D[m] * hg_phase(c, u_med_g[m]));
                     src += li * ssp;
                 }
 #endif
@@ -176,6 +190,10 @@ void main() {
         vec3 ratio = mix(u_sigma_s / max(u_sigma_t, vec3(1e-12)), vec3(len) * u_sigma_s,
                          lessThan(u_sigma_t, vec3(1e-12)));
         scatter += ratio * u_ambient * mix(1.0 - transmittance, vec3(1.0), lessThan(u_sigma_t, vec3(1e-12)));
+#endif
+#if EMISSION
+        scatter += emission_at_index(vec3(0.0)) * mix((1.0 - transmittance) / max(u_sigma_t, vec3(1e-12)),
+                                                      vec3(len), lessThan(u_sigma_t, vec3(1e-12)));
 #endif
 #if HAS_LIGHT
         vec2 cs = frustum_interval(o, d, seg);

@@ -1,0 +1,39 @@
+// The medium's own light (EMISSION) and per-voxel scattering colour (COLOR_GRID), as Cycles'
+// Principled Volume defines them: emission is not scaled by density; the blackbody term is
+// evaluated per voxel on the CPU (engine/blackbody.py).
+#if EMISSION
+uniform sampler3D u_attrs;       // up to four attribute grids (padded like the density), or 1 voxel
+uniform vec3 u_attrs_size;       // padded texture size, voxels
+uniform vec3 u_emission_color;   // W/(sr m^2) per metre per unit strength
+uniform vec3 u_strength;         // scale, offset, channel of u_attrs (-1: constant)
+uniform int u_bb_grid;           // 1: the blackbody term per voxel in channels 1-3 (before tint)
+uniform vec3 u_bb_const;         // else this constant
+uniform vec3 u_bb_tint;
+uniform vec3 u_emit_lo;          // index-space box outside which nothing emits
+uniform vec3 u_emit_hi;
+
+// Part (t_in, t_out) of the ray ob + db t (box space) where the medium can emit.
+vec2 emission_interval(vec3 ob, vec3 db) {
+    vec3 inv = 1.0 / mix(db, vec3(1e-12), lessThan(abs(db), vec3(1e-12)));
+    vec3 t0 = (u_emit_lo - ob) * inv;
+    vec3 t1 = (u_emit_hi - ob) * inv;
+    vec3 lo = min(t0, t1);
+    vec3 hi = max(t0, t1);
+    return vec2(max(max(lo.x, lo.y), lo.z), min(min(hi.x, hi.y), hi.z));
+}
+
+// Emitted radiance per metre at a point in box (grid index) space.
+vec3 emission_at_index(vec3 idx) {
+    vec4 a = texture(u_attrs, (idx + 1.5) / u_attrs_size);
+    float strength = u_strength.z < 0.0 ? u_strength.y : u_strength.x * max(a.r, 0.0) + u_strength.y;
+    return u_emission_color * max(strength, 0.0) + u_bb_tint * (u_bb_grid == 1 ? a.gba : u_bb_const);
+}
+#endif
+
+#if COLOR_GRID
+uniform sampler3D u_color_grid;  // RGB per voxel, padded like the density
+
+vec3 color_at_index(vec3 idx) {
+    return texture(u_color_grid, (idx + 1.5) / u_grid_size).rgb;
+}
+#endif
