@@ -141,10 +141,16 @@ class MediaGPU:
             return [(self.box_to_world, self.lo, self.hi)]
         return []
 
-    def defines(self) -> dict[str, int]:
+    def defines(self) -> dict:
+        """The media's count, grid count and grid slot per medium, compiled into the program
+        (the shaders' loops over media unroll to fixed texture reads)."""
         if self.kind != MEDIUM_GRID:
             return {}
-        return {"N_MEDIA": len(self.slots), "N_GRIDS": max(len(self.grids), 1)}
+        index = {id(g): i for i, g in enumerate(self.grids)}
+        slots = [index[id(s.grid)] if s.grid is not None else -1 for s in self.slots]
+        slots += [-1] * (MAX_MEDIA - len(slots))
+        return {"N_MEDIA": len(self.slots), "N_GRIDS": max(len(self.grids), 1),
+                "MEDIA_SLOTS": "int[{}]({})".format(MAX_MEDIA, ", ".join(str(s) for s in slots))}
 
     def bind(self, prog, weights=None) -> None:
         """Bind the textures and the per-medium uniforms; ``weights``: the TFM weight of each
@@ -160,7 +166,6 @@ class MediaGPU:
         if "u_med_to_box" in prog:
             u = prog["u_med_to_box"]
             u.write(b"".join(mat4_bytes(m) for m in mats[:u.array_length]))
-        index = {id(g): i for i, g in enumerate(self.grids)}
         weights = [1.0] * len(slots) if weights is None else list(weights)
 
         def vec(values, fill):
@@ -174,7 +179,6 @@ class MediaGPU:
             u_med_sigma_s=vec([s.medium.sigma_s for s in slots], (0.0, 0.0, 0.0)),
             u_med_g=[float(s.medium.anisotropy) for s in slots] + [0.0] * pad,
             u_med_weight=[float(w) for w in weights] + [0.0] * pad,
-            u_med_slot=[index[id(s.grid)] if s.grid is not None else -1 for s in slots] + [-1] * pad,
         )
         if slots[0].grid is not None:      # the first medium's lattice (its colour grid reads it)
             set_uniforms(prog, u_grid_size=tuple(float(x) for x in slots[0].grid.grid_size))

@@ -41,7 +41,6 @@ uniform vec3 u_med_sigma_t[MAX_MEDIA];    // 1/m per unit density
 uniform vec3 u_med_sigma_s[MAX_MEDIA];
 uniform float u_med_g[MAX_MEDIA];
 uniform float u_med_weight[MAX_MEDIA];    // the medium's weight in the lights' TFMs
-uniform int u_med_slot[MAX_MEDIA];
 uniform vec3 u_grid_sizes[4];             // padded texture sizes of the grid slots
 #if N_GRIDS > 1
 uniform sampler3D u_density1;
@@ -66,11 +65,15 @@ float grid_fetch(int slot, vec3 idx) {
     return texture(u_density, (idx + 1.5) / u_grid_sizes[0]).r;
 }
 
+// Each medium's grid slot (-1: a box of density 1), fixed when the program is compiled, so that
+// once the loops over the media are unrolled every fetch reads one known texture.
+const int MEDIA_SLOT[MAX_MEDIA] = MEDIA_SLOTS;
+
 // Density of medium m at a world point (0 outside its box).
 float medium_density(int m, vec3 p) {
     vec3 idx = (u_med_to_box[m] * vec4(p, 1.0)).xyz;
     if (any(lessThan(idx, u_med_lo[m])) || any(greaterThan(idx, u_med_hi[m]))) return 0.0;
-    return u_med_slot[m] < 0 ? 1.0 : grid_fetch(u_med_slot[m], idx);
+    return MEDIA_SLOT[m] < 0 ? 1.0 : grid_fetch(MEDIA_SLOT[m], idx);
 }
 
 // The TFM's density: the media's densities weighted as the map stores them.
