@@ -154,3 +154,17 @@ def test_brute_force_light_kinds_match_the_tfm(renderer, kind):
     brute = renderer.render(scene, dataclasses.replace(SETTINGS, method="BRUTE_FORCE"))
     assert ssim(tfm.rgb, brute.rgb) >= 0.99
     assert abs(brightness_ratio(tfm.rgb, brute.rgb) - 1) <= 0.02
+
+
+def test_auto_rule_reads_every_light_kind_through_its_faces():
+    """AUTO's optical depth follows the rays of each kind's faces: a sun's parallel rays and a
+    point light's cube faces cross the smoke as a spot's cone does (no renderer needed)."""
+    from tfm_addon.engine import quality
+
+    spot = Light(matrix_world=look_at((-3.0, -1.0, 5.0), (0, 0, 1.0)), spot_size_rad=math.radians(40))
+    point = Light(matrix_world=translate_scale((0.0, 0.0, 1.2), 1.0), kind="POINT")
+    depth = {light.kind: quality.medium_stats(Scene(camera=_camera(), lights=(light,), medium=_smoke()))
+             .optical_depth for light in (spot, _sun(), point)}
+    assert depth["SPOT"] > 0.5
+    assert 0.7 * depth["SPOT"] <= depth["SUN"] <= 1.3 * depth["SPOT"]
+    assert 0.4 * depth["SPOT"] <= depth["POINT"] <= depth["SPOT"]     # from the centre: half a chord
