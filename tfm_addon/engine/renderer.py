@@ -185,7 +185,8 @@ class Renderer:
         timings: dict[str, float] = {}
         warnings: list[str] = []
         lights = [light for light in scene.lights if not is_dark(light)]
-        steps = 2 + len(lights) + max(len(lights), 1)   # scene, maps per light, G-buffer, passes
+        faces_at_most = sum({"POINT": 6, "AREA": 5}.get(light.kind, 1) for light in lights)
+        steps = [2 + len(lights) + max(faces_at_most, 1)]  # scene, maps per light, G-buffer, passes
         done = [0]
 
         def step(name: str, t0: float) -> None:
@@ -193,7 +194,7 @@ class Renderer:
             timings[name] = timings.get(name, 0.0) + time.perf_counter() - t0
             done[0] += 1
             if progress is not None:
-                progress(min(done[0] / steps, 1.0))
+                progress(min(done[0] / steps[0], 1.0))
             if cancel is not None and cancel():
                 raise RenderCancelled("The render was cancelled.")
 
@@ -214,6 +215,7 @@ class Renderer:
                                          warnings)
                 plans += faces
                 step("light_maps", t0)
+            steps[0] = 2 + len(lights) + max(len(plans), 1)      # a pass per face not culled
 
             t0 = time.perf_counter()
             plane = view_plane(scene.camera)
