@@ -168,3 +168,21 @@ def test_auto_rule_reads_every_light_kind_through_its_faces():
     assert depth["SPOT"] > 0.5
     assert 0.7 * depth["SPOT"] <= depth["SUN"] <= 1.3 * depth["SPOT"]
     assert 0.4 * depth["SPOT"] <= depth["POINT"] <= depth["SPOT"]     # from the centre: half a chord
+
+
+@pytest.mark.parametrize("kind", ["POINT", "SUN", "AREA"])
+@pytest.mark.parametrize("sampling", ["WORLD", "PROJECTIVE"])
+def test_homogeneous_box_analytic_path_for_every_face(renderer, kind, sampling):
+    """A fog box (the analytic transmittance, no TFM) lit through cube and orthographic faces."""
+    box = Medium(sigma_a=(0.05,) * 3, sigma_s=(0.4, 0.35, 0.3), anisotropy=0.3,
+                 box_to_world=translate_scale((0, 0, 1.2), 1.2))
+    light = {"POINT": Light(matrix_world=translate_scale((0.3, -0.2, 1.5), 1.0), power_w=500.0, kind="POINT"),
+             "SUN": _sun(strength=2.0),
+             "AREA": Light(matrix_world=look_at((-1.0, -1.2, 3.2), (0, 0, 1.0)), power_w=800.0,
+                           kind="AREA")}[kind]
+    scene = Scene(camera=_camera(64, 36), lights=(light,), medium=box,
+                  meshes=(box_mesh((0.2, 0.1, 2.9), (0.3, 0.3, 0.1), name="Lid"), plane_mesh((0, 0, 0), 8.0)))
+    before = renderer.counters["tfms"]
+    _compare(renderer, scene, settings=dataclasses.replace(SETTINGS, view_steps=128, sampling=sampling),
+             ref_steps=dict(view_steps=256, light_steps=32))
+    assert renderer.counters["tfms"] == before

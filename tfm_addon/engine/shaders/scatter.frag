@@ -209,8 +209,8 @@ void main() {
             vec3 qb = light_space(o + d * cs.y);
             w_in = -qa.z;
             w_out = -qb.z;
-            projective = min(w_in, w_out) > 1e-6 * max(w_in, w_out)
-                      && length(light_uv(qb) - light_uv(qa)) * u_map_res > 1.0;
+            projective = u_face_ortho == 0 && min(w_in, w_out) > 1e-6 * max(w_in, w_out)
+                      && length(light_uv(qb) - light_uv(qa)) * u_map_res > 1.0;   // ortho: affine
 #endif
             float span = cs.y - cs.x;
             float s_prev = 0.0;
