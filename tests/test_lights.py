@@ -61,11 +61,14 @@ def test_sun_through_smoke_with_a_shaft_builds_one_tfm(renderer):
 
 def test_point_light_inside_fog_builds_at_most_six_tfms(renderer):
     light = Light(matrix_world=translate_scale((0.2, 0.1, 1.3), 1.0), power_w=800.0, kind="POINT")
-    scene = Scene(camera=_camera(), lights=(light,), medium=_fog(), meshes=(plane_mesh((0, 0, 0), 8.0),))
+    # A bar under the light: its shadow and shaft cross the boundaries of the cube faces.
+    bar = box_mesh((0.2, 0.1, 0.8), (1.2, 0.12, 0.12), name="Bar")
+    scene = Scene(camera=_camera(), lights=(light,), medium=_fog(), meshes=(bar, plane_mesh((0, 0, 0), 8.0)))
     renderer.clear_maps()
     before = renderer.counters["tfms"]
-    _compare(renderer, scene)
+    out, ref = _compare(renderer, scene)
     assert 1 <= renderer.counters["tfms"] - before <= 6
+    assert ssim(out.passes["scattering"], ref.passes["scattering"]) >= 0.98
 
 
 def test_point_light_inside_smoke_matches_reference(renderer):
