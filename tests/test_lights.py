@@ -189,3 +189,17 @@ def test_homogeneous_box_analytic_path_for_every_face(renderer, kind, sampling):
     _compare(renderer, scene, settings=dataclasses.replace(SETTINGS, view_steps=128, sampling=sampling),
              ref_steps=dict(view_steps=256, light_steps=32))
     assert renderer.counters["tfms"] == before
+
+
+def test_a_fog_box_and_a_grid_together(renderer):
+    """A homogeneous box marched with a density grid it overlaps (no analytic path), a point light
+    and a spot: against the reference."""
+    fog = Medium(sigma_a=(0.02,) * 3, sigma_s=(0.25, 0.2, 0.15), anisotropy=-0.2,
+                 box_to_world=translate_scale((0.8, 0.0, 1.0), 1.5), name="Fog")
+    spot = Light(matrix_world=look_at((-2.5, -1.0, 4.0), (0, 0, 1.0)), power_w=1500.0,
+                 spot_size_rad=math.radians(45), spot_blend=0.2)
+    point = Light(matrix_world=translate_scale((1.2, -0.5, 1.4), 1.0), power_w=300.0, kind="POINT")
+    scene = Scene(camera=_camera(), lights=(spot, point), media=(_smoke(), fog),
+                  meshes=(plane_mesh((0, 0, 0), 8.0),))
+    out, _ = _compare(renderer, scene)
+    assert any("extinction colour" in w for w in out.warnings)     # grey smoke, coloured fog

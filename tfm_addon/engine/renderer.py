@@ -466,14 +466,15 @@ class Renderer:
     def _tfm(self, scene, settings, light, frame, medium_gpu, shadow, res, reached, warnings):
         """The face's TFM and the extinction per unit of its weighted density, or (None, None)
         when its rays meet no density. The map stores the density of the media the face reaches,
-        each weighted by its largest extinction relative to the first one's (one medium: weight
-        1, so its sigma changes rebuild nothing)."""
+        each weighted by its mean extinction relative to the first one's (one medium: weight 1,
+        so its sigma changes rebuild nothing)."""
         slots = medium_gpu.slots
         ref = slots[reached[0]].medium
         k_ref = max(float(ref.sigma_t.max()), 1e-12)
+        mean_ref = max(float(ref.sigma_t.mean()), 1e-12)
         weights = [0.0] * len(slots)
-        for i in reached:
-            weights[i] = 1.0 if i == reached[0] else float(slots[i].medium.sigma_t.max()) / k_ref
+        for i in reached:       # relative mean extinction: the colour error of other media balances
+            weights[i] = 1.0 if i == reached[0] else float(slots[i].medium.sigma_t.mean()) / mean_ref
         chroma = {tuple(np.round(slots[i].medium.sigma_t / max(float(slots[i].medium.sigma_t.max()),
                                                                   1e-12), 3)) for i in reached}
         if len(chroma) > 1:
