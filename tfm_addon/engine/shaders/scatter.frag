@@ -133,12 +133,19 @@ void main() {
 #if EMISSION
         vec2 emit = emission_interval(ob, db);
 #endif
+        float t_stop = seg.y;       // past it this pass adds nothing
 #if HAS_LIGHT
         vec3 oq = light_space(o);
         vec3 dq = mat3(u_world_to_light) * d;
+#if !FIRST_PASS
+        // A later pass adds only this face's light: it marches the same samples as the first
+        // pass but stops where the ray leaves the face's frustum (a sun's box: never).
+        t_stop = frustum_interval(o, d, seg).y;
+#endif
 #endif
         for (int i = 0; i < u_view_steps; ++i) {
             float t = seg.x + (float(i) + 0.5) * dt;
+            if (t > t_stop) break;
             vec3 p = o + d * t;
             float D[N_MEDIA];
             bool any_d = false;
