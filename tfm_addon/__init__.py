@@ -15,6 +15,7 @@ def register():
         (ui.properties.register, ui.properties.unregister),
         (blender.register, blender.unregister),
         (ui.panels.register, ui.panels.unregister),
+        (lambda: None, blender.shutdown),  # undone first: no render thread outlives a class
     )
     for do, undo in steps:
         try:

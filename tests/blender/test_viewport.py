@@ -106,3 +106,145 @@ def test_viewport_image_equals_final_render_for_the_same_view(blank, tmp_path):
     camera = _mod("camera").camera_from_view(view, projection, 48, 36)
     image = session.render(camera).combined
     assert float(np.abs(image - final).max()) <= 1e-4
+
+
+def _view_camera(dg, width, height):
+    """The view a 3D viewport in camera view hands over, as the add-on reads it."""
+    ob = bpy.context.scene.camera.evaluated_get(dg)
+    view = np.linalg.inv(_mod("camera").without_scale(ob.matrix_world))
+    projection = np.array(ob.calc_matrix_camera(dg, x=width, y=height))
+    return _mod("camera").camera_from_view(view, projection, width, height)
+
+
+def _converged(session, samples, timeout_s=60.0):
+    import time
+
+    end = time.monotonic() + timeout_s
+    while time.monotonic() < end:
+        frame = session.frame()
+        if frame is not None and frame.samples == samples and session.view.state == "idle":
+            return frame
+        time.sleep(0.01)
+    raise AssertionError(f"the viewport did not converge: {session.view.counters}")
+
+
+def test_converged_viewport_equals_the_final_render_at_the_same_samples(blank, tmp_path):
+    _mod("scene_builder").build(smoke(width=48, height=36), str(tmp_path), settings=SETTINGS, samples=6)
+    final = render_passes(tmp_path)["Combined"]
+    dg = bpy.context.evaluated_depsgraph_get()
+    session = _mod("viewport").ViewportSession()
+    session.update(dg)
+    assert session.request(_view_camera(dg, 48, 36), 6)
+    frame = _converged(session, 6)
+    assert session.status == "Sample 6/6"
+    assert frame.image.shape == final.shape
+    assert float(np.abs(frame.image - final).max()) <= 1e-4
+    # The pixel-centre image differs at the edges: the samples did something.
+    single = session.render(_view_camera(dg, 48, 36)).combined
+    assert float(np.abs(single - final).max()) > 0.01
+    session.close()
+
+
+def test_disabling_with_a_viewport_render_in_flight_leaves_no_thread_timer_or_context(addon, tmp_path):
+    import threading
+
+    import addon_utils
+
+    def gl_threads():
+        return [t for t in threading.enumerate() if t.name == "tfm-gl" and t.is_alive()]
+
+    addon_utils.disable(MODULE, default_set=True)
+    baseline = len(gl_threads())
+    addon_utils.enable(MODULE, default_set=True)
+    in_flight = 0
+    for i in range(20):
+        bpy.ops.wm.read_homefile(use_empty=True)
+        pkg = importlib.import_module(MODULE + ".tfm_addon")
+        viewport = importlib.import_module(MODULE + ".tfm_addon.blender.viewport")
+        importlib.import_module(MODULE + ".tfm_addon.blender.scene_builder").build(
+            smoke(width=96, height=64, n=16), str(tmp_path), settings=SETTINGS)
+        dg = bpy.context.evaluated_depsgraph_get()
+        session = viewport.ViewportSession()
+        session.redraw = lambda: None
+        viewport.start_polling(session)
+        session.update(dg)
+        session.request(_view_camera(dg, 96, 64), 4096)
+        assert viewport.is_polling()
+        in_flight += session.view.state != "idle"
+        addon_utils.disable(MODULE, default_set=True)
+        assert len(gl_threads()) == baseline, f"GL thread left after disable #{i + 1}"
+        assert not bpy.app.timers.is_registered(viewport._poll)
+        assert pkg.engine.gl_context.GLContext.live == 0
+        addon_utils.enable(MODULE, default_set=True)
+    assert in_flight == 20
+
+
+def test_the_gpu_drawing_puts_the_scene_linear_image_in_the_viewport(blank, tmp_path, monkeypatch):
+    """DrawTexture.draw runs in background Blender (GPU module up after a Workbench render), with
+    a real engine instance, into a half-float offscreen; Blender's display transform then
+    applies to that scene-linear buffer as to Cycles' and EEVEE's."""
+    import gpu
+    from mathutils import Matrix
+
+    scene = bpy.context.scene
+    scene.camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+    scene.collection.objects.link(scene.camera)
+    scene.render.engine = 'BLENDER_WORKBENCH'
+    scene.render.resolution_x = scene.render.resolution_y = 32
+    bpy.ops.render.render()
+
+    h, w = 8, 12
+    image = np.zeros((h, w, 4), np.float32)
+    image[..., 0] = np.linspace(0.0, 1.5, w)[None, :]            # beyond 1: scene-linear, kept
+    image[..., 1] = np.linspace(0.0, 1.0, h)[:, None]            # top row first
+    image[..., 2] = 0.25
+    image[..., 3] = np.where(np.arange(w) < w // 2, 1.0, 0.5)[None, :]
+    image[..., :3] *= image[..., 3:]                              # premultiplied
+    background = 0.2
+    drawn = {}
+
+    def draw_in_a_render(engine, depsgraph):
+        try:
+            texture = _mod("viewport").DrawTexture(image)
+            offscreen = gpu.types.GPUOffScreen(w, h, format='RGBA16F')
+            with offscreen.bind():
+                fb = gpu.state.active_framebuffer_get()
+                fb.clear(color=(background, background, background, 1.0))
+                with gpu.matrix.push_pop(), gpu.matrix.push_pop_projection():
+                    gpu.matrix.load_identity()
+                    gpu.matrix.load_projection_matrix(Matrix(
+                        ((2 / w, 0, 0, -1), (0, 2 / h, 0, -1), (0, 0, 1, 0), (0, 0, 0, 1))))
+                    texture.draw(engine, depsgraph.scene, w, h)
+                pixels = fb.read_color(0, 0, w, h, 4, 0, 'FLOAT')
+            offscreen.free()
+            drawn["pixels"] = np.array(pixels.to_list(), np.float32).reshape(h, w, 4)[::-1]
+        except Exception as ex:  # noqa: BLE001 - shown by the assertion below
+            drawn["error"] = repr(ex)
+
+    monkeypatch.setattr(_mod("final_render"), "render", draw_in_a_render)
+    scene.render.engine = 'TFM'
+    scene.render.resolution_x, scene.render.resolution_y = w, h
+    bpy.ops.render.render()
+    assert "error" not in drawn, drawn.get("error")
+    pixels = drawn["pixels"]
+    expected = image[..., :3] + (1.0 - image[..., 3:]) * background   # ALPHA_PREMULT over the clear
+    # Half floats: 11 significant bits.
+    assert float(np.abs(pixels[..., :3] - expected).max()) <= 2e-3 * max(1.0, float(expected.max()))
+
+    # Display: with the Standard view transform Blender shows the sRGB OETF of that buffer.
+    scene.view_settings.view_transform = 'Standard'
+    scene.view_settings.look = 'None'
+    scene.view_settings.exposure = 0.0
+    scene.view_settings.gamma = 1.0
+    shown = bpy.data.images.new("drawn", w, h, float_buffer=True, alpha=True)
+    shown.pixels.foreach_set(np.ascontiguousarray(pixels[::-1]).ravel())
+    path = str(tmp_path / "shown.png")
+    scene.render.image_settings.file_format = 'PNG'
+    scene.render.image_settings.color_depth = '8'
+    shown.save_render(path, scene=scene)
+    png = bpy.data.images.load(path)
+    png.colorspace_settings.name = 'Non-Color'  # read the display values as written
+    display = np.array(png.pixels[:], np.float32).reshape(h, w, 4)[::-1, :, :3]
+    x = np.clip(expected, 0.0, 1.0)
+    oetf = np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1 / 2.4) - 0.055)
+    assert float(np.abs(display - oetf).max()) <= 0.6 / 255 + 1e-3  # 8-bit rounding

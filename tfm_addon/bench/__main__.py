@@ -18,7 +18,7 @@ import sys
 import time
 from pathlib import Path
 
-SECTIONS = ("methods", "table1", "sweeps", "blender", "issue2", "emission", "lights")
+SECTIONS = ("methods", "table1", "sweeps", "blender", "issue2", "emission", "viewport", "lights")
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -84,9 +84,12 @@ def main(argv: list[str] | None = None) -> int:
         total += blender_bench.count(config)
     if "issue2" in sections:
         total += 1
+    if "viewport" in sections:
+        total += 1
     progress = Progress(total)
 
     rows, checks, table1_rows, blender_res, blender_targets, issue2_text = [], [], [], None, [], ""
+    viewport_text = ""
     if "methods" in sections:
         rows, _ = methods_table.run(config, bench_scenes, renderer, out, progress, cache)
         checks = methods_table.counter_checks(config, bench_scenes, renderer)
@@ -126,6 +129,12 @@ def main(argv: list[str] | None = None) -> int:
                 else emission_bench.FULL)
         emission_rows = emission_bench.run(size, log=progress.log)
         (out / "emission.md").write_text(emission_bench.report(emission_rows) + "\n")
+    if "viewport" in sections:
+        from . import viewport_bench
+
+        viewport_text = viewport_bench.run(args.quick, out, log=progress.log,
+                                           blender=not args.no_blender and blender_bench.blender_available())
+        progress.step("viewport")
     if "lights" in sections:
         from . import lights_bench
 
@@ -137,6 +146,9 @@ def main(argv: list[str] | None = None) -> int:
                          seconds=time.perf_counter() - t_start, rows=rows, checks=checks, table1=table1_rows,
                          blender_res=blender_res, blender_targets=blender_targets,
                          sweeps_done="sweeps" in sections, issue2_text=issue2_text)
+    if viewport_text:
+        text += "\n" + viewport_text + "\n"
+        (out / "summary.md").write_text(text)
     print(text)
     return 0
 

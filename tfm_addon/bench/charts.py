@@ -12,10 +12,11 @@ from .common import (
     BRUTE,
     CYCLES,
     EEVEE,
+    FLOOR,
     PROJECTIVE,
     TFM_ALPHA,
     TFM_ALPHA10,
-    TFM_LINEAR,
+    TFM_EXACT,
     TFM_NO_ALPHA,
     TFM_SSAA,
     WORLD,
@@ -24,7 +25,7 @@ from .common import (
 STYLE = {
     TFM_ALPHA: dict(color="tab:blue", marker="o"),
     TFM_NO_ALPHA: dict(color="tab:orange", marker="s"),
-    TFM_LINEAR: dict(color="tab:cyan", marker="v"),
+    TFM_EXACT: dict(color="tab:cyan", marker="v"),
     TFM_ALPHA10: dict(color="tab:purple", marker="P"),
     AUTO: dict(color="tab:green", marker="*", markersize=14),
     BRUTE: dict(color="tab:red", marker="^"),
@@ -33,6 +34,7 @@ STYLE = {
     CYCLES: dict(color="tab:gray", marker="D"),
     EEVEE: dict(color="tab:pink", marker="X"),
     TFM_SSAA: dict(color="navy", marker="h"),
+    FLOOR: dict(color="black", marker="x"),
 }
 SSIM_CEILING = 1 - 1e-6
 

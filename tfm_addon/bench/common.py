@@ -23,7 +23,7 @@ from .config import Config
 # Method families (one curve each on the speed-accuracy chart).
 TFM_ALPHA = "TFM, density weighting (auto alpha)"
 TFM_NO_ALPHA = "TFM, no density weighting"
-TFM_LINEAR = "TFM, auto alpha, LINEAR filter"
+TFM_EXACT = "TFM, auto alpha, EXACT filter"      # the other rows use the default, LINEAR
 TFM_ALPHA10 = "TFM, alpha = 10 (the paper's)"
 TFM_SSAA = "TFM, supersampled (k x k samples per pixel)"
 AUTO = "auto quality"
@@ -32,6 +32,7 @@ WORLD = "homogeneous, world-space samples"
 PROJECTIVE = "homogeneous, projective samples"
 CYCLES = "Cycles single scattering"
 EEVEE = "EEVEE, volume shadows"
+FLOOR = "floor: light transmittance 1 (UNSHADOWED)"
 
 PAPER_STEPS = dict(view_steps=100, light_steps=100)
 
@@ -76,13 +77,28 @@ def methods_for(scene: Scene, config: Config) -> list[Method]:
         for n in (2, 4, 8, 16):
             out.append(Method(tfm_name(n, 1.0), TFM_NO_ALPHA,
                               dataclasses.replace(base, coefficients=n, density_weight=1.0)))
-        out.append(Method("TFM-8 α LINEAR", TFM_LINEAR,
-                          dataclasses.replace(base, coefficients=8, tfm_filter="LINEAR")))
+        out.append(Method("TFM-8 α EXACT", TFM_EXACT,
+                          dataclasses.replace(base, coefficients=8, tfm_filter="EXACT")))
         for n in config.brute_force_steps:
             out.append(Method(f"brute force {n}x{n}", BRUTE,
                               dataclasses.replace(base, method="BRUTE_FORCE", view_steps=n, light_steps=n)))
-    out.append(auto_method(scene, base))
+        out.append(Method(FLOOR_100, FLOOR, dataclasses.replace(base, method="UNSHADOWED")))
+    auto = auto_method(scene, base)
+    out.append(auto)
+    out.append(Method(FLOOR_AUTO, FLOOR, dataclasses.replace(auto.settings, method="UNSHADOWED",
+                                                             quality="CUSTOM")))
     return out
+
+
+FLOOR_100 = "floor, 100 steps"
+FLOOR_AUTO = "floor, auto's steps"
+
+
+def floor_ratio(row: dict, times: dict) -> float:
+    """A row's frame time over the floor's (the same frame with light transmittance 1) at the
+    same view steps: auto's floor for auto, the 100-step floor for the rest."""
+    floor = times.get(FLOOR_AUTO if row["family"] == AUTO or row["method"] == FLOOR_AUTO else FLOOR_100)
+    return row["seconds"] / floor if floor else float("nan")
 
 
 # ------------------------------------------------------------------------------------------

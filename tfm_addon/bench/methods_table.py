@@ -13,6 +13,7 @@ from .common import (
     FrameTimer,
     Method,
     compare,
+    floor_ratio,
     fmt,
     ground_truth,
     markdown_table,
@@ -26,7 +27,7 @@ from .progress import Progress
 from .scene_set import BenchScene
 from .timing import time_side_by_side
 
-COLUMNS = ["scene", "method", "family", "seconds", "fps", "speedup_vs_bf100", "ssim", "psnr",
+COLUMNS = ["scene", "method", "family", "seconds", "fps", "speedup_vs_bf100", "vs_floor", "ssim", "psnr",
            "brightness", "reference", "tfms_built", "shadow_maps_built", "coefficients",
            "density_weight", "view_steps", "light_steps", "sampling", "tfm_filter", "width", "height",
            "grid"]
@@ -69,6 +70,7 @@ def run(config: Config, scenes: list[BenchScene], renderer: Renderer, out: Path,
             r["seconds"] = times[r["method"]]
             r["fps"] = 1.0 / r["seconds"]
             r["speedup_vs_bf100"] = bf100 / r["seconds"] if bf100 else float("nan")
+            r["vs_floor"] = floor_ratio(r, times)
     return rows, truths
 
 
@@ -117,7 +119,9 @@ def write(rows: list[dict], checks: list[dict], scenes: list[BenchScene], out: P
              "Frame time: median of interleaved repetitions of one frame as if the light moved "
              "(shadow maps and TFMs rebuilt, the density texture kept on the GPU). SSIM/PSNR: "
              "`tfm_addon.engine.metrics` against the ground truth named per scene. "
-             "Speed-up: against the 100x100 brute force of the same run.", ""]
+             "Speed-up: against the 100x100 brute force of the same run. / floor: the frame time over "
+             "the floor's (method UNSHADOWED, light transmittance 1, the same view steps: auto's for "
+             "auto, 100 for the rest), the light-side overhead.", ""]
     for note in config.caps:
         lines.append(f"- Capped: {note}")
     lines.append("")
@@ -129,9 +133,10 @@ def write(rows: list[dict], checks: list[dict], scenes: list[BenchScene], out: P
                   f"pixels, {config.map_resolution}^2 maps. Ground truth: {srows[0]['reference']}.", ""]
         table = [[r["method"], fmt(r["seconds"] * 1000, ".0f"), fmt(r["fps"], ".2f"),
                   fmt(r.get("speedup_vs_bf100"), ".2f") + ("x" if r.get("speedup_vs_bf100") else ""),
+                  fmt(r.get("vs_floor"), ".2f"),
                   fmt(r["ssim"], ".4f"), fmt(r["psnr"], ".1f"), fmt(r["brightness"], ".3f"),
                   str(r["tfms_built"])] for r in srows]
-        lines += [markdown_table(["method", "ms/frame", "fps", "vs BF 100²", "SSIM", "PSNR dB",
+        lines += [markdown_table(["method", "ms/frame", "fps", "vs BF 100²", "/ floor", "SSIM", "PSNR dB",
                                   "brightness", "TFMs built"], table), ""]
     lines += ["## What each frame built (renderer counters)", "",
               markdown_table(["scene", "lights", "TFMs", "shadow maps", "light passes", "grid uploads"],

@@ -6,7 +6,7 @@ Imports ``bpy`` (through ``render_engine``); only ``tfm_addon.register`` imports
 
 import bpy
 
-from . import extract, render_engine
+from . import extract, render_engine, viewport
 from .render_worker import close_worker
 from .volumes import grid_cache
 
@@ -17,8 +17,16 @@ def register():
     _register_classes()
 
 
-def unregister():
-    _unregister_classes()
+def shutdown():
+    """Stop the viewport's timer and the GL thread (bounded wait); safe to call twice."""
+    viewport.stop_polling()
     close_worker()
+
+
+def unregister():
+    # The GL thread and the viewport's timer end before the engine class goes: nothing of ours
+    # runs against an unregistered class.
+    shutdown()
+    _unregister_classes()
     grid_cache.clear()
     extract.clear_simplified()

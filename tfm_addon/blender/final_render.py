@@ -1,7 +1,8 @@
 """Final renders (F12, animations, command line) and material previews.
 
-Reads the scene, renders on the GL thread, writes Combined and the three passes into Blender's
-render result, and reports problems to the user; nothing raises into Blender.
+Reads the scene, renders its antialiasing samples on the GL thread while this thread (the one
+Blender called the engine on) forwards progress and cancel, writes Combined and the three passes
+into Blender's render result, and reports problems to the user; nothing raises into Blender.
 """
 
 from __future__ import annotations
@@ -11,6 +12,7 @@ import traceback
 import numpy as np
 
 from ..engine.errors import RenderCancelled, RendererError
+from ..engine.sampling import AUTO_SAMPLES
 from .camera import border_window
 from .extract import extract
 from .render_worker import get_worker
@@ -31,6 +33,9 @@ def enabled_passes(view_layer) -> tuple[tuple[str, str], ...]:
         return PASSES
     return tuple((blender_name, name) for blender_name, name in PASSES
                  if getattr(settings, f"use_pass_{name}", True))
+def sample_count(scene) -> int:
+    """Antialiasing samples of a final render: scene.tfm.samples, or AUTO_SAMPLES for 0."""
+    return int(scene.tfm.samples) or AUTO_SAMPLES
 
 
 def register_passes(engine, scene, view_layer) -> None:
@@ -64,12 +69,20 @@ def render(engine, depsgraph) -> None:
         if not quiet:
             for message in extraction.all_warnings:
                 _tell(engine, 'WARNING', message)
-        engine.update_stats("", "TFM: rendering")
-        output = get_worker().render(
-            extraction.scene(), extraction.settings,
-            cancel=lambda: engine.test_break(),
-            progress=lambda fraction: engine.update_progress(fraction),
-        )
+        samples = 1 if engine.is_preview else sample_count(scene)
+        engine.update_stats("", "TFM: rendering" if samples == 1 else f"TFM: sample 1/{samples}")
+        shown = [0]
+
+        def progress(fraction):  # on Blender's render thread, like test_break
+            engine.update_progress(fraction)
+            k = min(int(fraction * samples) + 1, samples)
+            if samples > 1 and k != shown[0]:
+                shown[0] = k
+                engine.update_stats("", f"TFM: sample {k}/{samples}")
+
+        output = get_worker().render(extraction.scene(), extraction.settings,
+                                     cancel=engine.test_break, progress=progress, samples=samples,
+                                     client="preview" if engine.is_preview else "final")
     except RenderCancelled:
         last_messages.append(('INFO', "cancelled"))
         return

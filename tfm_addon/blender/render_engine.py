@@ -4,7 +4,7 @@ import traceback
 
 import bpy
 
-from . import final_render
+from . import final_render, viewport
 from .camera import camera_from_view
 from .viewport import DrawTexture, ViewportSession, view_size
 
@@ -38,28 +38,44 @@ class TFMRenderEngine(bpy.types.RenderEngine):
         final_render.register_passes(self, scene, renderlayer)
 
     def view_update(self, context, depsgraph):
+        # Blender's thread: read what changed; the image is rendered on the GL thread.
         try:
             if self._session is None:
                 self._session = ViewportSession()
+                self._session.redraw = self.tag_redraw
+                viewport.start_polling(self._session)
             self._session.update(depsgraph)
         except Exception as ex:
             self._viewport_failed(ex)
 
     def view_draw(self, context, depsgraph):
-        if self._session is None or self._session.extraction is None:
+        # Post the view (latest wins) and draw the newest finished frame; never waits.
+        session = self._session
+        if session is None or session.extraction is None:
             return
-        region, rv3d = context.region, context.region_data
-        width, height = view_size(region, context.scene.tfm.viewport_scale)
+        region, rv3d, tfm = context.region, context.region_data, context.scene.tfm
+        width, height = view_size(region, tfm.viewport_scale)
         try:
             camera = camera_from_view(rv3d.view_matrix, rv3d.window_matrix, width, height)
-            image = self._session.render(camera)
+            session.request(camera, tfm.viewport_samples)
         except Exception as ex:
             self._viewport_failed(ex)
             return
         self._viewport_error = None
-        if self._texture_of is not image:
-            self._texture, self._texture_of = DrawTexture(image.combined), image
-        self._texture.draw(self, context.scene, region.width, region.height)
+        frame = session.frame()
+        if frame is not None:
+            if self._texture_of is not frame:
+                self._texture, self._texture_of = DrawTexture(frame.image, frame.pixels), frame
+            self._texture.draw(self, context.scene, region.width, region.height)
+        self.update_stats("", f"TFM: {session.status}" if session.status else "TFM")
+
+    def __del__(self):
+        try:
+            session = self._session
+        except (AttributeError, ReferenceError):
+            return
+        if session is not None:
+            session.close()
 
     def _viewport_failed(self, ex):
         message = f"TFM viewport: {ex}"

@@ -22,13 +22,23 @@ def get_worker():
         return _worker
 
 
-def close_worker() -> None:
-    """Stop the GL thread and release its context, if one was started."""
+CLOSE_TIMEOUT_S = 5.0  # the longest unregister waits for the GL thread's current pass
+
+
+def close_worker() -> bool:
+    """Stop the GL thread and release its context, if one was started: queued and waiting jobs
+    fail at once; the running one stops at its next check. True when the thread has ended
+    (otherwise it ends by itself after its current pass and takes no new work)."""
     global _worker
     with _lock:
         worker, _worker = _worker, None
-    if worker is not None:
-        worker.close()
+    if worker is None:
+        return True
+    ended = worker.close(CLOSE_TIMEOUT_S)
+    if not ended:
+        print(f"TFM: the render thread is still finishing a pass after {CLOSE_TIMEOUT_S} s; "
+              "it ends by itself and takes no new work")
+    return ended
 
 
 def is_running() -> bool:

@@ -152,9 +152,10 @@ def apply_settings(scene_settings, settings: RenderSettings) -> None:
 
 
 def build(scene: Scene, directory: str, *, bl_scene=None, settings: RenderSettings | None = None,
-          name: str = "TFM", use_node_material: bool = True) -> dict:
+          name: str = "TFM", use_node_material: bool = True, samples: int = 1) -> dict:
     """Add ``scene``'s objects to ``bl_scene`` (default: the context scene) and set its camera,
-    resolution, world and TFM settings. A heterogeneous medium's grid is written to
+    resolution, world and TFM settings (``samples``: antialiasing samples; 1, the pixel centres,
+    renders what Renderer.render renders for ``scene``). A heterogeneous medium's grid is written to
     ``directory``/<name>_density.vdb. Returns the created objects by role."""
     import bpy
 
@@ -238,6 +239,7 @@ def build(scene: Scene, directory: str, *, bl_scene=None, settings: RenderSettin
     nt.links.new(bg.outputs[0], out.inputs["Surface"])
 
     bl_scene.render.engine = 'TFM'
+    bl_scene.tfm.samples = samples
     if settings is not None:
         apply_settings(bl_scene.tfm, settings)
     return made

@@ -1,38 +1,52 @@
-"""The interactive viewport: change flags in, an image for a view out, drawn with ``gpu``.
+"""The interactive viewport: change flags in, a progressive image for a view out, drawn with ``gpu``.
 
 ``ViewportSession`` holds what survives between redraws and needs no GPU module, so background
-tests drive it directly; ``draw_image`` is the only code that touches Blender's ``gpu``.
+tests drive it directly. On Blender's thread it only reads the depsgraph (what changed) and posts
+requests to the progressive view (engine.progressive); the GL thread renders a coarse image, the
+full one, then accumulates samples. A ``bpy.app.timers`` poll asks for a redraw when a frame is
+ready. ``DrawTexture`` is the only code that touches Blender's ``gpu``.
 """
 
 from __future__ import annotations
 
+import time
+
 import numpy as np
 
 from ..engine.output import RenderOutput
+from ..engine.progressive import ProgressiveView, upload_pixels
 from ..engine.scene import Camera
 from .changes import Change, changes_from_depsgraph
 from .extract import Extraction, extract
 from .render_worker import get_worker
+
+POLL_S = 0.03  # how often the timer looks for a finished frame
 
 
 class ViewportSession:
     """One viewport's scene between redraws.
 
     ``update`` (from ``view_update``) turns depsgraph updates into change flags and re-reads only
-    the flagged parts; ``render`` (from ``view_draw``) renders a view, re-rendering only when the
-    view or the scene changed. Map reuse across views is the renderer's (by keys).
+    the flagged parts; ``request`` (from ``view_draw``) posts the view to the progressive view,
+    which renders off Blender's thread; ``frame`` is the newest finished image. Map reuse across
+    views is the renderer's (by keys). ``callback_s`` is the longest time ``update`` or
+    ``request`` held the calling thread.
     """
 
     def __init__(self):
         self.extraction: Extraction | None = None
         self.last_changes = Change.NONE
         self.renders = 0
+        self.callback_s = 0.0
+        self.redraw = None          # set by the engine: asks Blender to redraw (main thread only)
         self._image: RenderOutput | None = None
         self._image_key = None
         self._generation = 0
+        self._view: ProgressiveView | None = None
 
     def update(self, depsgraph, changes: Change | None = None) -> Change:
         """Re-read what changed; return the flags used."""
+        t0 = time.perf_counter()
         if self.extraction is None:
             changes = Change.ALL
             self.extraction = extract(depsgraph)
@@ -45,10 +59,37 @@ class ViewportSession:
                 self.extraction = extract(depsgraph, parts=parts, previous=self.extraction)
                 self._generation += 1
         self.last_changes = changes
+        self.callback_s = max(self.callback_s, time.perf_counter() - t0)
         return changes
 
+    @property
+    def view(self) -> ProgressiveView:
+        worker = get_worker()
+        if self._view is None or self._view.worker is not worker:
+            self._view = ProgressiveView(worker)
+        return self._view
+
+    def request(self, camera: Camera, samples: int) -> bool:
+        """Post ``camera``'s view up to ``samples`` (nothing when it is the current request)."""
+        if self.extraction is None:
+            raise RuntimeError("update() must run before request()")
+        t0 = time.perf_counter()
+        settings = self.extraction.settings
+        posted = self.view.request((self._generation, camera.key, settings), self.extraction.scene(camera),
+                                   settings, samples)
+        self.callback_s = max(self.callback_s, time.perf_counter() - t0)
+        return posted
+
+    def frame(self):
+        return None if self._view is None else self._view.frame()
+
+    @property
+    def status(self) -> str:
+        return "" if self._view is None else self._view.status
+
     def render(self, camera: Camera) -> RenderOutput:
-        """The image for ``camera``; the previous one when neither it nor the scene changed."""
+        """The pixel-centre image for ``camera``, rendered now (waits: for scripts and tests);
+        the previous one when neither the view nor the scene changed."""
         if self.extraction is None:
             raise RuntimeError("update() must run before render()")
         key = (camera.key, self._generation)
@@ -61,9 +102,58 @@ class ViewportSession:
             self.renders += 1
         return self._image
 
+    def close(self) -> None:
+        """Stop refining and stop being polled."""
+        _polled.pop(id(self), None)
+        if self._view is not None:
+            self._view.cancel()
+
     @property
     def warnings(self) -> list[str]:
         return self.extraction.all_warnings if self.extraction else []
+
+
+# The sessions the timer polls for finished frames, by id.
+_polled: dict[int, ViewportSession] = {}
+
+
+def _poll():
+    """bpy.app.timers callback (Blender's main thread): redraw the viewports with a new frame."""
+    for key, session in list(_polled.items()):
+        view = session._view
+        if view is None or not view.take_redraw() or session.redraw is None:
+            continue
+        try:
+            session.redraw()
+        except ReferenceError:  # Blender freed the engine: forget its session
+            _polled.pop(key, None)
+            session.close()
+    return POLL_S if _polled else None
+
+
+def start_polling(session: ViewportSession) -> None:
+    import bpy
+
+    _polled[id(session)] = session
+    if not bpy.app.timers.is_registered(_poll):
+        bpy.app.timers.register(_poll, first_interval=POLL_S, persistent=True)
+
+
+def stop_polling() -> None:
+    """Forget every session and remove the timer (the add-on is being disabled)."""
+    import bpy
+
+    for session in list(_polled.values()):
+        session.close()
+    _polled.clear()
+    if bpy.app.timers.is_registered(_poll):
+        bpy.app.timers.unregister(_poll)
+
+
+def is_polling() -> bool:
+    import bpy
+
+    return bpy.app.timers.is_registered(_poll)
 
 
 def view_size(region, scale: float) -> tuple[int, int]:
@@ -71,13 +161,16 @@ def view_size(region, scale: float) -> tuple[int, int]:
 
 
 class DrawTexture:
-    """An RGBA float image uploaded as a GPUTexture; ``gpu`` is imported here, lazily."""
+    """An RGBA float image (top row first) uploaded as a GPUTexture; ``pixels``, when given, is
+    that image already prepared (progressive.upload_pixels, on the GL thread). ``gpu`` is imported
+    here, lazily."""
 
-    def __init__(self, image: np.ndarray):
+    def __init__(self, image: np.ndarray, pixels: np.ndarray | None = None):
         import gpu
 
         h, w, _ = image.shape
-        pixels = np.ascontiguousarray(np.nan_to_num(image[::-1], posinf=6.0e4), dtype=np.float32)
+        if pixels is None:
+            pixels = upload_pixels(image)
         buffer = gpu.types.Buffer('FLOAT', pixels.size, pixels.ravel())
         self.texture = gpu.types.GPUTexture((w, h), format='RGBA32F', data=buffer)
 

@@ -41,6 +41,34 @@ def create_context():
         + "; ".join(errors) + f"). To fix: {hint}.")
 
 
+_FINISH: list = []
+
+
+def _gil_free_finish():
+    """The platform's glFinish through ctypes (which releases the GIL around the call), or None.
+    Core OpenGL 1.0 entry points are exported by the system GL library (GLVND's libGL/libOpenGL
+    on Linux, which dispatches to the context current on the thread, EGL's included)."""
+    if not _FINISH:
+        import ctypes
+        import ctypes.util
+
+        names = {"win32": ["opengl32"], "darwin": ["/System/Library/Frameworks/OpenGL.framework/OpenGL"]}.get(
+            sys.platform, ["libGL.so.1", "libOpenGL.so.0", ctypes.util.find_library("GL")])
+        fn = None
+        for name in names:
+            if not name:
+                continue
+            try:
+                lib = ctypes.WinDLL(name) if sys.platform == "win32" else ctypes.CDLL(name)
+                fn = lib.glFinish
+            except (OSError, AttributeError):
+                continue
+            fn.restype, fn.argtypes = None, []
+            break
+        _FINISH.append(fn)
+    return _FINISH[0]
+
+
 def shader_source(name: str) -> str:
     """A file of shaders/ with its ``#include "file"`` lines replaced by those files."""
     lines = []
@@ -82,6 +110,16 @@ class GLContext:
             prog = self.ctx.program(vertex_shader=vs, fragment_shader=fs)
             self._programs[key] = prog
         return prog
+
+    def finish(self) -> None:
+        """Wait until the GL work issued so far is done, letting other Python threads run
+        meanwhile (moderngl keeps Python's GIL during its calls: its own finish() would stop the
+        host's UI thread for as long as the pass takes)."""
+        gl_finish = _gil_free_finish()
+        if gl_finish is None:
+            self.ctx.finish()
+        else:
+            gl_finish()  # a ctypes call: the GIL is released while it waits
 
     def draw_fullscreen(self, prog) -> None:
         """Run ``prog`` over the bound framebuffer with one triangle (fullscreen.vert)."""

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import time
 from collections import Counter
 from collections.abc import Callable
@@ -27,6 +28,7 @@ from .passes.bindings import (
     MediumGPU,
     MediumSlot,
     gobo_texture,
+    max_grids,
     pass_state,
 )
 from .passes.emission import AttributesGPU
@@ -43,7 +45,7 @@ from .passes.scattering import (
 )
 from .passes.shadow_map import ShadowMap
 from .passes.solids import SolidsBuffer
-from .passes.tfm import TransmittanceMap, largest_density_integral
+from .passes.tfm import MIN_FOOTPRINT_RESOLUTION, TransmittanceMap, largest_density_integral, tfm_resolution
 from .quality import auto_settings
 from .scene import Light, RenderSettings, Scene
 
@@ -84,16 +86,20 @@ class _Cache:
                 item.release()
         self.fresh.clear()
 
-    def sweep(self, client: str | None = None) -> None:
+    def sweep(self, client: str | None = None, release: bool = True) -> None:
         """End a frame of ``client``: keep what it used, release what no client's last frame
-        used. ``client=None`` forgets every client (``clear``)."""
+        used. ``release=False`` adds what it used to what the client kept and releases nothing.
+        ``client=None`` forgets every client (``clear``)."""
         if client is None:
             self.kept.clear()
-        else:
+        elif release:
             self.kept[client] = set(self.used)
+        else:
+            self.kept.setdefault(client, set()).update(self.used)
         self.used.clear()
         self.fresh.clear()
-        self._release_unkept()
+        if release:
+            self._release_unkept()
 
     def forget(self, client: str) -> None:
         """Release what only ``client`` kept (it will render no more frames for now)."""
@@ -161,16 +167,17 @@ class Renderer:
     def render(self, scene: Scene, settings: RenderSettings | None = None,
                cancel: Callable[[], bool] | None = None,
                progress: Callable[[float], None] | None = None, passes: bool = True,
-               client: str = "final") -> RenderOutput:
+               client: str = "final", sweep: bool = True) -> RenderOutput:
         """Render ``scene``; raises RenderCancelled when ``cancel()`` turns true between passes.
         ``passes=False`` reads back the combined image alone (the viewport's case). ``client``
         names who asks ('viewport', 'final', 'preview', ...): each client's last frame keeps its
-        maps, whatever the other clients render in between."""
+        maps, whatever the other clients render in between. ``sweep=False`` also keeps what the
+        client's previous frames kept (the viewport's coarse image must not evict the full maps)."""
         gl = self.gl
         gl.check_thread()
         settings = effective_settings(scene, settings)
         with gl.ctx:     # current for the call, whatever other context the thread made current
-            return self._render(scene, settings, cancel, progress, passes, client)
+            return self._render(scene, settings, cancel, progress, passes, client, sweep)
 
     def forget_client(self, client: str) -> None:
         """Release the maps that only ``client``'s last frame kept."""
@@ -179,7 +186,7 @@ class Renderer:
                 for cache in self._caches:
                     cache.forget(client)
 
-    def _render(self, scene, settings, cancel, progress, want_passes, client) -> RenderOutput:
+    def _render(self, scene, settings, cancel, progress, want_passes, client, sweep=True) -> RenderOutput:
         gl = self.gl
         t_start = time.perf_counter()
         timings: dict[str, float] = {}
@@ -190,7 +197,7 @@ class Renderer:
         done = [0]
 
         def step(name: str, t0: float) -> None:
-            gl.ctx.finish()
+            gl.finish()   # lets the host's threads run while the pass completes
             timings[name] = timings.get(name, 0.0) + time.perf_counter() - t0
             done[0] += 1
             if progress is not None:
@@ -248,6 +255,7 @@ class Renderer:
                 step("scattering", t0)
             t0 = time.perf_counter()
             targets.compose(gl)
+            gl.finish()   # the read below then copies without waiting on the GPU
             combined = targets.read_combined()
             passes = targets.read_passes() if want_passes else {}
             timings["readback"] = time.perf_counter() - t0
@@ -269,7 +277,7 @@ class Renderer:
         finally:
             pass_state(gl.ctx)
         for cache in self._caches:
-            cache.sweep(client)
+            cache.sweep(client, release=sweep)
         self.counters["renders"] += 1
         timings["total"] = time.perf_counter() - t_start
         if not scene.lights:
@@ -348,10 +356,11 @@ class Renderer:
         for m in media:
             if m.density is not None and m.grid_key not in grids:
                 grids[m.grid_key] = m
-        if len(grids) > MAX_GRIDS:
-            kept = set(list(grids)[:MAX_GRIDS])
+        most = min(MAX_GRIDS, max_grids(self.gl))
+        if len(grids) > most:
+            kept = set(list(grids)[:most])
             dropped = [m for m in media if m.density is not None and m.grid_key not in kept]
-            warnings.append(f"At most {MAX_GRIDS} distinct density grids are rendered at once; "
+            warnings.append(f"At most {most} distinct density grids are rendered at once; "
                             "skipped " + ", ".join(f"'{m.name}'" for m in dropped) + ".")
             media = [m for m in media if m.density is None or m.grid_key in kept]
             grids = {k: v for k, v in grids.items() if k in kept}
@@ -447,19 +456,22 @@ class Renderer:
                                                   lambda frame=frame: ShadowMap(gl, frame, solids, res))
                 self.counters["shadow_maps"] += built
             light_t, tfm, tfm_sigma = LIGHT_T_NONE, None, None
+            unit = settings.method == "UNSHADOWED" or not light.cast_shadow
             if medium_gpu.kind == MEDIUM_GRID:
-                if reached and not light.cast_shadow:
-                    light_t = LIGHT_T_UNIT          # nothing shadows it, the media neither
+                if reached and unit:
+                    light_t = LIGHT_T_UNIT          # the floor, or a light nothing shadows
                 elif reached and light.use_tfm:
                     if settings.method == "BRUTE_FORCE":
                         light_t = LIGHT_T_MARCH
                     else:
+                        side = _face_tfm_resolution(settings, frame, medium_gpu.slots[reached[0]], res,
+                                                    max(scene.camera.width_px, scene.camera.height_px))
                         tfm, tfm_sigma = self._tfm(scene, settings, light, frame, medium_gpu, shadow,
-                                                   res, reached, warnings)
+                                                   side, reached, warnings)
                         light_t = LIGHT_T_TFM if tfm is not None else LIGHT_T_NONE
             elif medium_gpu.kind in (MEDIUM_BOX, MEDIUM_EVERYWHERE):
                 if everywhere or reached:
-                    light_t = LIGHT_T_ANALYTIC if light.cast_shadow else LIGHT_T_UNIT
+                    light_t = LIGHT_T_UNIT if unit else LIGHT_T_ANALYTIC
             plans.append(_LightPlan(light, frame, light_t, shadow, tfm, gobo, tfm_sigma))
         return plans
 
@@ -488,7 +500,7 @@ class Renderer:
         media_key = tuple((_slot_key(slots[i]), round(weights[i], 9)) for i in reached)
         base = (light.key, frame.key, scene.solids_key, media_key, res, settings.light_steps)
         key = base + (n, weight_key)
-        if n % 4 == 0 and key not in self._tfms.items:
+        if (n % 4 == 0 or n <= 2) and key not in self._tfms.items:
             wider = [k for k in self._tfms.items
                      if k[:len(base)] == base and len(k) == len(key) and k[-1] == weight_key
                      and k[-2] > n and k[-2] % 4 == 0]
@@ -529,14 +541,15 @@ class Renderer:
 
 
 class _FewerCoefficients:
-    """A TFM read with its first ``n`` coefficients (n a multiple of 4)."""
+    """A TFM read with its first ``n`` coefficients (n a multiple of 4, or n <= 2: the shader
+    then ignores the rest of the first target)."""
 
     def __init__(self, tfm: TransmittanceMap, n: int):
         self.tfm, self.coefficients = tfm, n
 
     def defines(self, tfm_filter: str) -> dict[str, int]:
         return {**self.tfm.defines(tfm_filter), "N_COEFF": self.coefficients,
-                "N_TARGETS": self.coefficients // 4}
+                "N_TARGETS": max(1, self.coefficients // 4)}
 
     def bind(self, prog, sigma_t) -> None:
         self.tfm.bind(prog, sigma_t)
@@ -568,6 +581,17 @@ def _slot_key(slot: MediumSlot) -> tuple:
     """What a marched medium's share of a map depends on: its grid texture and placement."""
     grid = None if slot.grid is None else slot.grid.key
     return (grid, tuple(np.round(slot.world_to_box, 12).ravel()))
+
+
+def _face_tfm_resolution(settings, frame: LightFrame, slot: MediumSlot, map_res: int, image_side: int) -> int:
+    """The TFM side of a face (passes/tfm.tfm_resolution, the 'FOOTPRINT' rule read on the first
+    medium the face reaches); an orthographic face's footprint is its extent over the voxel."""
+    if frame.ortho and settings.tfm_resolution == "FOOTPRINT":
+        voxel = float(np.linalg.norm(slot.box_to_world[:3, :3], axis=0).min())
+        cap = min(map_res, max(int(image_side), MIN_FOOTPRINT_RESOLUTION))
+        texels = 2.0 * max(frame.tan_xy) / max(voxel, 1e-12)
+        return int(min(cap, max(MIN_FOOTPRINT_RESOLUTION, 16 * math.ceil(texels / 16))))
+    return tfm_resolution(settings, frame, slot, map_res, image_side)
 
 
 def _reaches(light: Light, frame: LightFrame, box) -> bool:

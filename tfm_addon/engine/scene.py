@@ -390,13 +390,22 @@ class RenderSettings:
     the most extinguishing channel), or None for automatic (the largest density integral found
     along the light rays; the map then does not depend on sigma).
     ``map_resolution``: shadow map and TFM side, texels.
+    ``tfm_resolution``: the TFM's side when it differs: None (``map_resolution``), texels, or
+    'FOOTPRINT' (one texel per voxel where the medium is nearest to the light, at most
+    ``map_resolution`` and the image's larger side; passes/tfm.footprint_resolution; AUTO's
+    choice).
     ``sampling``: 'WORLD' or 'PROJECTIVE' spacing of view samples in a homogeneous medium.
-    ``method``: 'TFM' (the product), 'BRUTE_FORCE' (GPU double march reference).
+    ``method``: 'TFM' (the product), 'BRUTE_FORCE' (GPU double march reference), 'UNSHADOWED'
+    (the floor: transmittance 1 from the light through the medium, solids' shadow maps kept, no
+    TFM built; what no transmittance representation can beat, for the benchmark).
     ``tfm_filter``: 'EXACT' reconstructs the 2x2 nearest TFM texels each in its own [K_in, K_out]
     and blends the results; 'LINEAR' lets the hardware blend coefficients and domains (about a
     quarter of the lookups; mixes domains at the medium's edges as seen from the light).
     ``ambient``: whether the world colour lights the medium and the surfaces.
     ``max_grid_bytes``: memory budget for the density texture; larger grids are downsampled.
+    ``view_jitter``: None marches view rays at the step midpoints; a fraction of a step in
+    [0, 1) starts each pixel's march there plus a per-pixel hash (sampling.march_offset: a
+    different start per antialiasing sample). No map depends on it.
     ``quality``: 'CUSTOM' renders with the fields above; 'AUTO' lets
     ``quality.auto_settings(scene, settings)`` choose the coefficient count, density weighting,
     steps and sampling for the scene (the rule of docs/benchmark.md).
@@ -407,12 +416,14 @@ class RenderSettings:
     coefficients: int = 8
     density_weight: float | None = None
     map_resolution: int = 512
+    tfm_resolution: int | Literal["FOOTPRINT"] | None = None
     sampling: Literal["WORLD", "PROJECTIVE"] = "WORLD"
-    method: Literal["TFM", "BRUTE_FORCE"] = "TFM"
-    tfm_filter: Literal["EXACT", "LINEAR"] = "EXACT"
+    method: Literal["TFM", "BRUTE_FORCE", "UNSHADOWED"] = "TFM"
+    tfm_filter: Literal["EXACT", "LINEAR"] = "LINEAR"
     ambient: bool = True
     max_grid_bytes: int = 512 * 1024 * 1024
     quality: Literal["CUSTOM", "AUTO"] = "CUSTOM"
+    view_jitter: float | None = None
 
 
 _UNSET = object()

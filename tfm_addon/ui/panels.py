@@ -41,6 +41,8 @@ class TFM_PT_render(_TFMPanel, bpy.types.Panel):
         custom.prop(tfm, "sampling")
         col.prop(tfm, "ambient")
         col.prop(tfm, "viewport_scale")
+        col.prop(tfm, "samples")
+        col.prop(tfm, "viewport_samples")
 
 
 class TFM_PT_render_maps(_TFMPanel, bpy.types.Panel):

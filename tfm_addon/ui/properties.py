@@ -78,7 +78,7 @@ class TFM_SceneSettings(bpy.types.PropertyGroup):
             ('LINEAR', "Linear", "Let the GPU blend neighbouring coefficients (faster; blurs the "
                                  "medium's edges as seen from the light)", 1),
         ),
-        default='EXACT',
+        default='LINEAR',
         description="How transmittance maps are filtered between texels",
     )
     ambient: BoolProperty(
@@ -88,6 +88,16 @@ class TFM_SceneSettings(bpy.types.PropertyGroup):
     viewport_scale: FloatProperty(
         name="Viewport Resolution", default=0.5, min=0.1, max=1.0, subtype='FACTOR',
         description="Resolution of the viewport image relative to the viewport",
+    )
+    samples: IntProperty(
+        name="Samples", default=0, min=0, soft_max=256, max=4096,
+        description="Antialiasing samples per pixel of a final render, each at its own place in the "
+                    "pixel (one-pixel box filter) with its own view-march start; 0 chooses "
+                    "automatically (16), 1 renders pixel centres",
+    )
+    viewport_samples: IntProperty(
+        name="Viewport Samples", default=16, min=1, soft_max=256, max=4096,
+        description="Samples the viewport accumulates while nothing changes",
     )
 
     @classmethod

@@ -10,17 +10,37 @@ from ..medium_grid import PreparedGrid
 from ..scene import Medium
 
 # Texture units, fixed for every program.
+# Texture units of the light passes, one table so that no two textures share a unit (the composite
+# pass reads its three inputs from units 11-13, outside the light passes).
 UNIT = {"u_gb0": 0, "u_gb1": 1, "u_density": 2, "u_shadow": 3, "u_gobo": 4, "u_krange": 5,
-        "u_coef0": 6, "u_coef1": 7, "u_coef2": 8, "u_coef3": 9, "u_shadow_depth": 14}
+        "u_coef0": 6, "u_coef1": 7, "u_coef2": 8, "u_coef3": 9, "u_attrs": 10, "u_color_grid": 11,
+        "u_shadow_depth": 14, "u_occupancy": 15}
+
+# The density texture's format: (moderngl dtype, numpy type); values are stored divided by the
+# grid's maximum (``MediumGPU.density_scale``) so that half floats never overflow and the
+# normalised integers span their range. R16 and R16F give R32F's SSIM against the numpy reference
+# on every benchmark scene, R8 drops the dense smoke to 0.995 (docs/benchmark.md); R16 is the
+# default: half the bytes of R32F and a sixth of R16F's conversion time in numpy.
+GRID_FORMATS = {"R32F": ("f4", np.float32), "R16F": ("f2", np.float16), "R16": ("nu2", np.uint16),
+                "R8": ("nu1", np.uint8)}
+GRID_FORMAT = "R16"
+OCCUPANCY_BLOCK = 8     # voxels per side of an occupancy cell (empty-space skipping)
 
 MEDIUM_NONE, MEDIUM_BOX, MEDIUM_EVERYWHERE, MEDIUM_GRID = 0, 1, 2, 3
 """MEDIUM_GRID marches every medium (density grids and homogeneous boxes, several of them)."""
 
 MAX_MEDIA = 8
 """Media one pass handles (instances of one grid count each)."""
-GRID_UNITS = (2, 11, 12, 13)
-"""Texture units of the distinct density grids one pass reads: at most four."""
+GRID_UNITS = (2, 12, 13, 16)
+"""Texture units of the distinct density grids one pass reads: the units UNIT leaves free below
+16 (the fewest a fragment shader has on every platform), and unit 16 where the GL has it."""
 MAX_GRIDS = len(GRID_UNITS)
+
+
+def max_grids(gl: GLContext) -> int:
+    """Distinct density grids one pass can read on this GL: 4, or 3 with 16 texture units."""
+    units = int(gl.ctx.info.get("GL_MAX_TEXTURE_IMAGE_UNITS", 16))
+    return sum(1 for u in GRID_UNITS if u < units)
 
 
 def pass_state(ctx, *, depth_test: bool = False, blend: bool = False) -> None:
@@ -54,9 +74,13 @@ class MediumGPU:
     the texture's index space to the medium's own (a downsampled grid), so instances of one
     grid share the texture, each with its own ``index_to_world``."""
 
-    def __init__(self, gl: GLContext, medium: Medium | None, grid: PreparedGrid | None):
+    def __init__(self, gl: GLContext, medium: Medium | None, grid: PreparedGrid | None,
+                 grid_format: str | None = None):
+        grid_format = grid_format or GRID_FORMAT
         self.texture = None
         self.index_scale = np.eye(4)
+        self.density_scale = 1.0
+        self.occupancy = None
         if medium is None or (grid is not None and grid.is_empty):
             self.kind = MEDIUM_NONE
             world_to_box, lo, hi = np.eye(4), (0, 0, 0), (0, 0, 0)
@@ -65,12 +89,26 @@ class MediumGPU:
             n = grid.density.shape
             self.index_scale = np.asarray(grid.index_to_world, np.float64)
             world_to_box = np.linalg.inv(np.asarray(medium.index_to_world) @ self.index_scale)
-            lo, hi = (-1, -1, -1), tuple(float(x) for x in n)
+            lo, hi = nonzero_bounds(grid.density)
             data = grid.padded_xyz_fastest()
             self.grid_size = (n[0] + 2, n[1] + 2, n[2] + 2)
-            self.texture = gl.ctx.texture3d(self.grid_size, 1, data.tobytes(), dtype="f4")
+            self.grid_format = grid_format
+            dtype, numpy_type = GRID_FORMATS[grid_format]
+            self.density_scale = max(grid.max_value, 1e-30)      # stored: density / scale
+            if np.issubdtype(numpy_type, np.integer):     # normalised: round to the nearest step
+                top = np.float32(np.iinfo(numpy_type).max / self.density_scale)
+                stored = data * top + np.float32(0.5)
+            else:
+                stored = data * np.float32(1.0 / self.density_scale)
+            self.texture = gl.ctx.texture3d(self.grid_size, 1, stored.astype(numpy_type).tobytes(),
+                                            dtype=dtype)
             self.texture.filter = (gl.ctx.LINEAR, gl.ctx.LINEAR)
             self.texture.repeat_x = self.texture.repeat_y = self.texture.repeat_z = False
+            occ = occupancy(data)
+            self.occupancy_size = occ.shape[::-1]
+            self.occupancy = gl.ctx.texture3d(self.occupancy_size, 1, occ.tobytes(), dtype="f1")
+            self.occupancy.filter = (gl.ctx.NEAREST, gl.ctx.NEAREST)
+            self.occupancy.repeat_x = self.occupancy.repeat_y = self.occupancy.repeat_z = False
         elif medium.box_to_world is not None:
             self.kind = MEDIUM_BOX
             world_to_box, lo, hi = np.linalg.inv(medium.box_to_world), (-1, -1, -1), (1, 1, 1)
@@ -85,12 +123,41 @@ class MediumGPU:
         set_matrix(prog, "u_world_to_box", self.world_to_box)
         set_uniforms(prog, u_box_lo=self.lo, u_box_hi=self.hi)
         if self.texture is not None:
-            set_uniforms(prog, u_grid_size=tuple(float(x) for x in self.grid_size))
+            set_uniforms(prog, u_grid_size=tuple(float(x) for x in self.grid_size),
+                         u_occupancy_block=float(OCCUPANCY_BLOCK), u_density_scale=self.density_scale)
             self.texture.use(UNIT["u_density"])
+            self.occupancy.use(UNIT["u_occupancy"])
 
     def release(self) -> None:
-        if self.texture is not None:
-            self.texture.release()
+        for t in (self.texture, self.occupancy):
+            if t is not None:
+                t.release()
+
+
+def nonzero_bounds(density: np.ndarray) -> tuple[tuple[float, ...], tuple[float, ...]]:
+    """(lo, hi) in index space of the tightest box outside which the trilinear density is 0:
+    one voxel beyond the first and last non-zero voxel centres on each axis."""
+    lo, hi = [], []
+    for axis in range(3):
+        other = tuple(a for a in range(3) if a != axis)
+        nz = np.flatnonzero(np.any(density > 0, axis=other))
+        first, last = (int(nz[0]), int(nz[-1])) if nz.size else (1, -1)     # empty: lo = hi
+        lo.append(float(first - 1))
+        hi.append(float(last + 1))
+    return tuple(lo), tuple(hi)
+
+
+def occupancy(padded_zyx: np.ndarray, block: int = OCCUPANCY_BLOCK) -> np.ndarray:
+    """255 where a cell of block^3 padded voxels may hold non-zero trilinear density, else 0, in
+    the layout of ``padded_zyx`` (x fastest). Cell c covers padded positions [c b, (c + 1) b) on
+    each axis, whose trilinear value reads voxels c b .. (c + 1) b: the max is over those."""
+    d = padded_zyx > 0
+    d[:, :, :-1] |= d[:, :, 1:]   # voxel j may touch positions in the cell of j and of j - 1
+    d[:, :-1, :] |= d[:, 1:, :]
+    d[:-1, :, :] |= d[1:, :, :]
+    for axis in range(3):
+        d = np.logical_or.reduceat(d, np.arange(0, d.shape[axis], block), axis=axis)
+    return np.ascontiguousarray(d.astype(np.uint8) * 255)
 
 
 class MediumSlot:
@@ -102,8 +169,7 @@ class MediumSlot:
         self.medium, self.grid = medium, grid
         if grid is not None:
             to_world = np.asarray(medium.index_to_world) @ grid.index_scale
-            n = grid.grid_size
-            self.lo, self.hi = (-1.0, -1.0, -1.0), tuple(float(x - 2) for x in n)
+            self.lo, self.hi = grid.lo, grid.hi          # the density's non-zero bounds
         else:
             to_world = np.asarray(medium.box_to_world)
             self.lo, self.hi = (-1.0, -1.0, -1.0), (1.0, 1.0, 1.0)
@@ -180,11 +246,15 @@ class MediaGPU:
             u_med_g=[float(s.medium.anisotropy) for s in slots] + [0.0] * pad,
             u_med_weight=[float(w) for w in weights] + [0.0] * pad,
         )
-        if slots[0].grid is not None:      # the first medium's lattice (its colour grid reads it)
-            set_uniforms(prog, u_grid_size=tuple(float(x) for x in slots[0].grid.grid_size))
+        first = slots[0].grid
+        if first is not None:    # the first medium's lattice: its colour grid, empty-space skipping
+            set_uniforms(prog, u_grid_size=tuple(float(x) for x in first.grid_size),
+                         u_density_scale=first.density_scale, u_occupancy_block=float(OCCUPANCY_BLOCK))
+            first.occupancy.use(UNIT["u_occupancy"])
         sizes = [tuple(float(x) for x in g.grid_size) for g in self.grids]
         sizes += [(1.0, 1.0, 1.0)] * (MAX_GRIDS - len(sizes))
-        _set_arrays(prog, u_grid_sizes=sizes)
+        scales = [float(g.density_scale) for g in self.grids] + [1.0] * (MAX_GRIDS - len(self.grids))
+        _set_arrays(prog, u_grid_sizes=sizes, u_grid_scales=scales)
         for g, unit in zip(self.grids, GRID_UNITS, strict=False):
             g.texture.use(unit)
 

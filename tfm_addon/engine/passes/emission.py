@@ -10,8 +10,9 @@ import numpy as np
 from ..gl_context import GLContext, set_uniforms
 from ..medium_attributes import PreparedAttributes, constant_blackbody, padded_xyz_fastest
 from ..scene import Medium
+from .bindings import UNIT
 
-UNIT_ATTRS, UNIT_COLOR = 10, 15
+UNIT_ATTRS, UNIT_COLOR = UNIT["u_attrs"], UNIT["u_color_grid"]
 
 
 class AttributesGPU:

@@ -103,7 +103,8 @@ def run_light_pass(gl: GLContext, *, camera: Camera, plane: ViewPlane, medium: M
         set_uniforms(prog, u_sigma_s=tuple(float(x) for x in medium.sigma_s),
                      u_sigma_t=tuple(float(x) for x in medium.sigma_t), u_g=float(medium.anisotropy))
     set_uniforms(prog, u_ambient=tuple(float(x) for x in ambient),
-                 u_view_steps=int(settings.view_steps), u_light_steps=int(settings.light_steps))
+                 u_view_steps=int(settings.view_steps), u_light_steps=int(settings.light_steps),
+                 u_view_jitter=-1.0 if settings.view_jitter is None else float(settings.view_jitter))
     if light is not None:
         frame, intensity, shadow, gobo = light
         bind_light(prog, frame, intensity, settings.map_resolution, shadow, gobo)

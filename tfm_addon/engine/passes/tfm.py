@@ -11,6 +11,40 @@ from ..light import LightFrame
 from .bindings import MediaGPU, bind_light, bind_units, pass_state
 
 MAX_COEFFICIENTS = 16
+COEF_DTYPE = "f4"      # "f2" (half floats) gives the same SSIM on every bench scene, no faster on llvmpipe
+TEXELS_PER_VOXEL = 1.0          # the 'FOOTPRINT' resolution rule (docs/benchmark.md)
+MIN_FOOTPRINT_RESOLUTION = 64
+
+
+def footprint_resolution(frame: LightFrame, medium, cap: int) -> int:
+    """The TFM side, texels, for ``tfm_resolution='FOOTPRINT'``: TEXELS_PER_VOXEL map texels per
+    voxel where the medium's non-zero box comes nearest to the light (the map's texels grow
+    with distance, so farther voxels get more), a multiple of 16 in
+    [MIN_FOOTPRINT_RESOLUTION, cap]; ``cap`` when the light is inside that box."""
+    w2b, b2w = medium.world_to_box, medium.box_to_world
+    p = w2b[:3, :3] @ frame.position + w2b[:3, 3]
+    q = np.clip(p, medium.lo, medium.hi)
+    distance = float(np.linalg.norm(b2w[:3, :3] @ (q - p)))
+    voxel = float(np.linalg.norm(b2w[:3, :3], axis=0).min())
+    if distance <= 0.0 or voxel <= 0.0:
+        return int(cap)
+    texels = TEXELS_PER_VOXEL * 2.0 * frame.tan_half * distance / voxel
+    return int(min(cap, max(MIN_FOOTPRINT_RESOLUTION, 16 * math.ceil(texels / 16))))
+
+
+def tfm_resolution(settings, frame: LightFrame, medium, map_res: int,
+                   image_side: int | None = None) -> int:
+    """The TFM side for ``settings.tfm_resolution`` (RenderSettings), at most ``map_res``;
+    'FOOTPRINT' also at most ``image_side`` (the image's larger side, pixels): a map finer than
+    the image is not seen where the medium fits in the frame."""
+    r = settings.tfm_resolution
+    if r is None:
+        return int(map_res)
+    if r == "FOOTPRINT":
+        cap = map_res if image_side is None else min(map_res, max(int(image_side),
+                                                                  MIN_FOOTPRINT_RESOLUTION))
+        return footprint_resolution(frame, medium, cap)
+    return int(min(max(int(r), 1), map_res))
 
 
 def largest_density_integral(gl: GLContext, frame: LightFrame, medium: MediaGPU, resolution: int,
@@ -30,6 +64,7 @@ def largest_density_integral(gl: GLContext, frame: LightFrame, medium: MediaGPU,
     bind_light(prog, frame, (0, 0, 0), res, None, None)
     set_uniforms(prog, u_light_steps=int(light_steps), u_inv_alpha=1.0)
     gl.draw_fullscreen(prog)
+    gl.finish()  # wait with the GIL released; the read then only copies
     tau = np.frombuffer(tex.read(), dtype=np.float32).reshape(-1, 4)[:, 0]
     fbo.release()
     tex.release()
@@ -38,7 +73,8 @@ def largest_density_integral(gl: GLContext, frame: LightFrame, medium: MediaGPU,
 
 class TransmittanceMap:
     """K_in/K_out (metres from the light) and ceil(n / 4) RGBA32F textures of DCT coefficients of
-    F(x) = exp(-tau_D(x) / alpha_D), so that T = F ** (alpha_D * sigma_t) per channel."""
+    F(x) = exp(-tau_D(x) / alpha_D), so that T = F ** (alpha_D * sigma_t) per channel; with
+    n <= 2 the coefficients sit in the K range texture's z, w (one fetch per lookup)."""
 
     def __init__(self, gl: GLContext, frame: LightFrame, medium: MediaGPU, shadow, resolution: int,
                  light_steps: int, coefficients: int, alpha_d: float, weights=None):
@@ -46,10 +82,10 @@ class TransmittanceMap:
         n = int(min(max(coefficients, 1), MAX_COEFFICIENTS))
         self.coefficients = n
         self.alpha_d = float(alpha_d)
-        targets = math.ceil(n / 4)
+        targets = 0 if n <= 2 else math.ceil(n / 4)      # two coefficients ride in the K range texture
         size = (resolution, resolution)
         self.krange = ctx.texture(size, 4, dtype="f4")
-        self.coef = [ctx.texture(size, 4, dtype="f4") for _ in range(targets)]
+        self.coef = [ctx.texture(size, 4, dtype=COEF_DTYPE) for _ in range(targets)]
         for t in [self.krange, *self.coef]:
             t.filter = (ctx.LINEAR, ctx.LINEAR)      # texelFetch ignores it; 'LINEAR' lookups use it
             t.repeat_x = t.repeat_y = False

@@ -8,6 +8,7 @@ uniform vec3 u_box_lo;
 uniform vec3 u_box_hi;
 uniform sampler3D u_density;   // padded by one zero voxel on every side
 uniform vec3 u_grid_size;      // padded texture size, voxels
+uniform float u_density_scale; // the texture holds density / u_density_scale
 
 // Ray (o, d) against the medium's box: (t_in, t_out) in units of d; t_in >= t_out when missed.
 vec2 box_interval(vec3 o, vec3 d) {
@@ -23,7 +24,21 @@ vec2 box_interval(vec3 o, vec3 d) {
 
 // Density at a point given in box (grid index) space: trilinear between voxel centres.
 float density_at_index(vec3 idx) {
-    return texture(u_density, (idx + 1.5) / u_grid_size).r;
+    return texture(u_density, (idx + 1.5) / u_grid_size).r * u_density_scale;
+}
+
+// Empty-space skipping: u_occupancy is 1 where a cell of u_occupancy_block^3 padded voxels may
+// hold non-zero density (passes/bindings.occupancy). The ray parameter where the ray ob + db t
+// (box space) leaves the empty cell holding its point at t, or t when that cell is not empty.
+uniform sampler3D u_occupancy;
+uniform float u_occupancy_block;
+float skip_empty(vec3 ob, vec3 db, float t) {
+    ivec3 cell = clamp(ivec3(floor((ob + db * t + 1.0) / u_occupancy_block)), ivec3(0),
+                       textureSize(u_occupancy, 0) - 1);
+    if (texelFetch(u_occupancy, cell, 0).r > 0.0) return t;
+    db = mix(db, vec3(1e-12), lessThan(abs(db), vec3(1e-12)));
+    vec3 tb = ((vec3(cell) + step(0.0, db)) * u_occupancy_block - 1.0 - ob) / db;
+    return max(t, min(min(tb.x, tb.y), tb.z));
 }
 
 // Density at a world point.
@@ -42,6 +57,7 @@ uniform vec3 u_med_sigma_s[MAX_MEDIA];
 uniform float u_med_g[MAX_MEDIA];
 uniform float u_med_weight[MAX_MEDIA];    // the medium's weight in the lights' TFMs
 uniform vec3 u_grid_sizes[4];             // padded texture sizes of the grid slots
+uniform float u_grid_scales[4];           // each texture holds density / its scale
 #if N_GRIDS > 1
 uniform sampler3D u_density1;
 #endif
@@ -54,15 +70,15 @@ uniform sampler3D u_density3;
 
 float grid_fetch(int slot, vec3 idx) {
 #if N_GRIDS > 1
-    if (slot == 1) return texture(u_density1, (idx + 1.5) / u_grid_sizes[1]).r;
+    if (slot == 1) return texture(u_density1, (idx + 1.5) / u_grid_sizes[1]).r * u_grid_scales[1];
 #endif
 #if N_GRIDS > 2
-    if (slot == 2) return texture(u_density2, (idx + 1.5) / u_grid_sizes[2]).r;
+    if (slot == 2) return texture(u_density2, (idx + 1.5) / u_grid_sizes[2]).r * u_grid_scales[2];
 #endif
 #if N_GRIDS > 3
-    if (slot == 3) return texture(u_density3, (idx + 1.5) / u_grid_sizes[3]).r;
+    if (slot == 3) return texture(u_density3, (idx + 1.5) / u_grid_sizes[3]).r * u_grid_scales[3];
 #endif
-    return texture(u_density, (idx + 1.5) / u_grid_sizes[0]).r;
+    return texture(u_density, (idx + 1.5) / u_grid_sizes[0]).r * u_grid_scales[0];
 }
 
 // Each medium's grid slot (-1: a box of density 1), fixed when the program is compiled, so that

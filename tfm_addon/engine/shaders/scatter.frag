@@ -21,6 +21,7 @@ uniform float u_g;
 uniform vec3 u_ambient;
 uniform int u_view_steps;
 uniform int u_light_in_medium;
+uniform float u_view_jitter;   // < 0: march at step midpoints; else this sample's start offset
 layout(location = 0) out vec4 o_scatter;
 layout(location = 1) out vec4 o_surface;
 layout(location = 2) out vec4 o_transmittance;
@@ -81,6 +82,10 @@ void main() {
         t_far = u_clip.y * len;
     }
     ivec2 px = ivec2(gl_FragCoord.xy);
+    // Where in each step the march samples: the midpoint, or (antialiasing samples) the sample's
+    // offset plus a per-pixel hash, so that neighbouring pixels and successive samples differ.
+    float step_at = u_view_jitter < 0.0 ? 0.5
+        : fract(u_view_jitter + fract(52.9829189 * fract(dot(vec2(px), vec2(0.06711056, 0.00583715)))));
     vec4 g0 = texelFetch(u_gb0, px, 0);
     vec4 g1 = texelFetch(u_gb1, px, 0);
     bool hit = g1.w > 0.5;
@@ -116,6 +121,12 @@ void main() {
     vec2 seg = vec2(t_near, t_end);
 #elif MEDIUM == 3
     vec2 seg = media_interval(o, d);
+#if EMISSION
+    // The boxes are the densities' non-zero bounds; the first medium's emission may glow outside.
+    vec2 emit_seg = emission_interval((u_world_to_box * vec4(o, 1.0)).xyz, (u_world_to_box * vec4(d, 0.0)).xyz);
+    if (emit_seg.y > emit_seg.x)
+        seg = seg.y > seg.x ? vec2(min(seg.x, emit_seg.x), max(seg.y, emit_seg.y)) : emit_seg;
+#endif
     seg = vec2(max(seg.x, t_near), min(seg.y, t_end));
 #else
     vec2 seg = box_interval(o, d);
@@ -144,7 +155,7 @@ void main() {
 #endif
 #endif
         for (int i = 0; i < u_view_steps; ++i) {
-            float t = seg.x + (float(i) + 0.5) * dt;
+            float t = seg.x + (float(i) + step_at) * dt;
             if (t > t_stop) break;
             vec3 p = o + d * t;
             float D[N_MEDIA];
@@ -158,6 +169,9 @@ void main() {
 #if EMISSION
             if (t >= emit.x && t <= emit.y)
                 scatter += exp(-(tau + 0.5 * st * dt)) * emission_at_index(ob + db * t) * dt;
+#elif N_MEDIA == 1
+            if (!any_d)       // in an empty occupancy cell: on to the first sample past it
+                i = max(i, int(ceil((skip_empty(ob, db, t) - seg.x) / dt - 0.501)) - 1);
 #endif
             if (any_d) {
                 vec3 tint0 = vec3(1.0);     // the first medium's scattering colour per voxel
@@ -185,7 +199,7 @@ void main() {
 #endif
                 scatter += tv * dt * src;
                 tau += st * dt;
-                if (min(min(tau.r, tau.g), tau.b) > 14.0) break;
+                if (min(min(tau.r, tau.g), tau.b) > 6.9078) break;    // view transmittance < 1e-3
             }
         }
         transmittance = exp(-tau);
@@ -222,7 +236,7 @@ void main() {
             float span = cs.y - cs.x;
             float s_prev = 0.0;
             for (int i = 0; i < n; ++i) {
-                float s_mid = (float(i) + 0.5) / float(n);
+                float s_mid = (float(i) + step_at) / float(n);
                 float s_next = float(i + 1) / float(n);
                 float u_mid = s_mid;
                 float u_next = s_next;

@@ -9,8 +9,10 @@ uniform float u_inv_alpha;          // 1 / alpha_D, per unit density integral (m
 #ifdef OPTICAL_DEPTH_ONLY
 out vec4 o_tau;
 #else
-layout(location = 0) out vec4 o_krange;
+layout(location = 0) out vec4 o_krange;   // N_TARGETS 0 (two coefficients): K range and c0, c1
+#if N_TARGETS > 0
 layout(location = 1) out vec4 o_coef0;
+#endif
 #if N_TARGETS > 1
 layout(location = 2) out vec4 o_coef1;
 #endif
@@ -97,8 +99,12 @@ void main() {
 #ifdef OPTICAL_DEPTH_ONLY
     o_tau = vec4(tau, 0.0, 0.0, 1.0);
 #else
+#if N_TARGETS == 0
+    o_krange = vec4(k_in, k_out, c[0], c[1]);
+#else
     o_krange = vec4(k_in, k_out, 0.0, 1.0);
     o_coef0 = vec4(c[0], c[1], c[2], c[3]);
+#endif
 #if N_TARGETS > 1
     o_coef1 = vec4(c[4], c[5], c[6], c[7]);
 #endif

@@ -15,6 +15,9 @@ uniform sampler2D u_coef3;
 // distance r from the light, clamped to [0, 1]. The cosines cos(j pi x) come four at a time
 // from cos((j + 4) t) = 2 cos(4 t) cos(j t) - cos((j - 4) t); coefficients past N_COEFF are 0.
 float tfm_series(vec2 k, vec4 c0, vec4 c1, vec4 c2, vec4 c3, float r) {
+#if N_TARGETS == 1 && N_COEFF < 4
+    c0 *= vec4(1.0, float(N_COEFF > 1), float(N_COEFF > 2), 0.0);   // a wider map read with fewer
+#endif
     float x = (r - k.x) / max(k.y - k.x, 1e-6);
     if (x <= 0.0) return 1.0;
     float t1 = cos(PI * min(x, 1.0));
@@ -46,6 +49,10 @@ float tfm_series(vec2 k, vec4 c0, vec4 c1, vec4 c2, vec4 c3, float r) {
 // F in one texel's own domain.
 float tfm_texel(ivec2 c, float r) {
     vec4 zero = vec4(0.0);
+#if N_TARGETS == 0
+    vec4 kc = texelFetch(u_krange, c, 0);       // two coefficients beside the K range
+    return tfm_series(kc.xy, vec4(kc.zw, 0.0, 0.0), zero, zero, zero, r);
+#endif
     return tfm_series(texelFetch(u_krange, c, 0).xy, texelFetch(u_coef0, c, 0),
 #if N_TARGETS > 1
                       texelFetch(u_coef1, c, 0),
@@ -71,6 +78,10 @@ float tfm_texel(ivec2 c, float r) {
 float tfm_lookup(vec2 uv, float r) {
 #if TFM_FILTER == 1
     vec4 zero = vec4(0.0);
+#if N_TARGETS == 0
+    vec4 kc = texture(u_krange, uv);            // one fetch: K range and c0, c1
+    return tfm_series(kc.xy, vec4(kc.zw, 0.0, 0.0), zero, zero, zero, r);
+#endif
     return tfm_series(texture(u_krange, uv).xy, texture(u_coef0, uv),
 #if N_TARGETS > 1
                       texture(u_coef1, uv),
@@ -89,10 +100,10 @@ float tfm_lookup(vec2 uv, float r) {
 #endif
                       r);
 #else
-    vec2 f = uv * u_map_res - 0.5;
+    int res = textureSize(u_krange, 0).x;      // the TFM's own side (may differ from the shadow map's)
+    vec2 f = uv * float(res) - 0.5;
     ivec2 i0 = ivec2(floor(f));
     vec2 w = f - floor(f);
-    int res = int(u_map_res);
     float v = 0.0;
     for (int dy = 0; dy < 2; ++dy) {
         for (int dx = 0; dx < 2; ++dx) {
@@ -116,7 +127,7 @@ vec3 light_transmittance(vec3 p, vec3 q, float r) {
 #if LIGHT_T == 0
     vec2 uv = light_uv(q);
     if (u_face_ortho == 1 && (any(lessThan(uv, vec2(0.0))) || any(greaterThan(uv, vec2(1.0))))) return vec3(1.0);
-    return pow(vec3(tfm_lookup(uv, r)), u_tfm_exponent);
+    return exp2(u_tfm_exponent * log2(max(tfm_lookup(uv, r), 1e-30)));   // F^exponent, one log
 #elif LIGHT_T == 1
     vec3 dir = toward_light(p, q, r);
     vec2 k = media_interval(p, dir);

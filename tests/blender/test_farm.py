@@ -1,0 +1,74 @@
+"""Render farms: frames rendered by processes on split frame ranges equal those of one process,
+bit for bit (what `blender -b file.blend -s S -e E -a` on several workers must give)."""
+
+import os
+import subprocess
+import sys
+
+import bpy
+import numpy as np
+from blender_helpers import MODULE, ROOT, SETTINGS, smoke
+
+# One worker: Blender with the add-on enabled, rendering the animation of a saved file between
+# two frames, like `blender -b file.blend -s S -e E -a` (the bpy module takes no such arguments).
+WORKER = """
+import sys
+import bpy
+import tfm_addon
+
+tfm_addon.register()
+blend, first, last, out = sys.argv[-4:]
+bpy.ops.wm.open_mainfile(filepath=blend)
+scene = bpy.context.scene
+scene.frame_start, scene.frame_end = int(first), int(last)
+scene.render.filepath = out + "/frame_####"
+print("TFM samples", scene.tfm.samples, "engine", scene.render.engine)
+bpy.ops.render.render(animation=True)
+"""
+
+
+def _read_exr(path):
+    import OpenEXR
+
+    with OpenEXR.File(path, separate_channels=True) as f:
+        channels = f.parts[0].channels
+        names = sorted(channels, key=lambda k: "RGBA".index(k[-1]))
+        return np.stack([np.asarray(channels[k].pixels) for k in names], axis=-1)
+
+
+def _farm(blend, first, last, out):
+    env = dict(os.environ, PYTHONPATH=ROOT)
+    done = subprocess.run([sys.executable, "-c", WORKER, blend, str(first), str(last), str(out)],
+                          env=env, capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stdout[-2000:] + done.stderr[-2000:]
+    assert "TFM samples 4 engine TFM" in done.stdout
+    return {name: _read_exr(os.path.join(out, name)) for name in sorted(os.listdir(out))}
+
+
+def test_split_frame_ranges_give_the_frames_of_one_process(blank, tmp_path):
+    made = __import__("importlib").import_module(f"{MODULE}.tfm_addon.blender.scene_builder").build(
+        smoke(width=32, height=24, n=16), str(tmp_path), settings=SETTINGS, samples=4)
+    scene = bpy.context.scene
+    scene.frame_start, scene.frame_end = 1, 4
+    camera = scene.camera
+    for frame, dx in ((1, 0.0), (4, 0.6)):          # the camera moves: every frame differs
+        camera.location.x += dx
+        camera.keyframe_insert("location", frame=frame)
+    light = made["lights"][0].data
+    for frame, power in ((1, light.energy), (4, 2.0 * light.energy)):
+        light.energy = power
+        light.keyframe_insert("energy", frame=frame)
+    settings = scene.render.image_settings
+    settings.file_format = 'OPEN_EXR'
+    settings.color_depth = '32'
+    settings.exr_codec = 'ZIP'
+    blend = str(tmp_path / "shot.blend")
+    bpy.ops.wm.save_as_mainfile(filepath=blend, copy=True)
+
+    one = _farm(blend, 1, 4, tmp_path / "one")
+    split = {**_farm(blend, 1, 2, tmp_path / "a"), **_farm(blend, 3, 4, tmp_path / "b")}
+    assert sorted(one) == sorted(split) == [f"frame_{i:04d}.exr" for i in range(1, 5)]
+    for name in one:
+        assert one[name].dtype == np.float32
+        assert np.array_equal(one[name], split[name]), name
+    assert float(np.abs(one["frame_0001.exr"] - one["frame_0004.exr"]).max()) > 0.05

@@ -1,0 +1,148 @@
+"""Antialiasing by samples: subpixel jitter with a one-pixel box filter, a jittered view-march
+start, and the running mean of the samples.
+
+Sample k of every frame uses the same offsets (they depend on k alone), so frames rendered by
+different processes, in any order, are equal bit for bit. Sample 0 is the pixel centre with the
+march at its interval midpoints: one sample is the unjittered image. Light maps do not depend on
+the camera or the march offset, so the renderer builds them once for all the samples of a frame.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Callable, Iterator
+
+import numpy as np
+
+from .output import RenderOutput
+from .renderer import Renderer, effective_settings
+from .scene import Camera, RenderSettings, Scene
+
+# The R2 sequence (Roberts 2018): the plastic number's powers give a low-discrepancy 2D sequence.
+_PLASTIC = 1.32471795724474602596
+_A1, _A2 = 1.0 / _PLASTIC, 1.0 / _PLASTIC**2
+_GOLDEN = 0.61803398874989484820  # R1, for the march start
+
+AUTO_SAMPLES = 16  # final-render samples when scene.tfm.samples is 0 (automatic)
+AUTO_POINTS_PER_STEP = 4  # under AUTO: view-march points per pixel and frame, in units of AUTO's steps
+MIN_VIEW_STEPS = 8
+
+
+def subpixel_offset(k: int) -> tuple[float, float]:
+    """Where sample ``k`` looks inside its pixel: (x, y) in [0, 1) pixels from the lower-left
+    corner; sample 0 is the centre (0.5, 0.5). Uniform over the pixel: a one-pixel box filter."""
+    return (0.5 + k * _A1) % 1.0, (0.5 + k * _A2) % 1.0
+
+
+def march_offset(k: int) -> float | None:
+    """The view-march start of sample ``k`` as a fraction of a step (each pixel adds its own
+    hash to it), or None for sample 0 (samples at the step midpoints)."""
+    return None if k == 0 else (k * _GOLDEN) % 1.0
+
+
+def jittered_camera(camera: Camera, k: int) -> Camera:
+    """``camera`` with its image window moved by sample ``k``'s subpixel offset (through the lens
+    shift, which moves the window by whole-image fractions for either projection)."""
+    if k == 0:
+        return camera
+    ox, oy = subpixel_offset(k)
+    w, h = camera.width_px, camera.height_px
+    fit = camera.sensor_fit
+    if fit == "AUTO":
+        fit = "HORIZONTAL" if w >= h else "VERTICAL"
+    viewfac = w if fit == "HORIZONTAL" else h
+    return dataclasses.replace(camera, shift_x=camera.shift_x + (ox - 0.5) / viewfac,
+                               shift_y=camera.shift_y + (oy - 0.5) / viewfac)
+
+
+def sample_scene(scene: Scene, settings: RenderSettings, k: int) -> tuple[Scene, RenderSettings]:
+    """The scene and settings of sample ``k``."""
+    return (dataclasses.replace(scene, camera=jittered_camera(scene.camera, k)),
+            dataclasses.replace(settings, view_jitter=march_offset(k)))
+
+
+class Accumulator:
+    """The float32 running mean of a frame's samples (combined image and passes)."""
+
+    def __init__(self):
+        self.count = 0
+        self.output: RenderOutput | None = None
+
+    def add(self, out: RenderOutput) -> None:
+        """Fold one sample in."""
+        self.count += 1
+        if self.output is None:
+            self.output = RenderOutput(combined=out.combined.astype(np.float32, copy=True),
+                                       passes={k: v.astype(np.float32, copy=True)
+                                               for k, v in out.passes.items()},
+                                       warnings=list(out.warnings), timings_s=dict(out.timings_s))
+            return
+        w = np.float32(1.0 / self.count)
+        acc = self.output
+        acc.combined += (out.combined - acc.combined) * w
+        for name, image in out.passes.items():
+            if name in acc.passes:
+                acc.passes[name] += (image - acc.passes[name]) * w
+        for name, seconds in out.timings_s.items():
+            acc.timings_s[name] = acc.timings_s.get(name, 0.0) + seconds
+        for message in out.warnings:
+            if message not in acc.warnings:
+                acc.warnings.append(message)
+
+    def snapshot(self) -> RenderOutput:
+        """The mean so far, as a RenderOutput whose arrays are copies."""
+        acc = self.output
+        return RenderOutput(combined=acc.combined.copy(),
+                            passes={k: v.copy() for k, v in acc.passes.items()},
+                            warnings=list(acc.warnings), timings_s=dict(acc.timings_s))
+
+
+def view_steps_per_sample(view_steps: int, samples: int) -> int:
+    """Under AUTO, the view steps of each of ``samples`` samples: the jittered starts stratify the
+    march across samples, so the frame keeps at least AUTO_POINTS_PER_STEP x ``view_steps`` points
+    per pixel with fewer steps per sample (never below MIN_VIEW_STEPS, never above ``view_steps``)."""
+    if samples <= AUTO_POINTS_PER_STEP:
+        return view_steps
+    return max(min(view_steps, MIN_VIEW_STEPS), math.ceil(AUTO_POINTS_PER_STEP * view_steps / samples))
+
+
+def frame_settings(scene: Scene, settings: RenderSettings | None, samples: int) -> RenderSettings:
+    """The settings every sample of a frame renders with: the quality rule applied once, on the
+    unjittered view (so that all samples march alike), and under AUTO the view steps spread over
+    the samples (view_steps_per_sample)."""
+    settings = settings or RenderSettings()
+    chosen = effective_settings(scene, settings)
+    if settings.quality == "AUTO":
+        chosen = dataclasses.replace(chosen, view_steps=view_steps_per_sample(chosen.view_steps, samples))
+    return dataclasses.replace(chosen, quality="CUSTOM")
+
+
+def iter_samples(renderer: Renderer, scene: Scene, settings: RenderSettings | None, samples: int,
+                 cancel: Callable[[], bool] | None = None, passes: bool = True,
+                 progress: Callable[[float], None] | None = None,
+                 first: int = 0, accumulator: Accumulator | None = None,
+                 client: str = "final") -> Iterator[Accumulator]:
+    """Render samples ``first`` .. ``samples - 1`` of ``scene`` into ``accumulator`` and yield it
+    after each. ``progress`` gets the fraction of all ``samples`` done; ``cancel`` is the renderer's
+    (checked between passes); ``client`` is the renderer's cache client."""
+    n = max(int(samples), 1)
+    settings = frame_settings(scene, settings, n)
+    acc = accumulator or Accumulator()
+    for k in range(first, n):
+        sub = None if progress is None else (lambda f, k=k: progress((k + f) / n))
+        s_scene, s_settings = sample_scene(scene, settings, k)
+        acc.add(renderer.render(s_scene, s_settings, cancel, sub, passes, client=client))
+        yield acc
+
+
+def render_samples(renderer: Renderer, scene: Scene, settings: RenderSettings | None, samples: int,
+                   cancel: Callable[[], bool] | None = None,
+                   progress: Callable[[float], None] | None = None, passes: bool = True,
+                   client: str = "final") -> RenderOutput:
+    """The mean of ``samples`` jittered samples of ``scene`` (one: the pixel-centre image)."""
+    acc = Accumulator()
+    for _ in iter_samples(renderer, scene, settings, samples, cancel, passes, progress, accumulator=acc,
+                          client=client):
+        pass
+    return acc.output
