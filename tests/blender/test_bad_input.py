@@ -159,3 +159,26 @@ def test_material_preview_renders_without_nagging(blank, tmp_path):
     _mod("final_render").render(engine, bpy.context.evaluated_depsgraph_get())
     assert engine.reports == [] and engine.errors == []
     assert engine.results == 1
+
+
+def test_a_warning_is_said_once_per_animation_render(blank, tmp_path):
+    made = _smoke_in_blender(tmp_path)
+    made["lights"][0].data.shadow_soft_size = 0.0
+    sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", 'SUN'))     # default angle > 0
+    bpy.context.scene.collection.objects.link(sun)
+    scene = bpy.context.scene
+    scene.frame_start, scene.frame_end = 1, 3
+    scene.render.filepath = str(tmp_path / "frame_")
+    scene.render.image_settings.file_format = 'OPEN_EXR'
+    told = []
+    final_render = _mod("final_render")
+    handler = lambda *args: told.extend(m for level, m in final_render.last_messages)  # noqa: E731
+    bpy.app.handlers.render_post.append(handler)
+    try:
+        bpy.ops.render.render(animation=True)
+    finally:
+        bpy.app.handlers.render_post.remove(handler)
+    assert len(list(tmp_path.glob("frame_*.exr"))) == 3
+    assert len([m for m in told if "'Sun'" in m and "sharp sun" in m]) == 1, told
+    render_passes(tmp_path, "still")         # a new job: said again
+    assert any("sharp sun" in m for level, m in _messages())
