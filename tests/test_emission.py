@@ -156,17 +156,26 @@ def test_attributes_are_downsampled_with_the_density():
 
 
 def test_every_sampler_of_the_light_map_and_probe_shaders_has_its_own_unit():
-    """One table (bindings.UNIT) gives every sampler those shaders declare a distinct unit (the
-    colour grid once shared unit 15 with the occupancy grid; the probe's points unit 10 with the
-    attribute grids)."""
+    """One table (bindings.UNIT) gives every sampler a program declares (with its includes) a
+    distinct unit (the colour grid once shared unit 15 with the occupancy grid; the probe's points
+    unit 10 with the attribute grids, then unit 12 with the second density grid)."""
     import re
     from pathlib import Path
 
     from tfm_addon.engine.passes import bindings
     shaders = Path(bindings.__file__).parent.parent / "shaders"
-    names = set()
-    for path in shaders.iterdir():
-        if path.suffix in (".glsl", ".frag", ".vert") and path.name != "composite.frag":
-            names |= set(re.findall(r"uniform\s+\w*sampler\w*\s+(\w+)\s*;", path.read_text()))
-    assert names and names <= set(bindings.UNIT), sorted(names - set(bindings.UNIT))
-    assert len(set(bindings.UNIT.values())) == len(bindings.UNIT)
+
+    def samplers(name: str) -> set[str]:
+        text = (shaders / name).read_text()
+        found = set(re.findall(r"uniform\s+\w*sampler\w*\s+(\w+)\s*;", text))
+        for included in re.findall(r'#include\s+"([^"]+)"', text):
+            found |= samplers(included)
+        return found
+
+    programs = [p.name for p in shaders.iterdir() if p.suffix == ".frag" and p.name != "composite.frag"]
+    assert "scatter.frag" in programs and "probe.frag" in programs
+    for program in programs:
+        names = samplers(program)
+        assert names <= set(bindings.UNIT), (program, sorted(names - set(bindings.UNIT)))
+        units = [bindings.UNIT[n] for n in names]
+        assert len(set(units)) == len(units), (program, sorted((bindings.UNIT[n], n) for n in names))

@@ -30,18 +30,21 @@ class Extraction:
 
     camera: Camera | None = None
     lights: tuple[SpotLight, ...] = ()
-    medium: Medium | None = None
+    medium: Medium | None = None      # the first of ``media``
     meshes: tuple[Mesh, ...] = ()
     ambient: RGB = (0.0, 0.0, 0.0)
     settings: RenderSettings = field(default_factory=RenderSettings)
     medium_source: str | None = None  # name of the object the medium comes from
     warnings: dict[Change, tuple[str, ...]] = field(default_factory=dict)
+    media: tuple[Medium, ...] = ()    # every medium (volume objects, meshes with volume materials)
+    medium_sources: tuple[str, ...] = ()   # the objects they come from
 
     def scene(self, camera: Camera | None = None) -> Scene:
         cam = camera if camera is not None else self.camera
         if cam is None:
             raise ValueError("no camera")
-        return Scene(camera=cam, lights=self.lights, medium=self.medium, meshes=self.meshes,
+        media = self.media or ((self.medium,) if self.medium is not None else ())
+        return Scene(camera=cam, lights=self.lights, media=media, meshes=self.meshes,
                      ambient=self.ambient if self.settings.ambient else (0.0, 0.0, 0.0))
 
     @property
@@ -118,6 +121,8 @@ def extract(depsgraph, *, parts: Change = Change.ALL, previous: Extraction | Non
         if Change.MEDIUM in geometry:
             changes["medium"] = found["medium"]
             changes["medium_source"] = found["medium_source"]
+            changes["media"] = tuple(found["media"])
+            changes["medium_sources"] = tuple(found["medium_sources"])
             warnings[Change.MEDIUM] = tuple(found["warnings"][Change.MEDIUM])
 
     return replace(previous, warnings=warnings, **changes)
@@ -188,6 +193,8 @@ def _walk_instances(depsgraph, parts: Change, cache: GridCache) -> dict:
     solids: list[Mesh] = []
     skipped_lights: list[str] = []
     media: list[str] = []
+    found_media: list[Medium] = []     # every medium, in the depsgraph's order
+    sources: list[str] = []
     medium = None
     notes = {Change.LIGHTS: [], Change.SOLIDS: [], Change.MEDIUM: []}
     arrays: dict = {}  # evaluated mesh data -> (vertices, triangles), shared by its instances
@@ -204,23 +211,27 @@ def _walk_instances(depsgraph, parts: Change, cache: GridCache) -> dict:
             unrendered.setdefault(UNRENDERED_TYPES[kind], []).append(_label(instance))
             continue
         if kind == 'LIGHT' and Change.LIGHTS in parts:
-            if ob.data.type == 'SPOT':
-                spots.append(lights_module.spot_light(ob, np.array(instance.matrix_world),
-                                                      notes[Change.LIGHTS]))
+            if ob.data.type in ('SPOT', 'POINT', 'SUN', 'AREA'):
+                spots.append(lights_module.light(ob, np.array(instance.matrix_world),
+                                                 notes[Change.LIGHTS]))
             else:
                 skipped_lights.append(f"{ob.name} ({ob.data.type.lower()})")
         elif kind == 'VOLUME' and Change.MEDIUM in parts:
             media.append(_label(instance))
-            if medium is None and len(media) == 1:
-                medium = _volume_medium(instance, cache, notes[Change.MEDIUM], simplify)
-                _medium_visibility_notes(depsgraph, instance, notes[Change.MEDIUM])
+            found = _volume_medium(instance, cache, notes[Change.MEDIUM], simplify)
+            _medium_visibility_notes(depsgraph, instance, notes[Change.MEDIUM])
+            if found is not None:
+                found_media.append(replace(found, name=_label(instance)))
+                sources.append(_label(instance))
         elif kind == 'MESH' and fluid.domain_modifier(ob, depsgraph.mode == 'RENDER') is not None:
             if Change.MEDIUM in parts:   # a smoke / fire domain: its cache, never its mesh
                 media.append(_label(instance))
-                if medium is None and len(media) == 1:
-                    medium = _fluid_medium(instance, depsgraph.scene.frame_current, cache,
-                                           notes[Change.MEDIUM], simplify)
-                    _medium_visibility_notes(depsgraph, instance, notes[Change.MEDIUM])
+                found = _fluid_medium(instance, depsgraph.scene.frame_current, cache,
+                                      notes[Change.MEDIUM], simplify)
+                _medium_visibility_notes(depsgraph, instance, notes[Change.MEDIUM])
+                if found is not None:
+                    found_media.append(replace(found, name=_label(instance)))
+                    sources.append(_label(instance))
         elif kind in meshes.MESH_TYPES and parts & (Change.SOLIDS | Change.MEDIUM):
             material = meshes.first_material(ob)
             if Change.SOLIDS in parts and materials.has_surface_and_volume(material):
@@ -231,9 +242,10 @@ def _walk_instances(depsgraph, parts: Change, cache: GridCache) -> dict:
             if materials.has_volume_only(material):
                 if Change.MEDIUM in parts:
                     media.append(_label(instance))
-                    if medium is None and len(media) == 1:
-                        medium = _mesh_medium(instance, material, notes[Change.MEDIUM])
-                        _medium_visibility_notes(depsgraph, instance, notes[Change.MEDIUM])
+                    found = _mesh_medium(instance, material, notes[Change.MEDIUM])
+                    _medium_visibility_notes(depsgraph, instance, notes[Change.MEDIUM])
+                    found_media.append(replace(found, name=_label(instance)))
+                    sources.append(_label(instance))
                 continue
             if Change.SOLIDS not in parts:
                 continue
@@ -255,15 +267,14 @@ def _walk_instances(depsgraph, parts: Change, cache: GridCache) -> dict:
     if Change.LIGHTS in parts:
         if skipped_lights:
             notes[Change.LIGHTS].append(
-                "Only spot lights are rendered; skipped " + ", ".join(skipped_lights))
-        # A scene without spot lights is the renderer's to explain (it says so in its warnings).
+                "Lights of unknown type are not rendered: " + ", ".join(skipped_lights))
+        # A scene without lights is the renderer's to explain (it says so in its warnings).
     for what, names in unrendered.items():
         notes[Change.SOLIDS].append(f"{what} are not rendered by TFM: " + ", ".join(names))
-    if len(media) > 1:
-        notes[Change.MEDIUM].append(
-            f"One medium is rendered: using {media[0]}, skipping " + ", ".join(media[1:]))
+    medium = found_media[0] if found_media else None
     return {"lights": spots, "meshes": solids, "medium": medium,
-            "medium_source": media[0] if media else None, "warnings": notes}
+            "medium_source": sources[0] if sources else None, "media": found_media,
+            "medium_sources": sources, "warnings": notes}
 
 
 # Object types TFM does not render, and how the render report names them.

@@ -54,7 +54,7 @@ class ViewportSession:
             self._generation += 1
         else:
             if changes is None:
-                changes = changes_from_depsgraph(depsgraph, self.extraction.medium_source)
+                changes = changes_from_depsgraph(depsgraph, self.extraction.medium_sources)
             parts = changes & ~Change.CAMERA  # the viewport's camera is the view
             if parts:
                 self.extraction = extract(depsgraph, parts=parts, previous=self.extraction)
