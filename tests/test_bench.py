@@ -56,7 +56,7 @@ def test_outputs_exist(bench):
                  "speed_accuracy_psnr.png", "table1.md", "table1.csv", "renderer.md",
                  "sweeps/sweeps.csv", "sweeps/sweeps.md", "sweeps/a_optical_depth_ssim.png",
                  "sweeps/b_alpha_ssim.png", "sweeps/c_angle_ssim.png", "sweeps/d_inside_ssim.png",
-                 "sweeps/e_steps_ssim.png"):
+                 "sweeps/e_steps_ssim.png", "lights.md"):
         path = bench / name
         assert path.is_file() and path.stat().st_size > 0, name
     summary = (bench / "summary.md").read_text()

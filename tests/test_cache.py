@@ -4,9 +4,8 @@ import dataclasses
 import math
 
 import numpy as np
-import pytest
 
-from tfm_addon.engine import Camera, Medium, Renderer, RenderSettings, Scene, SpotLight
+from tfm_addon.engine import Camera, Medium, RenderSettings, Scene, SpotLight
 from tfm_addon.engine.metrics import ssim
 from tfm_addon.engine.reference import render_reference
 from tfm_addon.scenes import look_at, smoke_scene
@@ -14,16 +13,7 @@ from tfm_addon.scenes import look_at, smoke_scene
 SETTINGS = RenderSettings(view_steps=48, light_steps=48, map_resolution=128)
 
 
-def replace(obj, **changes):
-    fields = {f.name: getattr(obj, f.name) for f in dataclasses.fields(obj)}
-    return type(obj)(**{**fields, **changes})
-
-
-@pytest.fixture
-def fresh():
-    r = Renderer()
-    yield r
-    r.release()
+replace = dataclasses.replace
 
 
 def built(renderer, scene, settings=SETTINGS):

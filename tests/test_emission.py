@@ -46,6 +46,20 @@ def test_homogeneous_box_emission(renderer):
     assert metrics.ssim(out, ref) >= 0.99
 
 
+def test_constant_emission_in_a_grid_stays_in_the_grid_box(renderer):
+    """A constant strength emits in the grid's box [-1, n] only (the reference's march), not out
+    to the far clip (it was 73x too bright: the emission box defaulted to [-2, 1e30])."""
+    base = scenes.fire_scene(64, 36, 24, kind="EMISSION")
+    scene = dataclasses.replace(base, medium=dataclasses.replace(
+        base.medium, emission_strength=GridValue(offset=0.5)))
+    out = renderer.render(scene, SETTINGS).combined[..., :3]
+    ref = render_reference(scene, view_steps=96, light_steps=96).combined[..., :3]
+    ratio = out.sum(axis=(0, 1)) / ref.sum(axis=(0, 1))
+    assert ref.max() > 1e-3
+    assert np.all(np.abs(ratio - 1.0) <= 0.01), ratio
+    assert metrics.ssim(out, ref) >= 0.99
+
+
 @pytest.mark.parametrize("colour", [blackbody_rec709, blackbody.color_rec709])
 def test_blackbody_colour_is_cycles_fit(colour):
     # Values of Cycles' svm_math_blackbody_color_rec709 beyond its range and in between.
@@ -139,3 +153,29 @@ def test_attributes_are_downsampled_with_the_density():
         assert metrics.ssim(out.combined[..., :3], full[..., :3]) > 0.95
     finally:
         r.release()
+
+
+def test_every_sampler_of_the_light_map_and_probe_shaders_has_its_own_unit():
+    """One table (bindings.UNIT) gives every sampler a program declares (with its includes) a
+    distinct unit (the colour grid once shared unit 15 with the occupancy grid; the probe's points
+    unit 10 with the attribute grids, then unit 12 with the second density grid)."""
+    import re
+    from pathlib import Path
+
+    from tfm_addon.engine.passes import bindings
+    shaders = Path(bindings.__file__).parent.parent / "shaders"
+
+    def samplers(name: str) -> set[str]:
+        text = (shaders / name).read_text()
+        found = set(re.findall(r"uniform\s+\w*sampler\w*\s+(\w+)\s*;", text))
+        for included in re.findall(r'#include\s+"([^"]+)"', text):
+            found |= samplers(included)
+        return found
+
+    programs = [p.name for p in shaders.iterdir() if p.suffix == ".frag" and p.name != "composite.frag"]
+    assert "scatter.frag" in programs and "probe.frag" in programs
+    for program in programs:
+        names = samplers(program)
+        assert names <= set(bindings.UNIT), (program, sorted(names - set(bindings.UNIT)))
+        units = [bindings.UNIT[n] for n in names]
+        assert len(set(units)) == len(units), (program, sorted((bindings.UNIT[n], n) for n in names))

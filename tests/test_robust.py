@@ -11,16 +11,7 @@ from tfm_addon.scenes import look_at, smoke_scene
 SETTINGS = RenderSettings(view_steps=32, light_steps=32, map_resolution=64)
 
 
-def replace(obj, **changes):
-    fields = {f.name: getattr(obj, f.name) for f in dataclasses.fields(obj)}
-    return type(obj)(**{**fields, **changes})
-
-
-@pytest.fixture
-def fresh():
-    r = Renderer()
-    yield r
-    r.release()
+replace = dataclasses.replace
 
 
 def _cancel_after(n):
@@ -102,6 +93,29 @@ def test_clipping_empties_densities_below_it(renderer):
     assert not np.allclose(clipped.combined, full.combined)
 
 
+def test_the_reference_clips_and_cleans_the_grid_as_the_renderer_does(renderer):
+    """reference.py reads Medium.clipping and renders bad voxels as 0 with its own code (it read
+    the raw grid: NaN everywhere from one NaN voxel; without the NaN, twice the mean error)."""
+    from tfm_addon.engine.metrics import ssim
+    from tfm_addon.engine.reference import render_reference
+
+    scene = smoke_scene(width=40, height=24, n=24)
+    d = np.array(scene.medium.density)
+    medium = replace(scene.medium, density=d, clipping=float(np.percentile(d[d > 0], 50)))
+    for bad in (None, np.nan):
+        if bad is not None:
+            d = d.copy()
+            d[12, 12, 12] = bad
+            medium = replace(medium, density=d)
+        clipped = replace(scene, medium=medium)
+        out = renderer.render(clipped, SETTINGS).combined[..., :3]
+        ref = render_reference(clipped, view_steps=96, light_steps=96).combined[..., :3]
+        assert np.isfinite(ref).all()
+        error = float(np.abs(out - ref).mean() / ref.mean())
+        assert error <= 0.03, error          # 0.022 (0.041 with the grid unclipped)
+        assert ssim(out, ref) >= 0.98
+
+
 def _built(renderer, scene, settings=SETTINGS, **kwargs):
     before = dict(renderer.counters)
     out = renderer.render(scene, settings, **kwargs)
@@ -146,6 +160,8 @@ def test_sigma_edits_under_auto_rebuild_a_tfm_only_when_the_coefficient_count_gr
     assert delta["tfms"] == 1 and delta.get("shadow_maps", 0) == 0
     delta, back = _built(fresh, scene, auto)                # fewer: the wider map serves, exactly
     assert delta.get("tfms", 0) == 0
+    # ... and keeps its automatic alpha (a light pass and a read-back to redo otherwise).
+    assert sum(1 for k in fresh._tfms.items if k[-1] == "alpha") == 1
     other = Renderer()
     try:
         want = other.render(scene, auto).combined
@@ -314,3 +330,38 @@ def test_what_a_cancelled_viewport_frame_built_survives_a_preview(fresh):
     fresh.render(preview, SETTINGS, client="preview")
     delta, _ = _built(fresh, scene, client="viewport")
     assert sum(delta.get(k, 0) for k in ("shadow_maps", "tfms", "gbuffers", "grid_uploads")) == 0
+
+
+def test_a_run_of_cancelled_viewport_frames_holds_two_frames_of_maps(fresh):
+    """A light dragged in the viewport: each request's coarse frame (sweep=False) and cancelled
+    full frame build maps for a new light position. Only the last completed frame's maps and the
+    cancelled frame's stay (the cache held every position's maps until a frame completed)."""
+    scene = smoke_scene(width=40, height=24, n=24)
+    fresh.render(scene, SETTINGS, client="viewport")
+    light = scene.lights[0]
+    for i in range(6):
+        moved = replace(scene, lights=(replace(light, matrix_world=look_at((-2.0 + 0.3 * i, -1.5, 4.5),
+                                                                          (0, 0, 1.0))),))
+        small = replace(moved, camera=replace(moved.camera, width_px=10, height_px=6))
+        fresh.render(small, replace(SETTINGS, map_resolution=32), client="viewport", sweep=False)
+        with pytest.raises(RenderCancelled):           # after the light's maps
+            fresh.render(moved, SETTINGS, cancel=_cancel_after(2), client="viewport")
+    shadows = len(fresh._shadows.items)
+    tfms = sum(1 for k in fresh._tfms.items if k[-1] != "alpha")
+    assert (shadows, tfms) == (2, 2)
+
+
+def test_auto_statistics_clean_a_new_grid_once(monkeypatch):
+    """AUTO's bounds and grid summary share one cleaning of a new grid (each cleaned it: 56 ms
+    a 256^3 grid with Blender's default clipping, per new frame of a sequence)."""
+    from tfm_addon.engine import quality
+
+    calls = []
+    real = quality.clean_density
+    monkeypatch.setattr(quality, "clean_density", lambda d, c=0.0: calls.append(1) or real(d, c))
+    scene = smoke_scene(width=40, height=24, n=20)
+    d = np.array(scene.medium.density) * 1.01         # a density no earlier test cached
+    medium = replace(scene.medium, density=d, clipping=0.001)
+    stats = quality.medium_stats(replace(scene, medium=medium))
+    assert len(calls) == 1
+    assert stats.view_voxels > 0 and stats.optical_depth > 0 and stats.sharpness > 0

@@ -6,7 +6,7 @@ import threading
 
 import numpy as np
 
-from tfm_addon.engine import RenderSettings
+from tfm_addon.engine import RenderSettings, progressive
 from tfm_addon.engine.progressive import ProgressiveView
 from tfm_addon.engine.sampling import render_samples
 from tfm_addon.engine.worker import RenderWorker
@@ -155,3 +155,26 @@ def test_a_failing_render_is_named_in_the_status_and_the_view_goes_idle():
     assert view.status == "viewport failed: ValueError: boom" and view.state == "idle"
     assert view.frame() is None
     assert worker.close(5)
+
+
+def test_coarse_image_reuses_the_full_footprint_tfm(monkeypatch):
+    """Orbiting the camera builds no map: the coarse image (a quarter of the side) caps a
+    'FOOTPRINT' TFM by the full image's side, so it reads the full image's TFM (it built its own
+    at every camera move, and the full frame then released it)."""
+    monkeypatch.setattr(progressive, "COARSE_BELOW_S", 0.0)      # always a coarse image first
+    worker = RenderWorker()
+    view = ProgressiveView(worker)
+    settings = dataclasses.replace(SETTINGS, map_resolution=256, tfm_resolution="FOOTPRINT")
+    scene = smoke_scene(width=256, height=144, n=128)
+    view.request(1, scene, settings, 1)
+    _wait_converged(view, 1)
+    before = _counts(worker)
+    for i in range(2):
+        orbit = dataclasses.replace(scene, camera=dataclasses.replace(
+            scene.camera, matrix_world=look_at((2.0 + i, -5.5, 2.0), (0, 0, 1.0))))
+        view.request(2 + i, orbit, settings, 1)
+        _wait_converged(view, 2 + i)
+    after = _counts(worker)
+    assert view.counters["coarse"] == 3
+    assert after["tfms"] - before["tfms"] == 0
+    assert worker.close(10)

@@ -45,19 +45,28 @@ def test_vector_only_grid_says_which_grid_was_expected(blank, tmp_path):
     assert any("expected 'density'" in m and "velocity (VECTOR_FLOAT)" in m for m in warnings), warnings
 
 
-def test_no_spot_light_renders_ambient_light_and_says_why(blank, tmp_path):
+def test_no_light_renders_ambient_light_and_says_why(blank, tmp_path):
     made = _smoke_in_blender(tmp_path, ambient=(0.2, 0.2, 0.2))
     for light in made["lights"]:
         bpy.data.objects.remove(light)
-    sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", 'SUN'))
-    bpy.context.scene.collection.objects.link(sun)
     image = render_passes(tmp_path)
     warnings = [m for level, m in _messages() if level == 'WARNING']
     # The renderer explains it once (the add-on does not repeat it).
     assert len([m for m in warnings if "no spot light" in m.lower()]) == 1, warnings
-    assert any("skipped Sun (sun)" in m for m in warnings), warnings
     assert image["Surfaces"].max() > 0.01  # the ground, lit by the world
     assert image["Scattering"].max() > 0.01  # the smoke scatters the world's light
+    # A sun with an angle and a point light with a radius: rendered, each approximation said once.
+    sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", 'SUN'))
+    point = bpy.data.lights.new("Point", 'POINT')
+    point.shadow_soft_size = 0.3
+    for ob in (sun, bpy.data.objects.new("Point", point)):
+        bpy.context.scene.collection.objects.link(ob)
+    lit = render_passes(tmp_path, "lit")
+    warnings = [m for level, m in _messages() if level == 'WARNING']
+    assert len([m for m in warnings if "'Sun'" in m and "sharp sun" in m]) == 1, warnings
+    assert len([m for m in warnings if "'Point'" in m and "radius" in m]) == 1, warnings
+    assert not any("light" in m.lower() and "not rendered" in m for m in warnings), warnings
+    assert lit["Surfaces"].mean() > image["Surfaces"].mean()
 
 
 class FakeEngine:
@@ -156,3 +165,26 @@ def test_material_preview_warns_once(blank, tmp_path):
         reports.append(engine.reports)
     assert any("no light" in m or "no spot light" in m for _, m in reports[0])
     assert reports[1] == []
+
+
+def test_a_warning_is_said_once_per_animation_render(blank, tmp_path):
+    made = _smoke_in_blender(tmp_path)
+    made["lights"][0].data.shadow_soft_size = 0.0
+    sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", 'SUN'))     # default angle > 0
+    bpy.context.scene.collection.objects.link(sun)
+    scene = bpy.context.scene
+    scene.frame_start, scene.frame_end = 1, 3
+    scene.render.filepath = str(tmp_path / "frame_")
+    scene.render.image_settings.file_format = 'OPEN_EXR'
+    told = []
+    final_render = _mod("final_render")
+    handler = lambda *args: told.extend(m for level, m in final_render.last_messages)  # noqa: E731
+    bpy.app.handlers.render_post.append(handler)
+    try:
+        bpy.ops.render.render(animation=True)
+    finally:
+        bpy.app.handlers.render_post.remove(handler)
+    assert len(list(tmp_path.glob("frame_*.exr"))) == 3
+    assert len([m for m in told if "'Sun'" in m and "sharp sun" in m]) == 1, told
+    render_passes(tmp_path, "still")         # a new job: said again
+    assert any("sharp sun" in m for level, m in _messages())

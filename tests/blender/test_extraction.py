@@ -1,5 +1,6 @@
 """Scene extraction: Blender data in, the renderer's dataclasses out, compared to known numbers."""
 
+import dataclasses
 import importlib
 import math
 import os
@@ -73,16 +74,26 @@ def test_camera_matches_blenders_projection(blank, projection, fit, width, heigh
 
 # Lights --------------------------------------------------------------------------------------
 
-def test_spot_light_numbers_and_skipped_lights(blank):
+def test_light_numbers_of_every_kind(blank):
     spot = bpy.data.lights.new("Spot", 'SPOT')
     spot.energy, spot.exposure, spot.color = 500.0, 1.0, (1.0, 0.5, 0.25)
     spot.spot_size, spot.spot_blend = 0.7, 0.3
     ob = _link(bpy.data.objects.new("Spot", spot))
     ob.location, ob.rotation_euler, ob.scale = (1, 2, 3), Euler((0.3, -0.4, 0.5)), (1, 2, 3)
-    for kind in ('POINT', 'SUN'):
-        _link(bpy.data.objects.new(kind.title(), bpy.data.lights.new(kind.title(), kind)))
+    point = bpy.data.lights.new("Point", 'POINT')
+    point.energy, point.shadow_soft_size = 300.0, 0.25
+    _link(bpy.data.objects.new("Point", point)).location = (0, 0, 2)
+    sun = bpy.data.lights.new("Sun", 'SUN')
+    sun.energy, sun.angle = 4.0, math.radians(2.0)
+    sun_ob = _link(bpy.data.objects.new("Sun", sun))
+    sun_ob.rotation_euler = Euler((0.4, 0.2, 0.0))
+    area = bpy.data.lights.new("Area", 'AREA')
+    area.energy, area.shape, area.size, area.size_y = 100.0, 'RECTANGLE', 0.5, 0.25
+    _link(bpy.data.objects.new("Area", area)).scale = (2.0, 1.0, 1.0)
     ex = _extract()
-    (light,) = ex.lights
+    by_kind = {light.kind: light for light in ex.lights}
+    assert set(by_kind) == {"SPOT", "POINT", "SUN", "AREA"}
+    light = by_kind["SPOT"]
     assert light.power_w == pytest.approx(1000.0)  # energy * 2^exposure
     assert light.color == pytest.approx((1.0, 0.5, 0.25))
     assert light.spot_size_rad == pytest.approx(0.7) and light.spot_blend == pytest.approx(0.3)
@@ -90,8 +101,17 @@ def test_spot_light_numbers_and_skipped_lights(blank):
     rotation = np.array(Euler((0.3, -0.4, 0.5)).to_matrix())
     np.testing.assert_allclose(light.direction, -rotation[:, 2], atol=1e-6)
     np.testing.assert_allclose(np.linalg.norm(light.matrix_world[:3, :3], axis=0), 1.0, atol=1e-6)
-    skipped = [w for w in ex.all_warnings if "Only spot lights" in w]
-    assert len(skipped) == 1 and "Point (point)" in skipped[0] and "Sun (sun)" in skipped[0]
+    assert by_kind["POINT"].power_w == pytest.approx(300.0)
+    assert by_kind["POINT"].intensity_w_per_sr == pytest.approx([300.0 / (4 * math.pi)] * 3)
+    assert by_kind["SUN"].intensity_w_per_sr == pytest.approx([4.0] * 3)       # W/m^2
+    rotation = np.array(Euler((0.4, 0.2, 0.0)).to_matrix())
+    np.testing.assert_allclose(by_kind["SUN"].direction, -rotation[:, 2], atol=1e-6)
+    assert by_kind["AREA"].size_m == pytest.approx((1.0, 0.25))
+    assert by_kind["AREA"].intensity_w_per_sr == pytest.approx([100.0 / math.pi] * 3)   # P / pi on axis
+    notes = ex.all_warnings
+    assert len([w for w in notes if "'Point'" in w and "radius" in w]) == 1, notes
+    assert len([w for w in notes if "'Sun'" in w and "sharp sun" in w]) == 1, notes
+    assert not any("not rendered" in w for w in notes if "Light" in w), notes
 
 
 def test_spot_light_gobo_is_read_top_row_first(blank):
@@ -349,3 +369,30 @@ def test_render_settings_come_from_the_panel(blank):
     assert _mod("extract").render_settings(blank).film_transparent
     tfm.density_weight_auto = True
     assert _mod("extract").render_settings(blank).density_weight is None
+
+
+# Several media --------------------------------------------------------------------------------
+
+def test_every_volume_is_a_medium_and_instances_share_their_grid(blank, tmp_path):
+    from tfm_addon import scenes
+    from tfm_addon.engine import Medium, Scene
+
+    d = (0.5 + scenes.smoke_density(16, seed=2)).astype(np.float32)   # no zero voxel: no cropping
+    base = Medium(sigma_a=(0.1,) * 3, sigma_s=(1.0,) * 3, density=d,
+                  index_to_world=scenes.grid_to_world(d.shape, 1.0, (0, 0, 1)))
+    copies = [dataclasses.replace(base, index_to_world=scenes.grid_to_world(d.shape, 1.0, (x, 0, 1)))
+              for x in (-1.5, 0.0, 1.5)]
+    fog = Medium(sigma_a=(0.0,) * 3, sigma_s=(0.3,) * 3, box_to_world=scenes.translate_scale((0, 2, 1), 1.0))
+    scene = Scene(camera=scenes.smoke_scene(16, 12, 16).camera, media=(*copies, fog))
+    made = _mod("scene_builder").build(scene, str(tmp_path))
+    assert len({ob.data.name for ob in made["media"][:3]}) == 1
+    ex = _extract()
+    assert len(ex.media) == 4 and ex.medium is ex.media[0]
+    grids = [m for m in ex.media if m.density is not None]
+    assert len(grids) == 3 and len({m.grid_key for m in grids}) == 1
+    centres = sorted(float((m.index_to_world @ np.r_[(np.array(m.density.shape) - 1) / 2, 1])[0])
+                     for m in grids)
+    np.testing.assert_allclose(centres, [-1.5, 0.0, 1.5], atol=0.08)
+    assert [m.is_homogeneous for m in ex.media].count(True) == 1
+    assert not any("medium" in w.lower() and "skipping" in w for w in ex.all_warnings), ex.all_warnings
+    assert len(ex.scene().media) == 4

@@ -131,3 +131,22 @@ def test_a_mesh_edit_next_to_the_volume_reads_no_grid(blank, tmp_path):
         assert Change.MEDIUM in flags_after(lambda: bar.data.materials.append(volume_material))
     finally:
         bpy.app.handlers.depsgraph_update_post.remove(handler)
+
+
+def test_a_mesh_that_is_a_smoke_domain_may_be_the_medium(addon):
+    """A mesh turned into a gas domain (no volume material, not yet the medium) flags the medium,
+    so the viewport reads its cache (its edits were taken for the solids' alone). A stand-in
+    object: a real domain must not be evaluated in this process (BLENDER.md)."""
+    from types import SimpleNamespace
+
+    changes = _mod("changes")
+
+    def mesh(modifiers):
+        return SimpleNamespace(name="Domain", original=SimpleNamespace(modifiers=modifiers),
+                               material_slots=())
+    gas = SimpleNamespace(type='FLUID', fluid_type='DOMAIN', show_viewport=True, show_render=True,
+                          domain_settings=SimpleNamespace(domain_type='GAS'))
+    liquid = SimpleNamespace(**{**vars(gas), "domain_settings": SimpleNamespace(domain_type='LIQUID')})
+    assert changes._may_be_medium(mesh([gas]), "Smoke") is True
+    assert changes._may_be_medium(mesh([liquid]), "Smoke") is False
+    assert changes._may_be_medium(mesh([]), None) is False

@@ -74,7 +74,10 @@ def test_light_and_world_panels(context):
     assert {"use_tfm", "gobo"} <= set(_draw("TFM_PT_light", context))
     assert "default_value" in _draw("TFM_PT_world", context)
     context.light.type = 'POINT'
-    assert _draw("TFM_PT_light", context) == ["label:Only spot lights light the medium"]
+    context.light.shadow_soft_size = 0.2
+    assert _draw("TFM_PT_light", context) == ["use_tfm", "label:The radius is treated as zero"]
+    context.light.type = 'AREA'
+    assert _draw("TFM_PT_light", context) == ["use_tfm", "label:Rendered as a point with a cosine profile"]
 
 
 def test_visibility_and_passes_panels(context):

@@ -203,8 +203,6 @@ def test_preview_matches_cycles(blank, tmp_path, kind, shape):
     assert route < 0.01
     assert (corner == 0.0).all()                     # the background is transparent
     assert iou >= 0.95
-    if any("Only spot lights" in m for m in _mod("blender.final_render")._preview_reported):  # TEMPORARY
-        pytest.skip("area lights not rendered yet")
     assert np.all(np.abs(ratio - 1.0) <= 0.15)
 
 

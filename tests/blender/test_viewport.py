@@ -145,6 +145,28 @@ def test_converged_viewport_equals_the_final_render_at_the_same_samples(blank, t
     session.close()
 
 
+def test_two_rendered_viewports_both_show_an_edit_and_closing_one_frees_its_maps(blank, tmp_path):
+    """Each viewport session has its own worker slot and cache client: two sessions requesting at
+    once both converge (on one shared slot the second superseded the first, which never showed a
+    frame), and closing one releases what only it kept."""
+    _mod("scene_builder").build(smoke(width=48, height=36), str(tmp_path), settings=SETTINGS)
+    dg = bpy.context.evaluated_depsgraph_get()
+    sessions = [_mod("viewport").ViewportSession() for _ in range(2)]
+    for session, (w, h) in zip(sessions, ((48, 36), (40, 30)), strict=True):
+        session.update(dg)
+        assert session.request(_view_camera(dg, w, h), 2)
+    frames = [_converged(session, 2) for session in sessions]
+    assert [f.image.shape[:2] for f in frames] == [(36, 48), (30, 40)]
+    worker = _mod("render_worker").get_worker()
+    gone = sessions[1].view.client
+    def held(r):     # this view's client, and its image size's targets (no other view's size)
+        return gone in r._targets.kept, (40, 30) in r._targets.items, (48, 36) in r._targets.items
+    assert worker.call(held, timeout_s=30) == (True, True, True)
+    sessions[1].close()
+    assert worker.call(held, timeout_s=30) == (False, False, True)
+    sessions[0].close()
+
+
 def test_disabling_with_a_viewport_render_in_flight_leaves_no_thread_timer_or_context(addon, tmp_path):
     import threading
 

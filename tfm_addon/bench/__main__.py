@@ -18,7 +18,7 @@ import sys
 import time
 from pathlib import Path
 
-SECTIONS = ("methods", "table1", "sweeps", "blender", "issue2", "emission", "viewport")
+SECTIONS = ("methods", "table1", "sweeps", "blender", "issue2", "emission", "viewport", "lights")
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -135,6 +135,12 @@ def main(argv: list[str] | None = None) -> int:
         viewport_text = viewport_bench.run(args.quick, out, log=progress.log,
                                            blender=not args.no_blender and blender_bench.blender_available())
         progress.step("viewport")
+    if "lights" in sections:
+        from . import lights_bench
+
+        size = lights_bench.QUICK if args.quick else lights_bench.PAPER if args.gpu else lights_bench.FULL
+        lights_rows = lights_bench.run(size, log=progress.log)
+        (out / "lights.md").write_text(lights_bench.report(lights_rows) + "\n")
     progress.close()
     text = summary.write(out / "summary.md", config=config, machine=machine,
                          seconds=time.perf_counter() - t_start, rows=rows, checks=checks, table1=table1_rows,

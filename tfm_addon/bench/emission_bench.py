@@ -7,22 +7,12 @@ without its emission (and its colour grid), side by side, maps built once before
 from __future__ import annotations
 
 import dataclasses
-from dataclasses import dataclass
 
 from ..engine import Renderer, RenderSettings
 from ..engine.scene import GridValue
 from ..scenes import fire_scene
+from .renderer_bench import Size  # width, height, grid, map_resolution, repeats
 from .timing import time_side_by_side
-
-
-@dataclass(frozen=True)
-class Size:
-    width: int
-    height: int
-    grid: int
-    map_resolution: int
-    repeats: int
-
 
 FULL = Size(320, 180, 64, 256, 7)
 QUICK = Size(64, 36, 16, 64, 3)

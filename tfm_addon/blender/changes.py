@@ -71,14 +71,19 @@ def change_for_update(id_type: str, object_type: str | None = None, is_medium: b
     return flags
 
 
-def _may_be_medium(ob, medium_source: str | None) -> bool:
-    """Whether a mesh-like object is the medium now or may have become one: it is (or instances)
-    the extracted medium, or one of its materials has a volume shader."""
-    if medium_source is not None:
-        if medium_source == ob.name or medium_source.endswith(f"(instanced by {ob.name})") \
-                or medium_source.startswith(f"{ob.name} (instanced by "):
+def _may_be_medium(ob, medium_source) -> bool:
+    """Whether a mesh-like object is a medium now or may have become one: it is (or instances)
+    an extracted medium (``medium_source``: a label, a tuple of labels or None), a smoke / fire
+    domain, or one of its materials has a volume shader."""
+    sources = (medium_source,) if isinstance(medium_source, str) else tuple(medium_source or ())
+    for source in sources:
+        if source == ob.name or source.endswith(f"(instanced by {ob.name})") \
+                or source.startswith(f"{ob.name} (instanced by "):
             return True
-    from . import materials
+    from . import fluid, materials
+
+    if fluid.domain_modifier(ob) is not None:
+        return True
 
     for slot in getattr(ob, "material_slots", ()):
         out = materials.output_node(slot.material) if slot.material is not None else None

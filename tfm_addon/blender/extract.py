@@ -31,18 +31,21 @@ class Extraction:
 
     camera: Camera | None = None
     lights: tuple[SpotLight, ...] = ()
-    medium: Medium | None = None
+    medium: Medium | None = None      # the first of ``media``
     meshes: tuple[Mesh, ...] = ()
     ambient: RGB = (0.0, 0.0, 0.0)
     settings: RenderSettings = field(default_factory=RenderSettings)
     medium_source: str | None = None  # name of the object the medium comes from
     warnings: dict[Change, tuple[str, ...]] = field(default_factory=dict)
+    media: tuple[Medium, ...] = ()    # every medium (volume objects, meshes with volume materials)
+    medium_sources: tuple[str, ...] = ()   # the objects they come from
 
     def scene(self, camera: Camera | None = None) -> Scene:
         cam = camera if camera is not None else self.camera
         if cam is None:
             raise ValueError("no camera")
-        return Scene(camera=cam, lights=self.lights, medium=self.medium, meshes=self.meshes,
+        media = self.media or ((self.medium,) if self.medium is not None else ())
+        return Scene(camera=cam, lights=self.lights, media=media, meshes=self.meshes,
                      ambient=self.ambient if self.settings.ambient else (0.0, 0.0, 0.0),
                      world=self.ambient)
 
@@ -124,6 +127,8 @@ def extract(depsgraph, *, parts: Change = Change.ALL, previous: Extraction | Non
         if Change.MEDIUM in geometry:
             changes["medium"] = found["medium"]
             changes["medium_source"] = found["medium_source"]
+            changes["media"] = tuple(found["media"])
+            changes["medium_sources"] = tuple(found["medium_sources"])
             warnings[Change.MEDIUM] = tuple(found["warnings"][Change.MEDIUM])
 
     return replace(previous, warnings=warnings, **changes)
@@ -154,11 +159,13 @@ def volume_simplify_level(depsgraph) -> int:
 
 
 _simplified: dict = {}  # (id of the full grid, level) -> (the full grid, simplified grid, matrix)
+_simplified_extras: dict = {}  # (id of a full attribute grid, level) -> (that grid, simplified)
 
 
 def clear_simplified() -> None:
-    """Drop the kept simplified grid (on unregister)."""
+    """Drop the kept simplified grids (on unregister)."""
     _simplified.clear()
+    _simplified_extras.clear()
 
 
 def simplify_grid(density: np.ndarray, index_to_object: np.ndarray, level: int):
@@ -202,6 +209,8 @@ def _walk_instances(depsgraph, parts: Change, cache: GridCache,
     solids: list[Mesh] = []
     skipped_lights: list[str] = []
     media: list[str] = []
+    found_media: list[Medium] = []     # every medium, in the depsgraph's order
+    sources: list[str] = []
     medium = None
     notes = {Change.LIGHTS: [], Change.SOLIDS: [], Change.MEDIUM: []}
     arrays: dict = {}  # evaluated mesh data -> (vertices, triangles), shared by its instances
@@ -221,23 +230,27 @@ def _walk_instances(depsgraph, parts: Change, cache: GridCache,
             unrendered.setdefault(UNRENDERED_TYPES[kind], []).append(_label(instance))
             continue
         if kind == 'LIGHT' and Change.LIGHTS in parts:
-            if ob.data.type == 'SPOT':
-                spots.append(lights_module.spot_light(ob, np.array(instance.matrix_world),
-                                                      notes[Change.LIGHTS]))
+            if ob.data.type in ('SPOT', 'POINT', 'SUN', 'AREA'):
+                spots.append(lights_module.light(ob, np.array(instance.matrix_world),
+                                                 notes[Change.LIGHTS]))
             else:
                 skipped_lights.append(f"{ob.name} ({ob.data.type.lower()})")
         elif kind == 'VOLUME' and Change.MEDIUM in parts:
             media.append(_label(instance))
-            if medium is None and len(media) == 1:
-                medium = _volume_medium(instance, cache, notes[Change.MEDIUM], simplify)
-                _medium_visibility_notes(depsgraph, instance, notes[Change.MEDIUM])
+            found = _volume_medium(instance, cache, notes[Change.MEDIUM], simplify)
+            _medium_visibility_notes(depsgraph, instance, notes[Change.MEDIUM])
+            if found is not None:
+                found_media.append(replace(found, name=_label(instance)))
+                sources.append(_label(instance))
         elif kind == 'MESH' and fluid.domain_modifier(ob, depsgraph.mode == 'RENDER') is not None:
             if Change.MEDIUM in parts:   # a smoke / fire domain: its cache, never its mesh
                 media.append(_label(instance))
-                if medium is None and len(media) == 1:
-                    medium = _fluid_medium(instance, depsgraph.scene.frame_current, cache,
-                                           notes[Change.MEDIUM], simplify)
-                    _medium_visibility_notes(depsgraph, instance, notes[Change.MEDIUM])
+                found = _fluid_medium(instance, depsgraph.scene.frame_current, cache,
+                                      notes[Change.MEDIUM], simplify)
+                _medium_visibility_notes(depsgraph, instance, notes[Change.MEDIUM])
+                if found is not None:
+                    found_media.append(replace(found, name=_label(instance)))
+                    sources.append(_label(instance))
         elif kind in meshes.MESH_TYPES and parts & (Change.SOLIDS | Change.MEDIUM):
             material = meshes.first_material(ob)
             if Change.SOLIDS in parts and materials.has_surface_and_volume(material):
@@ -248,9 +261,11 @@ def _walk_instances(depsgraph, parts: Change, cache: GridCache,
             if materials.has_volume_only(material):
                 if Change.MEDIUM in parts:
                     media.append(_label(instance))
-                    if medium is None and len(media) == 1:
-                        medium = _mesh_medium(instance, material, notes[Change.MEDIUM], volume_resolution)
-                        _medium_visibility_notes(depsgraph, instance, notes[Change.MEDIUM])
+                    found = _mesh_medium(instance, material, notes[Change.MEDIUM], volume_resolution)
+                    _medium_visibility_notes(depsgraph, instance, notes[Change.MEDIUM])
+                    if found is not None:
+                        found_media.append(replace(found, name=_label(instance)))
+                        sources.append(_label(instance))
                 continue
             if Change.SOLIDS not in parts:
                 continue
@@ -274,15 +289,14 @@ def _walk_instances(depsgraph, parts: Change, cache: GridCache,
     if Change.LIGHTS in parts:
         if skipped_lights:
             notes[Change.LIGHTS].append(
-                "Only spot lights are rendered; skipped " + ", ".join(skipped_lights))
-        # A scene without spot lights is the renderer's to explain (it says so in its warnings).
+                "Lights of unknown type are not rendered: " + ", ".join(skipped_lights))
+        # A scene without lights is the renderer's to explain (it says so in its warnings).
     for what, names in unrendered.items():
         notes[Change.SOLIDS].append(f"{what} are not rendered by TFM: " + ", ".join(names))
-    if len(media) > 1:
-        notes[Change.MEDIUM].append(
-            f"One medium is rendered: using {media[0]}, skipping " + ", ".join(media[1:]))
+    medium = found_media[0] if found_media else None
     return {"lights": spots, "meshes": solids, "medium": medium,
-            "medium_source": media[0] if media else None, "warnings": notes}
+            "medium_source": sources[0] if sources else None, "media": found_media,
+            "medium_sources": sources, "warnings": notes}
 
 
 def _has_hair(ob) -> bool:
@@ -419,10 +433,28 @@ def _grid_medium(matrix_world, grid, read: dict, label: str, notes: list[str], s
     extras = {name: a for name, a in grid.extras.items() if name in used}
     density, index_to_object = simplify_grid(grid.density, grid.index_to_object, simplify)
     if simplify > 0:
-        extras = {name: _downsample_channels(a, 2 ** simplify) for name, a in extras.items()}
+        extras = _simplify_extras(extras, simplify)
     return Medium(density=density, index_to_world=matrix_world @ index_to_object, grids=extras,
                   clipping=clipping,
                   source_key=digest(grid.key, sorted(extras), simplify) if grid.key else None, **fields)
+
+
+def _simplify_extras(extras: dict, level: int) -> dict:
+    """The attribute grids at the simplified density's resolution; the last ones are kept, like
+    ``simplify_grid``'s, so that a viewport edit that keeps the grids does not redo them."""
+    out, kept = {}, {}
+    for name, a in extras.items():
+        key = (id(a), level)
+        hit = _simplified_extras.get(key)
+        if hit is None or hit[0] is not a:
+            small = _downsample_channels(a, 2 ** level)
+            small.setflags(write=False)
+            hit = (a, small)
+        kept[key] = hit
+        out[name] = hit[1]
+    _simplified_extras.clear()
+    _simplified_extras.update(kept)
+    return out
 
 
 def _downsample_channels(a: np.ndarray, f: int) -> np.ndarray:

@@ -52,6 +52,8 @@ def enabled_passes(view_layer) -> tuple[tuple[str, str], ...]:
         return PASSES
     return tuple((blender_name, name) for blender_name, name in PASSES
                  if getattr(settings, f"use_pass_{name}", True))
+
+
 def sample_count(scene) -> int:
     """Antialiasing samples of a final render: scene.tfm.samples, or AUTO_SAMPLES for 0."""
     return int(scene.tfm.samples) or AUTO_SAMPLES
@@ -64,7 +66,27 @@ def register_passes(engine, scene, view_layer) -> None:
         engine.register_pass(scene, view_layer, name, 3, "RGB", 'COLOR')
 
 
+# What the current render job (a still, or the frames of an animation) already said: a warning
+# is reported once per job, not once per frame. A job ends when a frame is rendered again (or an
+# earlier one), or another scene renders.
+_job: dict = {"scene": None, "frame": None, "layers": set(), "told": set()}
+
+
+def _start_frame(scene_name: str, frame: int, layer: str) -> None:
+    j = _job
+    if (j["scene"] != scene_name or j["frame"] is None or frame < j["frame"]
+            or (frame == j["frame"] and layer in j["layers"])):
+        j.update(scene=scene_name, frame=frame, layers=set(), told=set())
+    if frame != j["frame"]:
+        j.update(frame=frame, layers=set())
+    j["layers"].add(layer)
+
+
 def _tell(engine, level: str, message: str) -> None:
+    if level == 'WARNING':
+        if message in _job["told"]:
+            return                     # said earlier in this render job
+        _job["told"].add(message)
     last_messages.append((level, message))
     if level == 'ERROR':
         engine.error_set(message)
@@ -86,6 +108,7 @@ def render(engine, depsgraph) -> None:
     last_messages.clear()
     last_timings.clear()
     scene = depsgraph.scene
+    _start_frame(scene.name, scene.frame_current, depsgraph.view_layer.name)
     width, height = engine.resolution_x, engine.resolution_y
     window = border_window(scene.render, width, height)
     preview = engine.is_preview

@@ -1,10 +1,12 @@
-"""Spot lights (and the projected textures they carry) as the renderer's SpotLight."""
+"""Blender lights (spot, point, sun, area; a spot's projected texture) as the renderer's Light."""
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
-from ..engine.scene import SpotLight
+from ..engine.scene import Light, SpotLight
 from .camera import without_scale
 
 
@@ -68,3 +70,37 @@ def spot_light(light_object, matrix_world, warnings: list[str]) -> SpotLight:
         cone_scale=cone_scale(matrix_world, light_object.name, warnings),
         cast_shadow=bool(getattr(light, "use_shadow", True)),
     )
+
+
+def light(light_object, matrix_world, warnings: list[str]) -> Light:
+    """The renderer's Light for any evaluated light object placed at ``matrix_world``; what it
+    renders differently from Cycles goes into ``warnings`` (one line per light)."""
+    data = light_object.data
+    name = light_object.name
+    if getattr(data, "use_nodes", False):
+        warnings.append(f"Light '{name}': light nodes are not rendered (its colour and power are used)")
+    kind = data.type
+    if kind == 'SPOT':
+        return spot_light(light_object, matrix_world, warnings)
+    common = dict(matrix_world=without_scale(matrix_world), color=light_color(data),
+                  power_w=light_power_w(data), name=name,
+                  cast_shadow=bool(getattr(data, "use_shadow", True)))
+    if kind == 'POINT':
+        if float(getattr(data, "shadow_soft_size", 0.0)) > 0.0:
+            warnings.append(f"Point light '{name}': its radius is treated as 0 (sharp shadows)")
+        return Light(kind="POINT", **common)
+    if kind == 'SUN':
+        angle = float(getattr(data, "angle", 0.0))
+        if angle > 0.0:
+            warnings.append(f"Sun '{name}': its angle ({math.degrees(angle):.2g} degrees) is rendered as a "
+                            "sharp sun")
+        return Light(kind="SUN", **common)
+    if kind == 'AREA':
+        scale = np.linalg.norm(np.array(matrix_world, dtype=np.float64).reshape(4, 4)[:3, :3], axis=0)
+        size = float(data.size) * float(scale[0])
+        size_y = (float(data.size_y) if data.shape in ('RECTANGLE', 'ELLIPSE') else float(data.size))
+        size_y *= float(scale[1])
+        if float(getattr(data, "spread", math.pi)) < math.pi - 1e-6:
+            warnings.append(f"Area light '{name}': its spread is not rendered (180 degrees)")
+        return Light(kind="AREA", size_m=(size, size_y), **common)
+    raise ValueError(f"light type {kind!r} is not known")

@@ -1,7 +1,8 @@
 """The reverse of ``extract``: a renderer Scene written into Blender as ordinary objects.
 
-A Volume object reading a .vdb file written here (heterogeneous medium) or a cube with a volume
-material (homogeneous box), spot lights, meshes with Diffuse BSDF materials, a camera and a world.
+Volume objects reading .vdb files written here (heterogeneous media; instances of one grid share
+one Volume data) or cubes with a volume material (homogeneous boxes), lights of every kind, meshes
+with Diffuse BSDF materials, a camera and a world.
 Used by the demo scene and by the tests, which render the same Scene directly and through Blender.
 """
 
@@ -181,12 +182,21 @@ def build(scene: Scene, directory: str, *, bl_scene=None, settings: RenderSettin
     r.pixel_aspect_x = r.pixel_aspect_y = 1.0
 
     for i, light in enumerate(scene.lights):
-        data = bpy.data.lights.new(light.name or f"{name} Spot {i}", 'SPOT')
+        kind = getattr(light, "kind", "SPOT")
+        data = bpy.data.lights.new(light.name or f"{name} {kind.title()} {i}", kind)
         data.energy = light.power_w
         data.color = light.color
-        data.spot_size = light.spot_size_rad
-        data.spot_blend = light.spot_blend
-        data.shadow_soft_size = 0.0
+        if kind == 'SPOT':
+            data.spot_size = light.spot_size_rad
+            data.spot_blend = light.spot_blend
+        if kind in ('SPOT', 'POINT'):
+            data.shadow_soft_size = 0.0
+        elif kind == 'SUN':
+            data.angle = 0.0
+        elif kind == 'AREA':
+            sx, sy = (float(v) if v > 0 else 0.1 for v in light.size_m)
+            data.shape = 'RECTANGLE'
+            data.size, data.size_y = sx, sy
         if light.gobo is not None:
             img = bpy.data.images.new(f"{data.name} Gobo", light.gobo.shape[1], light.gobo.shape[0],
                                       float_buffer=True)
@@ -198,7 +208,6 @@ def build(scene: Scene, directory: str, *, bl_scene=None, settings: RenderSettin
         ob = _link(bpy.data.objects.new(data.name, data), collection)
         ob.matrix_world = to_blender_matrix(light.matrix_world)
         made["lights"].append(ob)
-
     for i, mesh in enumerate(scene.meshes):
         data = bpy.data.meshes.new(mesh.name or f"{name} Mesh {i}")
         data.from_pydata(mesh.vertices.tolist(), [], mesh.triangles.tolist())
@@ -209,8 +218,14 @@ def build(scene: Scene, directory: str, *, bl_scene=None, settings: RenderSettin
         ob.color = (*mesh.color, 1.0)
         made["meshes"].append(ob)
 
-    if scene.medium is not None:
-        made["medium"] = _build_medium(scene.medium, directory, collection, name, use_node_material)
+    made["media"] = []
+    shared: dict = {}      # a grid's key -> the Volume data written for it (instances share it)
+    for i, medium in enumerate(scene.media):
+        label = name if i == 0 else f"{name}{i}"
+        made["media"].append(_build_medium(medium, directory, collection, label, use_node_material,
+                                           shared))
+    if made["media"]:
+        made["medium"] = made["media"][0]
 
     world = bl_scene.world or bpy.data.worlds.new(f"{name} World")
     bl_scene.world = world
@@ -231,7 +246,10 @@ def build(scene: Scene, directory: str, *, bl_scene=None, settings: RenderSettin
     return made
 
 
-def _build_medium(medium: Medium, directory: str, collection, name: str, use_node_material: bool):
+def _build_medium(medium: Medium, directory: str, collection, name: str, use_node_material: bool,
+                  shared: dict | None = None):
+    """A medium as a Volume object (a grid; media with the same grid and material share one
+    Volume data, as linked duplicates do) or a cube with a volume material (a box)."""
     import bpy
 
     if medium.density is None:
@@ -248,9 +266,17 @@ def _build_medium(medium: Medium, directory: str, collection, name: str, use_nod
 
     m = np.asarray(medium.index_to_world, dtype=np.float64)
     voxel = float(abs(np.linalg.det(m[:3, :3])) ** (1.0 / 3.0))
+    share_key = (medium.grid_key, medium.grids_key, medium.emission_key, medium.color_grid,
+                 medium.sigma_a, medium.sigma_s, medium.anisotropy, round(voxel, 9))
+    if shared is not None and share_key in shared:
+        ob = _link(bpy.data.objects.new(f"{name} Smoke", shared[share_key]), collection)
+        ob.matrix_world = to_blender_matrix(m @ np.diag([1.0 / voxel] * 3 + [1.0]))
+        return ob
     path = write_vdb(os.path.join(directory, f"{name}_density.vdb"), medium.density, voxel,
                      extra_grids=dict(medium.grids))
     data = bpy.data.volumes.new(f"{name} Smoke")
+    if shared is not None:
+        shared[share_key] = data
     data.filepath = path
     data.render.precision = 'FULL'
     data.render.clipping = 0.0

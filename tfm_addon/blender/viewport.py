@@ -16,6 +16,7 @@ import numpy as np
 from ..engine.output import RenderOutput
 from ..engine.progressive import ProgressiveView, upload_pixels
 from ..engine.scene import Camera
+from ..engine.worker import WorkerClosed
 from .changes import Change, changes_from_depsgraph
 from .extract import Extraction, extract
 from .render_worker import get_worker
@@ -53,7 +54,7 @@ class ViewportSession:
             self._generation += 1
         else:
             if changes is None:
-                changes = changes_from_depsgraph(depsgraph, self.extraction.medium_source)
+                changes = changes_from_depsgraph(depsgraph, self.extraction.medium_sources)
             parts = changes & ~Change.CAMERA  # the viewport's camera is the view
             if parts:
                 self.extraction = extract(depsgraph, parts=parts, previous=self.extraction)
@@ -64,9 +65,11 @@ class ViewportSession:
 
     @property
     def view(self) -> ProgressiveView:
+        """This viewport's progressive view, on a worker slot and cache client of its own (two
+        Rendered viewports on one slot superseded each other: one never showed an edit)."""
         worker = get_worker()
         if self._view is None or self._view.worker is not worker:
-            self._view = ProgressiveView(worker)
+            self._view = ProgressiveView(worker, slot=f"viewport {id(self):x}")
         return self._view
 
     def request(self, camera: Camera, samples: int) -> bool:
@@ -103,10 +106,16 @@ class ViewportSession:
         return self._image
 
     def close(self) -> None:
-        """Stop refining and stop being polled."""
+        """Stop refining, stop being polled, and release the maps only this view kept (on the
+        GL thread, without waiting)."""
         _polled.pop(id(self), None)
-        if self._view is not None:
-            self._view.cancel()
+        view = self._view
+        if view is not None:
+            view.cancel()
+            try:
+                view.worker.submit(lambda r, job: r.forget_client(view.client))
+            except WorkerClosed:
+                pass
 
     @property
     def warnings(self) -> list[str]:

@@ -1,4 +1,10 @@
-"""Spot-light geometry: its frame, the frustum of its maps, and whether its cone meets a box."""
+"""Light geometry: the projection faces a light's maps are built on, and whether a face reaches a
+box.
+
+A light is one concept (scene.Light) with a list of map faces: a spot has one perspective face
+(its cone's frustum), a point light six cube faces (90 degrees each), an area light the five cube
+faces in front of it, a sun one orthographic face fitted to the media. Every face gets its own
+shadow map and TFM; culling, caching and counters work per face."""
 
 from __future__ import annotations
 
@@ -7,10 +13,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .scene import SpotLight
+from .scene import Light, SpotLight
 
 MAX_HALF_ANGLE_RAD = math.radians(85.0)
 """A spot's maps cover at most this half angle (a perspective map cannot reach 90 degrees)."""
+
+
+PROFILE_SPOT, PROFILE_UNIFORM, PROFILE_COSINE = 0, 1, 2
+"""How a face's light falls off with direction: the spot cone, none, cos(theta) about an axis."""
 
 
 def _cone_scale(light: SpotLight) -> tuple[float, float]:
@@ -28,6 +38,8 @@ def lit_half_angle(light: SpotLight) -> float:
 
 def cone_warning(light: SpotLight) -> str | None:
     """The render report's line for a cone wider than the maps cover, or None."""
+    if light.kind != "SPOT":
+        return None
     half = 0.5 * max(float(light.spot_size_rad), 0.0)
     lit = lit_half_angle(light)
     if lit >= half - 1e-9:
@@ -40,13 +52,27 @@ def cone_warning(light: SpotLight) -> str | None:
 
 @dataclass(frozen=True)
 class LightFrame:
-    """What the shaders need to know of a spot light."""
+    """One projection face of a light: what the shaders need to build and read its maps.
 
-    world_to_light: np.ndarray   # rigid; the light at the origin shining along -Z
+    Perspective faces: ``world_to_light`` is rigid with the light at the origin looking along
+    -Z; ``tan_xy`` the half-widths of the frustum at unit distance. Orthographic faces (a sun):
+    the origin is the centre of the map's near plane, light travelling along -Z, ``tan_xy`` the
+    half extents in metres; ``shadow_rect`` (cx, cy, hx, hy) the face-space rectangle the shadow
+    map covers; ``far`` the depth of the box, metres. ``profile`` and ``emit_axis`` (face
+    space) give the emission's dependence on direction.
+    """
+
+    world_to_light: np.ndarray
     position: np.ndarray
-    cos_half: float              # of the lit cone, in its scaled space (see lit_half_angle)
-    spot_smooth: float           # (1 - cos_half) * blend
-    tan_xy: tuple[float, float]  # half-widths of the map frustum at unit distance, x and y
+    cos_half: float
+    spot_smooth: float            # (1 - cos_half) * blend
+    tan_xy: tuple[float, float]
+    ortho: bool = False
+    profile: int = PROFILE_SPOT
+    emit_axis: tuple[float, float, float] = (0.0, 0.0, -1.0)
+    shadow_rect: tuple[float, float, float, float] | None = None
+    far: float = 0.0
+    index: int = 0
     cone_scale: tuple[float, float] = (1.0, 1.0)
 
     @property
@@ -54,19 +80,21 @@ class LightFrame:
         """The larger half-width of the map frustum (its bounding square)."""
         return max(self.tan_xy)
 
+    @property
+    def key(self) -> tuple:
+        """What the face's maps depend on, beyond the light."""
+        return (self.index, self.ortho, tuple(np.round(self.world_to_light, 12).ravel()),
+                tuple(round(float(t), 12) for t in self.tan_xy), self.shadow_rect, round(self.far, 9))
+
     @staticmethod
     def of(light: SpotLight) -> LightFrame:
         m = np.array(light.matrix_world, dtype=np.float64)
-        u, _, vt = np.linalg.svd(m[:3, :3])
-        to_world = np.eye(4)
-        to_world[:3, :3] = u @ vt
-        to_world[:3, 3] = m[:3, 3]
         half = lit_half_angle(light)
         cos_half = math.cos(half)
         scale = _cone_scale(light)
         t = math.tan(max(half, 1e-4))
         return LightFrame(
-            world_to_light=np.linalg.inv(to_world),
+            world_to_light=np.linalg.inv(_rigid(m)),
             position=m[:3, 3].copy(),
             cos_half=cos_half,
             spot_smooth=(1.0 - cos_half) * max(float(light.spot_blend), 0.0),
@@ -75,17 +103,146 @@ class LightFrame:
         )
 
     def clip_matrix(self, near: float, far: float) -> np.ndarray:
-        """World to the clip space of the light's map frustum."""
+        """World to the clip space of the face's map (perspective frustum; for an orthographic
+        face the shadow rectangle, depth 0 to ``far``, ``near`` unused)."""
         p = np.zeros((4, 4))
+        if self.ortho:
+            cx, cy, hx, hy = self.shadow_rect
+            p[0, 0], p[0, 3] = 1.0 / hx, -cx / hx
+            p[1, 1], p[1, 3] = 1.0 / hy, -cy / hy
+            p[2, 2], p[2, 3] = -2.0 / far, -1.0
+            p[3, 3] = 1.0
+            return p @ self.world_to_light
         p[0, 0], p[1, 1] = 1.0 / self.tan_xy[0], 1.0 / self.tan_xy[1]
         p[2, 2], p[2, 3] = -(far + near) / (far - near), -2 * far * near / (far - near)
         p[3, 2] = -1.0
         return p @ self.world_to_light
 
 
-def is_dark(light: SpotLight) -> bool:
-    """A light that adds nothing: no power, no colour or no cone."""
-    return light.power_w <= 0.0 or max(light.color) <= 0.0 or light.spot_size_rad <= 0.0
+def _rigid(m: np.ndarray) -> np.ndarray:
+    """The matrix without its scale (nearest rotation) and with its translation."""
+    u, _, vt = np.linalg.svd(np.asarray(m, np.float64)[:3, :3])
+    r = np.eye(4)
+    r[:3, :3] = u @ vt
+    r[:3, 3] = np.asarray(m, np.float64)[:3, 3]
+    return r
+
+
+# Cube faces: (local direction the face looks along, an up vector), in the light's frame.
+_CUBE = (((0, 0, -1), (0, 1, 0)), ((1, 0, 0), (0, 1, 0)), ((-1, 0, 0), (0, 1, 0)),
+         ((0, 1, 0), (0, 0, 1)), ((0, -1, 0), (0, 0, 1)), ((0, 0, 1), (0, 1, 0)))
+
+
+def _look_rotation(forward, up) -> np.ndarray:
+    """3x3 rotation whose -Z column is ``forward`` and +Y column ``up``."""
+    f = np.asarray(forward, float)
+    u = np.asarray(up, float)
+    z = -f
+    x = np.cross(u, z)
+    y = np.cross(z, x)
+    return np.stack([x, y, z], axis=1)
+
+
+def cube_faces(light: Light) -> list[LightFrame]:
+    """Six 90-degree perspective faces (a point light) or the five in front of an area light,
+    with the emission profile of the light."""
+    m = _rigid(np.array(light.matrix_world, dtype=np.float64))
+    area = light.kind == "AREA"
+    faces = []
+    for i, (forward, up) in enumerate(_CUBE[:5] if area else _CUBE):
+        r = _look_rotation(forward, up)
+        to_world = np.eye(4)
+        to_world[:3, :3] = m[:3, :3] @ r
+        to_world[:3, 3] = m[:3, 3]
+        axis = tuple(float(a) for a in r.T @ np.array([0.0, 0.0, -1.0]))
+        faces.append(LightFrame(world_to_light=np.linalg.inv(to_world), position=m[:3, 3].copy(),
+                                cos_half=0.0, spot_smooth=0.0, tan_xy=(1.0, 1.0),
+                                profile=PROFILE_COSINE if area else PROFILE_UNIFORM,
+                                emit_axis=axis, index=i))
+    return faces
+
+
+def _corners(box_to_world, lo, hi) -> np.ndarray:
+    lo, hi = np.asarray(lo, float), np.asarray(hi, float)
+    c = np.array([[x, y, z, 1.0] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
+    return (c @ np.asarray(box_to_world, float).T)[:, :3]
+
+
+def sun_face(light: Light, medium_boxes, caster_bounds) -> LightFrame:
+    """The orthographic face of a sun: its map rectangle fitted to the media's boxes (tight:
+    texels where the medium is), its shadow rectangle to the media and the shadow casters'
+    bounds (a caster's shadow falls where it stands, seen along the light), its depth from the
+    most sunward of them to the farthest. ``medium_boxes``: (box_to_world, lo, hi) each;
+    ``caster_bounds``: (lo, hi) world bounds of the casters or None."""
+    rot = _rigid(np.array(light.matrix_world, dtype=np.float64))[:3, :3]
+    media = [_corners(*b) for b in medium_boxes]
+    solids = [] if caster_bounds is None else [_corners(np.eye(4), *caster_bounds)]
+    pts_media = np.concatenate(media) @ rot if media else np.zeros((0, 3))
+    pts_all = np.concatenate(media + solids) @ rot if (media or solids) else np.zeros((1, 3))
+
+    def rect(q):
+        lo, hi = q[:, :2].min(axis=0), q[:, :2].max(axis=0)
+        half = np.maximum((hi - lo) * 0.5 * 1.002, 1e-3 + 1e-6 * np.abs(hi + lo))
+        return (lo + hi) * 0.5, half
+
+    centre, half = rect(pts_media if len(pts_media) else pts_all)
+    s_centre, s_half = rect(pts_all)
+    z_top, z_bottom = float(pts_all[:, 2].max()), float(pts_all[:, 2].min())
+    margin = 1e-3 * max(z_top - z_bottom, float(half.max()), 1e-3)
+    z_top += margin
+    origin = rot @ np.array([centre[0], centre[1], z_top])
+    to_world = np.eye(4)
+    to_world[:3, :3] = rot
+    to_world[:3, 3] = origin
+    return LightFrame(world_to_light=np.linalg.inv(to_world), position=origin, cos_half=0.0,
+                      spot_smooth=0.0, tan_xy=(float(half[0]), float(half[1])), ortho=True,
+                      profile=PROFILE_UNIFORM,
+                      shadow_rect=(float(s_centre[0] - centre[0]), float(s_centre[1] - centre[1]),
+                                   float(s_half[0]), float(s_half[1])),
+                      far=float(z_top - z_bottom + margin))
+
+
+def light_faces(light: Light, medium_boxes=(), caster_bounds=None) -> list[LightFrame]:
+    """The map faces of a light (see the module docstring)."""
+    if light.kind == "SUN":
+        return [sun_face(light, medium_boxes, caster_bounds)]
+    if light.kind in ("POINT", "AREA"):
+        return cube_faces(light)
+    return [LightFrame.of(light)]
+
+
+def face_meets_box(frame: LightFrame, box_to_world, lo, hi) -> bool:
+    """Whether the face's frustum (its box for an orthographic face) meets the box [lo, hi]^3
+    placed by ``box_to_world``: exact, by separating axes between the two convex solids."""
+    c = _corners(box_to_world, lo, hi)
+    q = c @ frame.world_to_light[:3, :3].T + frame.world_to_light[:3, 3]
+    tx, ty = frame.tan_xy
+    if frame.ortho:
+        return bool(np.any(q[:, 0] >= -tx) and np.any(q[:, 0] <= tx) and np.any(q[:, 1] >= -ty)
+                    and np.any(q[:, 1] <= ty) and np.any(q[:, 2] <= 0.0))
+    far = float(np.linalg.norm(q, axis=1).max()) * 2.0 + 1e-9
+    f = np.array([[0.0, 0.0, 0.0], [-tx * far, -ty * far, -far], [tx * far, -ty * far, -far],
+                  [tx * far, ty * far, -far], [-tx * far, ty * far, -far]])
+    box_axes = [frame.world_to_light[:3, :3] @ (np.asarray(box_to_world, float)[:3, k]) for k in range(3)]
+    side_normals = [np.cross(f[i + 1], f[(i + 1) % 4 + 1]) for i in range(4)]
+    edges = [f[i + 1] for i in range(4)] + [np.array([1.0, 0, 0]), np.array([0, 1.0, 0])]
+    axes = box_axes + side_normals + [np.array([0, 0, 1.0])]
+    axes += [np.cross(a, e) for a in box_axes for e in edges]
+    for axis in axes:
+        n = np.linalg.norm(axis)
+        if n < 1e-12:
+            continue
+        pa, pb = q @ axis, f @ axis
+        eps = 1e-9 * (np.abs(pa).max() + np.abs(pb).max())
+        if pa.max() < pb.min() - eps or pb.max() < pa.min() - eps:
+            return False
+    return True
+
+
+def is_dark(light: Light) -> bool:
+    """A light that adds nothing: no power, no colour or (a spot) no cone."""
+    no_cone = light.kind == "SPOT" and light.spot_size_rad <= 0.0
+    return light.power_w <= 0.0 or max(light.color) <= 0.0 or no_cone
 
 
 def cone_meets_box(frame: LightFrame, box_to_world: np.ndarray, lo, hi) -> bool:

@@ -27,7 +27,7 @@ class PreparedAttributes:
     blackbody_grid: bool
     color: np.ndarray | None
     warnings: list[str] = field(default_factory=list)
-    emission_box: tuple[tuple[float, ...], tuple[float, ...]] | None = None  # index space; None: all
+    emission_box: tuple[tuple[float, ...], tuple[float, ...]] | None = None  # index space; None: grid box
 
 
 
@@ -104,7 +104,7 @@ def prepare_attributes(medium: Medium, factor: int) -> PreparedAttributes:
 
 def _emission_box(medium: Medium, scalars: np.ndarray | None):
     """Index-space bounds of the voxels that can emit, one voxel wider (the trilinear support);
-    None when a constant emits everywhere."""
+    None when a constant emits everywhere in the grid's box."""
     v = medium.emission_strength
     strength_constant = v.offset > 0.0 and any(c != 0.0 for c in medium.emission_color)
     if scalars is None or strength_constant or not uses_blackbody_grid(medium) and \

@@ -78,3 +78,26 @@ def downsample(d: np.ndarray, f: int) -> np.ndarray:
     p = np.pad(d, pad, mode="edge")
     nx, ny, nz = (n // f for n in p.shape)
     return p.reshape(nx, f, ny, f, nz, f).mean(axis=(1, 3, 5), dtype=np.float64).astype(np.float32)
+
+
+def grid_allowances(grids: dict, max_bytes: int) -> tuple[dict, str | None]:
+    """Byte allowances of several grids sharing one budget: ``grids`` maps a key to (bytes,
+    name). While the total exceeds ``max_bytes`` the largest allowance is cut by 8 (a factor 2
+    per axis), so the largest grid is downsampled first. Returns the allowances and a warning
+    naming the grids that were cut (None when everything fits)."""
+    allowance = {k: int(b) for k, (b, _) in grids.items()}
+    cut = []
+    total = sum(allowance.values())
+    while allowance and total > max_bytes:
+        k = max(allowance, key=lambda key: allowance[key])
+        if allowance[k] <= 8 * 4:
+            break
+        allowance[k] //= 8
+        if grids[k][1] not in cut:
+            cut.append(grids[k][1])
+        total = sum(allowance.values())
+    if not cut or len(grids) < 2:
+        return {k: (max_bytes if len(grids) < 2 else a) for k, a in allowance.items()}, None
+    return allowance, (f"The media's grids need {sum(b for b, _ in grids.values()) // 2**20} MiB together, "
+                       f"more than the {max_bytes // 2**20} MiB budget: downsampled largest first: "
+                       + ", ".join(f"'{n}'" for n in cut) + ".")

@@ -23,8 +23,8 @@ from .sampling import Accumulator, frame_settings, iter_samples
 from .scene import RenderSettings, Scene
 from .worker import RenderWorker, WorkerClosed
 
-SLOT = "viewport"
-CLIENT = "viewport"         # the renderer cache client whose maps other clients never evict
+SLOT = "viewport"           # the default worker slot and renderer cache client (one per view:
+CLIENT = SLOT               # views sharing a slot would supersede each other's requests)
 COARSE_SCALE = 0.25        # side of the coarse image relative to the full one
 COARSE_BELOW_S = 0.05      # skip the coarse image when the last full image took less than this
 
@@ -76,11 +76,13 @@ def _maps_key(scene: Scene, settings: RenderSettings):
 
 class ProgressiveView:
     """One viewport's progressive image. ``counters``: 'requests', 'published', 'dropped'
-    (frames of superseded requests, finished but never shown), 'coarse', 'samples'."""
+    (frames of superseded requests, finished but never shown), 'coarse', 'samples'. ``slot``:
+    the worker slot, and the renderer cache client, of this view alone."""
 
     def __init__(self, worker: RenderWorker, slot: str = SLOT, coarse_scale: float = COARSE_SCALE):
         self.worker = worker
         self.slot = slot
+        self.client = slot
         self.coarse_scale = coarse_scale
         self._lock = threading.Lock()
         self._generation = 0
@@ -192,13 +194,15 @@ class ProgressiveView:
                 small = dataclasses.replace(scene, camera=dataclasses.replace(
                     scene.camera, width_px=cw, height_px=ch))
                 out = renderer.render(small, coarse_settings(settings, rebuild), job.cancelled, None, False,
-                                      client=CLIENT, sweep=False)
+                                      client=self.client, sweep=False,
+                                      map_image_side=None if rebuild else max(w, h))
                 self.counters["coarse"] += 1
                 self._publish(generation, t0, out.combined, "coarse", 0, target, out.warnings)
                 yield
             t_full = time.perf_counter()
             for k, acc in enumerate(iter_samples(renderer, scene, settings, target, job.cancelled,
-                                                 passes=False, accumulator=Accumulator(), client=CLIENT)):
+                                                 passes=False, accumulator=Accumulator(),
+                                                 client=self.client)):
                 if k == 0:
                     self._last_full_s = time.perf_counter() - t_full
                     self._maps_key = maps_key

@@ -29,7 +29,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .light import LightFrame, is_dark
+from .light import LightFrame, is_dark, light_faces
 from .medium_grid import clean_density, downsample
 from .passes.bindings import nonzero_bounds
 from .scene import RenderSettings, Scene
@@ -86,8 +86,7 @@ def _bounds_of(m):
     """(world -> local matrix, lo, hi, local units per voxel): the medium's box in its own space."""
     if m.density is not None:
         to_local = np.linalg.inv(np.asarray(m.index_to_world, dtype=np.float64))
-        lo, hi = _cached(("bounds", m.density_key),
-                         lambda: nonzero_bounds(clean_density(m.density, m.clipping)[0]))
+        lo, hi = _cached(("bounds", m.density_key), lambda: _summary(m)[3])
         return to_local, np.asarray(lo), np.asarray(hi), 1.0
     if m.box_to_world is not None:
         return np.linalg.inv(np.asarray(m.box_to_world, dtype=np.float64)), -np.ones(3), np.ones(3), None
@@ -103,6 +102,40 @@ def _light_rays(frame: LightFrame, n: int) -> np.ndarray:
     local = local[-local[:, 2] >= frame.cos_half - 1e-9]
     to_world = np.linalg.inv(frame.world_to_light)
     return local @ to_world[:3, :3].T
+
+
+def _face_rays(light, m, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """World origins and unit directions of an n x n grid of rays over each map face of the
+    light (light.py): from the light for a spot and the cube faces of a point or area light,
+    parallel over the rectangle fitted to the medium for a sun."""
+    if light.kind == "SPOT":
+        d = _light_rays(LightFrame.of(light), n)
+        return np.broadcast_to(np.asarray(light.matrix_world, float)[:3, 3], d.shape).copy(), d
+    box = _medium_box(m)
+    origins, dirs = [], []
+    for face in light_faces(light, [box] if box is not None else []):
+        to_world = np.linalg.inv(face.world_to_light)
+        if face.ortho:
+            s = (np.arange(n) + 0.5) / n * 2.0 - 1.0
+            u, v = np.meshgrid(s, s)
+            q = np.stack([u.ravel() * face.tan_xy[0], v.ravel() * face.tan_xy[1], np.zeros(n * n)], axis=1)
+            origins.append(q @ to_world[:3, :3].T + to_world[:3, 3])
+            dirs.append(np.broadcast_to(-to_world[:3, 2], q.shape).copy())
+        else:
+            d = _light_rays(face, n)
+            origins.append(np.broadcast_to(face.position, d.shape).copy())
+            dirs.append(d)
+    return np.concatenate(origins), np.concatenate(dirs)
+
+
+def _medium_box(m):
+    """(box_to_world, lo, hi) of a bounded medium, or None."""
+    if m.density is not None:
+        hi = tuple(float(x) for x in m.density.shape)
+        return np.asarray(m.index_to_world, float), (-1.0, -1.0, -1.0), hi
+    if m.box_to_world is not None:
+        return np.asarray(m.box_to_world, float), (-1.0, -1.0, -1.0), (1.0, 1.0, 1.0)
+    return None
 
 
 def _camera_rays(scene: Scene, n: int) -> tuple[np.ndarray, np.ndarray]:
@@ -140,7 +173,7 @@ def medium_stats(scene: Scene) -> MediumStats | None:
         return None
     lights = [light for light in scene.lights if not is_dark(light)]
     to_local, lo, hi, _ = _bounds(scene)
-    grid = _cached(("grid", m.density_key), lambda: _grid_summary(m)) if m.density is not None else None
+    grid = _summary(m) if m.density is not None else None
     tau_max, light_len = 0.0, 0.0
     for light in lights:
         integral, chord = _cached(("light", m.density_key, light.key),
@@ -172,13 +205,17 @@ def _cached(key, build):
     return value
 
 
-def _grid_summary(m) -> tuple[np.ndarray, int, float]:
+def _summary(m):
+    return _cached(("grid", m.density_key), lambda: _grid_summary(m))
+
+
+def _grid_summary(m) -> tuple[np.ndarray, int, float, tuple]:
     """(the grid block-averaged to <= _COARSE_SIDE a side and padded by one voxel, the factor,
-    the sharpness)."""
+    the sharpness, its non-zero bounds), from one cleaning of the grid."""
     density, _ = clean_density(m.density, m.clipping)      # what the renderer uploads
     f = max(1, math.ceil(max(density.shape) / _COARSE_SIDE))
     coarse = np.pad(downsample(density, f) if f > 1 else density, 1)
-    return coarse, f, sharpness(density)
+    return coarse, f, sharpness(density), nonzero_bounds(density)
 
 
 def _light_part(m, light, grid) -> tuple[float, float]:
@@ -190,20 +227,20 @@ def _light_part(m, light, grid) -> tuple[float, float]:
     to_local, lo, hi, _ = _bounds_of(m)
     if to_local is None:                      # fog everywhere: no bounds, no chord to speak of
         return 0.0, 0.0
-    frame = LightFrame.of(light)
-    o = to_local[:3, :3] @ frame.position + to_local[:3, 3]
-    d = _light_rays(frame, _LIGHT_RAYS) @ to_local[:3, :3].T      # local units per world metre
-    t0, t1 = _slab(o[None, :], d, lo, hi)
+    o_w, d_w = _face_rays(light, m, _LIGHT_RAYS)
+    o = o_w @ to_local[:3, :3].T + to_local[:3, 3]
+    d = d_w @ to_local[:3, :3].T      # local units per world metre
+    t0, t1 = _slab(o, d, lo, hi)
     t0 = np.maximum(t0, 0.0)
     hit = t1 > t0
     if not hit.any():
         return 0.0, 0.0
-    o_h, d_h, t0, t1 = np.broadcast_to(o, d.shape)[hit], d[hit], t0[hit], t1[hit]
+    o_h, d_h, t0, t1 = o[hit], d[hit], t0[hit], t1[hit]
     chord = (t1 - t0) * np.linalg.norm(d_h, axis=1)     # local units (voxels for a grid)
     sigma = 1.0                 # the density integral; the caller multiplies by sigma
     if grid is None:
         return sigma * float((t1 - t0).max()), float(chord.max())
-    coarse, f, _ = grid
+    coarse, f = grid[:2]
     steps = int(min(512, max(16, math.ceil(2.0 * chord.max() / f))))
     s = (np.arange(steps) + 0.5) / steps
     t = t0[:, None] + s[None, :] * (t1 - t0)[:, None]

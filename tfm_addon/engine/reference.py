@@ -11,12 +11,18 @@ The model (units: metres, watts, radians; colours are scene-linear RGB):
 - Solids: two-sided triangles, Lambert with the normal turned to the camera, lit by the spots
   (shadowed by any triangle strictly between the point and the light, attenuated by the medium
   along the light ray) plus the unattenuated ambient ``albedo * ambient``.
-- Spot lights: intensity ``color * power / (4 pi)`` W/sr, Blender's smoothstep cone falloff, an
-  optional gobo, inverse-square falloff.
-- Medium: ``sigma = D(p) * sigma_per_density``; D trilinear in a grid that fades to zero one voxel
-  beyond the outermost centres, or 1 inside a box (or everywhere) for a homogeneous medium.
+- Lights: spots of intensity ``color * power / (4 pi)`` W/sr with Blender's smoothstep cone
+  falloff and an optional gobo; point lights of the same intensity in every direction; area
+  lights as a point at their centre of intensity ``color * power / pi * cos(theta)`` W/sr about
+  their -Z; all with inverse-square falloff. Suns: parallel light along their -Z, irradiance
+  ``color * strength`` W/m^2, shadowed along the whole ray toward the sun.
+- Media: each ``sigma = D(p) * sigma_per_density``; D trilinear in a grid that fades to zero one
+  voxel beyond the outermost centres, or 1 inside a box (or everywhere) for a homogeneous
+  medium. Several media add their coefficients; the phase is their sigma_s-weighted mixture.
+  Grid voxels that are NaN, infinite, negative or below ``Medium.clipping`` are 0 (attribute
+  grids: NaN and infinite voxels).
 - View rays: ``view_steps`` midpoint samples over the part of the valid range in front of the first
-  solid and inside the medium's bounds. At each sample the in-scattered radiance is
+  solid and inside the union of the media's bounds. At each sample the in-scattered radiance is
   ``T_view * sigma_s * D * dt * (sum_lights phase * I * spot * gobo * V * T_light / r^2 + ambient)``
   with Henyey-Greenstein phase; ``T_light`` is a ``light_steps`` midpoint march toward the light
   over the part of that segment inside the medium's bounds (analytic for a homogeneous medium).
@@ -39,7 +45,7 @@ import numpy as np
 from scipy import ndimage
 
 from .output import RenderOutput
-from .scene import Camera, Medium, Mesh, RenderSettings, Scene, SpotLight
+from .scene import Camera, Light, Medium, Mesh, RenderSettings, Scene
 
 # Samples (pixels x view steps) handled at once; each (n, 3) float64 array of them is 12 MiB.
 _SAMPLES_PER_CHUNK = 1 << 19
@@ -268,6 +274,12 @@ def _blackbody_term(t: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.where((b > 0)[:, None], power[:, None] * blackbody_rec709(t), 0.0)
 
 
+def _finite(a) -> np.ndarray:
+    """float64 copy with NaN and infinite values as 0."""
+    a = np.asarray(a, dtype=np.float64)
+    return np.where(np.isfinite(a), a, 0.0)
+
+
 class _Field:
     """The density D of a medium: its bounds, point look-ups and integrals toward a light."""
 
@@ -275,10 +287,11 @@ class _Field:
         self.light_steps = int(light_steps)
         self.pool = pool
         self.heterogeneous = medium.density is not None
-        self.attributes = {name: np.pad(np.asarray(g, np.float64), [(1, 1)] * 3 + [(0, 0)] * (g.ndim - 3))
+        self.attributes = {name: np.pad(_finite(g), [(1, 1)] * 3 + [(0, 0)] * (g.ndim - 3))
                            for name, g in medium.grids.items()}
         if self.heterogeneous:
-            grid = np.asarray(medium.density, dtype=np.float64)
+            grid = _finite(medium.density)
+            grid = np.where((grid > 0) & (grid >= float(medium.clipping)), grid, 0.0)
             self.grid = np.pad(grid, 1, mode="constant", constant_values=0.0)
             self.to_local = np.linalg.inv(np.asarray(medium.index_to_world, np.float64))
             self.lo = np.full(3, -1.0)
@@ -350,7 +363,7 @@ class _Field:
     def _voxel_value(medium: Medium, v) -> np.ndarray:
         if v.grid is None:
             return np.asarray(float(v.offset))
-        return v.scale * np.maximum(np.asarray(medium.grids[v.grid], np.float64), 0.0) + v.offset
+        return v.scale * np.maximum(_finite(medium.grids[v.grid]), 0.0) + v.offset
 
     def _march_sums(self, start: np.ndarray, step: np.ndarray) -> np.ndarray:
         """Sum of D over ``light_steps`` midpoints start + (k + 1/2) step (padded index space)."""
@@ -365,7 +378,8 @@ class _Field:
         return vals.reshape(len(start), m).sum(axis=1)
 
     def integral_to(self, points: np.ndarray, light: np.ndarray) -> np.ndarray:
-        """Integral of D (metres x density) along the segments points (n, 3) -> light (3,)."""
+        """Integral of D (metres x density) along the segments points (n, 3) -> light (3,) or
+        to per-point ends (n, 3)."""
         n = len(points)
         if n == 0:
             return np.zeros(0)
@@ -399,22 +413,31 @@ class _Field:
 # Lights
 # --------------------------------------------------------------------------------------------
 
-class _Spot:
-    """A spot light's emission toward points: I * spot * gobo / r^2."""
+class _Light:
+    """A light's emission toward points: I * profile * gobo / r^2 (a sun: its irradiance), and
+    where its shadow rays end."""
 
-    def __init__(self, light: SpotLight):
+    def __init__(self, light: Light):
+        self.kind = light.kind
         self.position = np.array(light.matrix_world[:3, 3], dtype=np.float64)
         self.rotation = _rotation(light.matrix_world)
         self.direction = -self.rotation[:, 2]
-        self.intensity = np.asarray(light.color, np.float64) * light.power_w / (4.0 * math.pi)
+        c = np.asarray(light.color, np.float64)
+        if self.kind == "SUN":
+            self.intensity = c * light.power_w
+        elif self.kind == "AREA":
+            self.intensity = c * light.power_w / math.pi
+        else:
+            self.intensity = c * light.power_w / (4.0 * math.pi)
         self.cos_half = math.cos(light.spot_size_rad / 2.0)
         self.blend = float(light.spot_blend)
         self.tan_half = math.tan(min(light.spot_size_rad / 2.0, math.radians(85.0)))
-        self.gobo = None if light.gobo is None else np.asarray(light.gobo, np.float64)
+        self.gobo = None if light.gobo is None or self.kind != "SPOT" else np.asarray(light.gobo, np.float64)
 
     @staticmethod
-    def usable(light: SpotLight) -> bool:
-        return light.power_w != 0 and light.spot_size_rad > 0 and any(c != 0 for c in light.color)
+    def usable(light: Light) -> bool:
+        cone = light.spot_size_rad > 0 if light.kind == "SPOT" else True
+        return light.power_w != 0 and cone and any(c != 0 for c in light.color)
 
     def spot(self, cos_theta: np.ndarray) -> np.ndarray:
         """Blender's cone falloff for the cosine of the angle off the spot axis."""
@@ -445,20 +468,98 @@ class _Spot:
         return top * (1 - fy) + bottom * fy
 
     def emission(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Unit vectors light -> point (n, 3) and I * spot * gobo / r^2 (n, 3), the irradiance
-        (W/m^2) at normal incidence before shadows and the medium; zero outside the cone."""
+        """Unit vectors of the light's travel at the points (n, 3) and the irradiance (n, 3,
+        W/m^2) at normal incidence there before shadows and the medium."""
+        if self.kind == "SUN":
+            n = len(points)
+            return (np.broadcast_to(self.direction, (n, 3)).copy(),
+                    np.broadcast_to(self.intensity, (n, 3)).copy())
         v = points - self.position
         r2 = np.einsum("nk,nk->n", v, v)
         unit = _normalise(v)
-        spot = self.spot(unit @ self.direction)
-        spot[r2 <= 0] = 0.0
+        if self.kind == "SPOT":
+            prof = self.spot(unit @ self.direction)
+        elif self.kind == "AREA":
+            prof = np.maximum(unit @ self.direction, 0.0)
+        else:
+            prof = np.ones(len(points))
+        prof[r2 <= 0] = 0.0
         with np.errstate(divide="ignore", invalid="ignore"):
-            fac = np.where((spot > 0)[:, None], spot[:, None] / r2[:, None] * self.intensity, 0.0)
+            fac = np.where((prof > 0)[:, None], prof[:, None] / r2[:, None] * self.intensity, 0.0)
         if self.gobo is not None:
-            lit = np.flatnonzero(spot > 0)
+            lit = np.flatnonzero(prof > 0)
             if len(lit):
                 fac[lit] *= self.gobo_at(points[lit])
         return unit, fac
+
+    def ends(self, points: np.ndarray) -> np.ndarray:
+        """Where the light rays toward the points start: the light, or far toward a sun."""
+        if self.kind == "SUN":
+            return points - self.direction * _SUN_DISTANCE_M
+        return self.position
+
+    def blocked(self, solids: _Solids, points: np.ndarray) -> np.ndarray:
+        """Whether a solid lies between the light and each point."""
+        if self.kind != "SUN":
+            return solids.blocked(self.position, points)
+        n = len(points)
+        t, _ = solids.first_hit(points, np.broadcast_to(-self.direction, (n, 3)).copy(),
+                                np.full(n, 1e-7), np.full(n, np.inf))
+        return np.isfinite(t)
+
+
+_Spot = _Light
+_SUN_DISTANCE_M = 1e5
+"""How far toward a sun its rays are followed through the media, metres."""
+
+
+class _Media:
+    """Every medium of a scene: bounds (their union), coefficients, optical depths."""
+
+    def __init__(self, media, light_steps: int, pool: Executor):
+        self.media = list(media)
+        self.fields = [_Field(m, light_steps, pool) for m in self.media]
+        self.sigma_t = [m.sigma_t for m in self.media]
+        self.sigma_s = [np.asarray(m.sigma_s, np.float64) for m in self.media]
+
+    def interval(self, o: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        lo = np.full(len(o), np.inf)
+        hi = np.full(len(o), -np.inf)
+        for f in self.fields:
+            a, b = f.interval(o, d)
+            hit = b > a
+            lo = np.where(hit, np.minimum(lo, a), lo)
+            hi = np.where(hit, np.maximum(hi, b), hi)
+        return lo, hi
+
+    def inside(self, p: np.ndarray) -> list[np.ndarray]:
+        """Whether the points lie in each medium's bounds (n,) bool each."""
+        out = []
+        for f in self.fields:
+            if f.to_local is None:
+                out.append(np.ones(len(p), bool))
+                continue
+            a, b = f.interval(p, np.zeros_like(p) + np.array([1.0, 0.0, 0.0]))
+            out.append((a <= 0) & (b >= 0))
+        return out
+
+    def densities(self, p: np.ndarray, inside=None) -> list[np.ndarray]:
+        """D of each medium at p (0 outside its bounds)."""
+        inside = self.inside(p) if inside is None else inside
+        out = []
+        for f, ins in zip(self.fields, inside, strict=True):
+            dens = np.zeros(len(p))
+            if ins.any():
+                dens[ins] = f.density(p[ins])
+            out.append(dens)
+        return out
+
+    def optical_depth_to(self, points: np.ndarray, ends: np.ndarray) -> np.ndarray:
+        """(n, 3) extinction integrated along points -> ends."""
+        tau = np.zeros((len(points), 3))
+        for f, st in zip(self.fields, self.sigma_t, strict=True):
+            tau += f.integral_to(points, ends)[:, None] * st
+        return tau
 
 
 def _henyey_greenstein(cos_theta: np.ndarray, g: float) -> np.ndarray:
@@ -471,7 +572,7 @@ def _henyey_greenstein(cos_theta: np.ndarray, g: float) -> np.ndarray:
 # --------------------------------------------------------------------------------------------
 
 def _shade_surfaces(p: np.ndarray, view_dir: np.ndarray, tri: np.ndarray, solids: _Solids,
-                    lights: list[_Spot], field: _Field | None, sigma_t: np.ndarray,
+                    lights: list[_Light], media: _Media | None,
                     ambient: np.ndarray, casters: _Solids | None = None) -> np.ndarray:
     """Outgoing Lambert radiance (n, 3) of the solid points p seen along view_dir (triangles
     ``tri`` of ``solids``), shadowed by ``casters`` (default: ``solids``)."""
@@ -488,56 +589,65 @@ def _shade_surfaces(p: np.ndarray, view_dir: np.ndarray, tri: np.ndarray, solids
         if len(live) == 0:
             continue
         offset = p[live] + _SURFACE_OFFSET_M * normal[live]
-        live = live[~casters.blocked(light.position, offset)]
+        live = live[~light.blocked(casters, offset)]
         if len(live) == 0:
             continue
         trans = np.ones((len(live), 3))
-        if field is not None:
-            trans = np.exp(-field.integral_to(p[live], light.position)[:, None] * sigma_t)
+        if media is not None:
+            ends = light.ends(p[live])
+            trans = np.exp(-media.optical_depth_to(p[live], ends))
         radiance[live] += albedo[live] / math.pi * fac[live] * ndl[live, None] * trans
     return radiance
 
 
-def _march_view(o: np.ndarray, d: np.ndarray, t0: np.ndarray, t1: np.ndarray, medium: Medium,
-                field: _Field, solids: _Solids, lights: list[_Spot], ambient: np.ndarray,
+def _march_view(o: np.ndarray, d: np.ndarray, t0: np.ndarray, t1: np.ndarray, media: _Media,
+                solids: _Solids, lights: list[_Light], ambient: np.ndarray,
                 view_steps: int) -> tuple[np.ndarray, np.ndarray]:
     """In-scattered radiance (n, 3) and transmittance (n, 3) along the segments [t0, t1] of the
     rays o + t d (non-empty segments only)."""
     n, steps = len(o), int(view_steps)
-    sigma_t = medium.sigma_t
-    sigma_s = np.asarray(medium.sigma_s, np.float64)
     dt = (t1 - t0) / steps
     t = t0[:, None] + (np.arange(steps) + 0.5)[None, :] * dt[:, None]
     p = (o[:, None, :] + t[:, :, None] * d[:, None, :]).reshape(-1, 3)
-    dens = field.density(p).reshape(n, steps)
-    tau = (np.cumsum(dens, axis=1) - 0.5 * dens) * dt[:, None]
-    t_view = np.exp(-tau[:, :, None] * sigma_t)
-    t_end = np.exp(-(dens.sum(axis=1) * dt)[:, None] * sigma_t)
-    weight = t_view * sigma_s * (dens * dt[:, None])[:, :, None]  # (n, steps, 3)
-    if medium.color_grid is not None:
-        weight *= field.attribute(medium.color_grid, p).reshape(n, steps, 3)
+    inside = media.inside(p)
+    dens = [x.reshape(n, steps) for x in media.densities(p, inside)]
+    ext = sum(dm[:, :, None] * st for dm, st in zip(dens, media.sigma_t, strict=True))   # (n, s, 3)
+    # Each medium's scattering per unit density: sigma_s, times its colour grid where it has one.
+    tints = [f.attribute(m.color_grid, p).reshape(n, steps, 3) if m.color_grid is not None else 1.0
+             for f, m in zip(media.fields, media.media, strict=True)]
+    ss = sum(dm[:, :, None] * sc * c for dm, sc, c in zip(dens, media.sigma_s, tints, strict=True))
+    tau = (np.cumsum(ext, axis=1) - 0.5 * ext) * dt[:, None, None]
+    t_view = np.exp(-tau)
+    t_end = np.exp(-ext.sum(axis=1) * dt[:, None])
+    weight = t_view * dt[:, None, None]                              # (n, steps, 3)
     emitted = np.zeros((n, 3))
-    if medium.has_emission:
-        emitted = np.einsum("nsk,nsk->nk", t_view * dt[:, None, None],
-                            field.emission(medium, p).reshape(n, steps, 3))
-    source = np.broadcast_to(ambient, (n * steps, 3)).copy()
-    if lights and np.any(sigma_s != 0):
-        active = np.flatnonzero((dens > 0).reshape(-1))
+    for f, m, ins in zip(media.fields, media.media, inside, strict=True):
+        if m.has_emission and ins.any():
+            glow = np.zeros((n * steps, 3))
+            glow[ins] = f.emission(m, p[ins])
+            emitted += np.einsum("nsk,nsk->nk", weight, glow.reshape(n, steps, 3))
+    source = (ss.reshape(-1, 3) * ambient).copy()
+    any_dens = sum(dm for dm in dens) > 0
+    if lights and any(np.any(sc != 0) for sc in media.sigma_s):
+        active = np.flatnonzero(any_dens.reshape(-1))
         pa = p[active]
         da = np.repeat(d, steps, axis=0)[active]
-        g = float(medium.anisotropy)
+        dens_a = [dm.reshape(-1)[active] for dm in dens]
+        tint_a = [c if np.isscalar(c) else c.reshape(-1, 3)[active] for c in tints]
         for light in lights:
             unit, fac = light.emission(pa)
             live = np.flatnonzero((fac > 0).any(axis=1))
             if len(live) == 0:
                 continue
-            live = live[~solids.blocked(light.position, pa[live])]
+            live = live[~light.blocked(solids, pa[live])]
             if len(live) == 0:
                 continue
             cos = -np.einsum("nk,nk->n", unit[live], da[live])
-            phase = _henyey_greenstein(cos, g)
-            trans = np.exp(-field.integral_to(pa[live], light.position)[:, None] * sigma_t)
-            source[active[live]] += phase[:, None] * fac[live] * trans
+            phase_ss = sum(dm[live, None] * sc * (c if np.isscalar(c) else c[live])
+                           * _henyey_greenstein(cos, float(m.anisotropy))[:, None]
+                           for dm, sc, c, m in zip(dens_a, media.sigma_s, tint_a, media.media, strict=True))
+            trans = np.exp(-media.optical_depth_to(pa[live], light.ends(pa[live])))
+            source[active[live]] += phase_ss * fac[live] * trans
     scattering = np.einsum("nsk,nsk->nk", weight, source.reshape(n, steps, 3)) + emitted
     return scattering, t_end
 
@@ -562,9 +672,7 @@ def render_reference(scene: Scene, settings: RenderSettings | None = None, *,
     n_pix = len(origins)
     solids = _Solids(scene.camera_meshes)        # what the camera sees (holdouts included)
     casters = _Solids(scene.shadow_casters)      # what shadows the lights
-    lights = [_Spot(light) for light in scene.lights if _Spot.usable(light)]
-    medium = scene.medium
-    sigma_t = medium.sigma_t if medium is not None else np.zeros(3)
+    lights = [_Light(light) for light in scene.lights if _Light.usable(light)]
 
     scattering = np.zeros((n_pix, 3))
     surfaces = np.zeros((n_pix, 3))
@@ -574,7 +682,7 @@ def render_reference(scene: Scene, settings: RenderSettings | None = None, *,
     per = max(1, _SAMPLES_PER_CHUNK // max(1, int(view_steps)))
     workers = max(1, min(8, os.cpu_count() or 1))
     with ThreadPoolExecutor(max_workers=workers) as pool:
-        field = _Field(medium, light_steps, pool) if medium is not None else None
+        field = _Media(scene.media, light_steps, pool) if scene.media else None
         for k in range(0, n_pix, per):
             sl = slice(k, min(k + per, n_pix))
             o, d, tn, tf = origins[sl], dirs[sl], t_near[sl], t_far[sl]
@@ -588,7 +696,7 @@ def render_reference(scene: Scene, settings: RenderSettings | None = None, *,
                 t1 = np.minimum(t_end, tb)
                 seg = np.flatnonzero(t1 > t0)
                 if len(seg):
-                    scat, trans_seg = _march_view(o[seg], d[seg], t0[seg], t1[seg], medium, field,
+                    scat, trans_seg = _march_view(o[seg], d[seg], t0[seg], t1[seg], field,
                                                   casters, lights, ambient, view_steps)
                     trans[seg] = trans_seg
                     scattering[k + seg] = scat
@@ -597,7 +705,7 @@ def render_reference(scene: Scene, settings: RenderSettings | None = None, *,
             hit = hit[~solids.holdout[tri[hit]]]   # a holdout: no radiance, alpha left open
             if len(hit):
                 p = o[hit] + t_hit[hit, None] * d[hit]
-                radiance = _shade_surfaces(p, d[hit], tri[hit], solids, lights, field, sigma_t,
+                radiance = _shade_surfaces(p, d[hit], tri[hit], solids, lights, field,
                                            ambient, casters)
                 surfaces[k + hit] = trans[hit] * radiance
                 mask[k + hit] = True

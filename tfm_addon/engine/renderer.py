@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import time
 from collections import Counter
 from collections.abc import Callable
@@ -13,10 +14,23 @@ from . import medium_attributes
 from .camera import view_plane
 from .errors import RenderCancelled
 from .gl_context import GLContext
-from .light import LightFrame, cone_meets_box, cone_warning, is_dark
-from .medium_grid import prepare_grid
+from .light import LightFrame, cone_meets_box, cone_warning, face_meets_box, is_dark, light_faces
+from .medium_grid import grid_allowances, prepare_grid
 from .output import RenderOutput
-from .passes.bindings import MEDIUM_GRID, MEDIUM_NONE, MediumGPU, gobo_texture, pass_state
+from .passes.bindings import (
+    MAX_GRIDS,
+    MAX_MEDIA,
+    MEDIUM_BOX,
+    MEDIUM_EVERYWHERE,
+    MEDIUM_GRID,
+    MEDIUM_NONE,
+    MediaGPU,
+    MediumGPU,
+    MediumSlot,
+    gobo_texture,
+    max_grids,
+    pass_state,
+)
 from .passes.emission import AttributesGPU
 from .passes.gbuffer import GBuffer
 from .passes.probe import probe_light_transmittance
@@ -31,9 +45,9 @@ from .passes.scattering import (
 )
 from .passes.shadow_map import ShadowMap
 from .passes.solids import SolidsBuffer
-from .passes.tfm import TransmittanceMap, largest_density_integral, tfm_resolution
+from .passes.tfm import MIN_FOOTPRINT_RESOLUTION, TransmittanceMap, largest_density_integral, tfm_resolution
 from .quality import auto_settings
-from .scene import RenderSettings, Scene, SpotLight
+from .scene import Light, RenderSettings, Scene
 
 
 def effective_settings(scene: Scene, settings: RenderSettings | None) -> RenderSettings:
@@ -55,6 +69,7 @@ class _Cache:
         self.used: set = set()
         self.fresh: set = set()
         self.kept: dict[str, set] = {}       # client -> keys its last completed frame used
+        self.done: dict[str, set] = {}       # client -> keys its last completed, sweeping frame used
 
     def get(self, key, build: Callable):
         self.used.add(key)
@@ -78,8 +93,10 @@ class _Cache:
         ``client=None`` forgets every client (``clear``)."""
         if client is None:
             self.kept.clear()
+            self.done.clear()
         elif release:
             self.kept[client] = set(self.used)
+            self.done[client] = set(self.used)
         else:
             self.kept.setdefault(client, set()).update(self.used)
         self.used.clear()
@@ -87,9 +104,19 @@ class _Cache:
         if release:
             self._release_unkept()
 
+    def cancelled(self, client: str) -> None:
+        """End a cancelled frame of ``client`` (its builds are complete): keep what it used with
+        what the client's last completed frame used, and release the rest, so that a run of
+        cancelled frames (a drag in the viewport) holds the maps of two frames, not of every one."""
+        self.kept[client] = self.done.get(client, set()) | self.used
+        self.used.clear()
+        self.fresh.clear()
+        self._release_unkept()
+
     def forget(self, client: str) -> None:
         """Release what only ``client`` kept (it will render no more frames for now)."""
         self.kept.pop(client, None)
+        self.done.pop(client, None)
         self._release_unkept()
 
     def _release_unkept(self) -> None:
@@ -107,12 +134,15 @@ class _Cache:
 
 @dataclass
 class _LightPlan:
-    light: SpotLight
+    """One face of a light, as its light pass reads it."""
+
+    light: Light
     frame: LightFrame
     light_t: int
     shadow: ShadowMap | None
     tfm: TransmittanceMap | None
     gobo: object | None
+    tfm_sigma_t: np.ndarray | None = None
 
 
 class Renderer:
@@ -120,9 +150,11 @@ class Renderer:
     every call must come from that thread (see worker.RenderWorker).
 
     ``counters`` counts what was built: 'grid_uploads', 'shadow_maps', 'tfms', 'gbuffers',
-    'light_passes', 'renders'. A camera-only change rebuilds no light map; changing sigma_a or
-    sigma_s rebuilds nothing on the light side (unless a fixed density weight ties the map to
-    the extinction).
+    'light_passes', 'renders' (maps and passes per light face), and 'faces_culled' (faces of
+    point and area lights that reach neither a medium nor a visible solid: no maps, no pass).
+    A camera-only change rebuilds no light map; changing sigma_a or sigma_s of a lone medium
+    rebuilds nothing on the light side (unless a fixed density weight ties the map to the
+    extinction; with several media a map also depends on their relative extinction).
     """
 
     def __init__(self, gl: GLContext | None = None):
@@ -148,17 +180,19 @@ class Renderer:
     def render(self, scene: Scene, settings: RenderSettings | None = None,
                cancel: Callable[[], bool] | None = None,
                progress: Callable[[float], None] | None = None, passes: bool = True,
-               client: str = "final", sweep: bool = True) -> RenderOutput:
+               client: str = "final", sweep: bool = True, map_image_side: int | None = None) -> RenderOutput:
         """Render ``scene``; raises RenderCancelled when ``cancel()`` turns true between passes.
         ``passes=False`` reads back the combined image alone (the viewport's case). ``client``
         names who asks ('viewport', 'final', 'preview', ...): each client's last frame keeps its
         maps, whatever the other clients render in between. ``sweep=False`` also keeps what the
-        client's previous frames kept (the viewport's coarse image must not evict the full maps)."""
+        client's previous frames kept (the viewport's coarse image must not evict the full maps).
+        ``map_image_side``: the image side (pixels) a 'FOOTPRINT' TFM is capped by, default the
+        camera's larger side (the coarse image passes its full image's, to reuse the full maps)."""
         gl = self.gl
         gl.check_thread()
         settings = effective_settings(scene, settings)
         with gl.ctx:     # current for the call, whatever other context the thread made current
-            return self._render(scene, settings, cancel, progress, passes, client, sweep)
+            return self._render(scene, settings, cancel, progress, passes, client, sweep, map_image_side)
 
     def forget_client(self, client: str) -> None:
         """Release the maps that only ``client``'s last frame kept."""
@@ -167,13 +201,15 @@ class Renderer:
                 for cache in self._caches:
                     cache.forget(client)
 
-    def _render(self, scene, settings, cancel, progress, want_passes, client, sweep=True) -> RenderOutput:
+    def _render(self, scene, settings, cancel, progress, want_passes, client, sweep=True,
+                map_image_side=None) -> RenderOutput:
         gl = self.gl
         t_start = time.perf_counter()
         timings: dict[str, float] = {}
         warnings: list[str] = []
         lights = [light for light in scene.lights if not is_dark(light)]
-        steps = 2 + len(lights) + max(len(lights), 1)   # scene, maps per light, G-buffer, passes
+        faces_at_most = sum({"POINT": 6, "AREA": 5}.get(light.kind, 1) for light in lights)
+        steps = [2 + len(lights) + max(faces_at_most, 1)]  # scene, maps per light, G-buffer, passes
         done = [0]
 
         def step(name: str, t0: float) -> None:
@@ -181,7 +217,7 @@ class Renderer:
             timings[name] = timings.get(name, 0.0) + time.perf_counter() - t0
             done[0] += 1
             if progress is not None:
-                progress(min(done[0] / steps, 1.0))
+                progress(min(done[0] / steps[0], 1.0))
             if cancel is not None and cancel():
                 raise RenderCancelled("The render was cancelled.")
 
@@ -198,8 +234,11 @@ class Renderer:
             plans = []
             for light in lights:
                 t0 = time.perf_counter()
-                plans.append(self._plan_light(scene, settings, light, medium_gpu, casters))
+                faces = self._plan_light(scene, settings, light, medium_gpu, casters, seen.bounds,
+                                         warnings, map_image_side)
+                plans += faces
                 step("light_maps", t0)
+            steps[0] = 2 + len(lights) + max(len(plans), 1)      # a pass per face not culled
 
             t0 = time.perf_counter()
             plane = view_plane(scene.camera)
@@ -226,7 +265,7 @@ class Renderer:
                 t0 = time.perf_counter()
                 run_light_pass(gl, first=(i == 0), light_t=plan.light_t, tfm=plan.tfm,
                                light=(plan.frame, plan.light.intensity_w_per_sr,
-                                      plan.shadow, plan.gobo),
+                                      plan.shadow, plan.gobo), tfm_sigma_t=plan.tfm_sigma_t,
                                **common)
                 self.counters["light_passes"] += 1
                 step("scattering", t0)
@@ -239,11 +278,10 @@ class Renderer:
         except RenderCancelled:
             # Every pass finished (ctx.finish) before the check that cancelled: what the frame
             # cached is complete, and kept for this client's next frame (which, under latest-wins
-            # cancellation, likely reuses it) along with what its last completed frame used.
+            # cancellation, likely reuses it) along with what its last completed frame used; what
+            # earlier cancelled or coarse frames kept is released.
             for cache in self._caches:
-                cache.kept.setdefault(client, set()).update(cache.used)
-                cache.used.clear()
-                cache.fresh.clear()
+                cache.cancelled(client)
             raise
         except BaseException:
             # A pass failed midway: drop whatever this frame built, it may be partial.
@@ -258,10 +296,13 @@ class Renderer:
         self.counters["renders"] += 1
         timings["total"] = time.perf_counter() - t_start
         if not scene.lights:
-            warnings.append("The scene has no spot light: only surfaces and ambient light are "
-                            "rendered, and the medium scatters no light beam.")
+            warnings.append("The scene has no spot light (nor any other light): only surfaces and "
+                            "ambient light are rendered, and the medium scatters no light beam.")
         elif not lights:
-            warnings.append("Every spot light has zero power, colour or cone angle: no light beam.")
+            warnings.append("Every light has zero power or colour (or a spot no cone angle): no "
+                            "light beam.")
+        warnings += _light_notes(lights)
+        warnings = list(dict.fromkeys(warnings))       # once each, however many faces said it
         warnings += [w for w in map(cone_warning, lights) if w]
         return RenderOutput(combined=combined, passes=passes, warnings=warnings, timings_s=timings)
 
@@ -280,11 +321,21 @@ class Renderer:
         gl = self.gl
         medium_gpu, _ = self._medium(scene, settings)
         casters = self._solid_set(scene.shadow_casters)
-        plan = self._plan_light(scene, settings, scene.lights[light_index], medium_gpu, casters)
-        out = probe_light_transmittance(
-            gl, points, medium=scene.medium, medium_gpu=medium_gpu, settings=settings,
-            light=(plan.frame, plan.light.intensity_w_per_sr, plan.shadow,
-                   None), light_t=plan.light_t, tfm=plan.tfm)
+        plans = self._plan_light(scene, settings, scene.lights[light_index], medium_gpu, casters,
+                                 None, [])
+        pts = np.asarray(points, np.float64).reshape(-1, 3)
+        out = np.ones((len(pts), 3), np.float32)
+        for plan in plans:          # each point from the face it belongs to
+            q = pts @ plan.frame.world_to_light[:3, :3].T + plan.frame.world_to_light[:3, 3]
+            tan = np.asarray(plan.frame.tan_xy)
+            mine = np.ones(len(q), bool) if plan.light.kind in ("SPOT", "SUN") else (
+                (q[:, 2] < 0) & np.all(np.abs(q[:, :2]) <= -q[:, 2:3] * tan, axis=1))
+            if not mine.any():
+                continue
+            out[mine] = probe_light_transmittance(
+                gl, pts[mine], medium=scene.medium, medium_gpu=medium_gpu, settings=settings,
+                light=(plan.frame, plan.light.intensity_w_per_sr, plan.shadow, None),
+                light_t=plan.light_t, tfm=plan.tfm, tfm_sigma_t=plan.tfm_sigma_t)
         for cache in self._caches:
             cache.used.clear()          # a probe keeps every map for the next render
             cache.fresh.clear()
@@ -295,117 +346,204 @@ class Renderer:
         when every mesh is in both)."""
         return self._solids.get(tuple(m.key for m in meshes), lambda: SolidsBuffer(self.gl.ctx, meshes))[0]
 
-    def _medium(self, scene: Scene, settings: RenderSettings) -> tuple[MediumGPU, list[str]]:
-        medium = scene.medium
-        if medium is None or medium.is_homogeneous:
-            key = ("homogeneous", None if medium is None else medium.density_key)
-            return self._media.get(key, lambda: (_keyed(MediumGPU(self.gl, medium, None), key), []))[0]
-        # The grid as uploaded: its source and everything that decides its downsampling.
-        key = (medium.density_key, settings.max_grid_bytes, self.gl.max_3d_texture_size)
+    def _medium(self, scene: Scene, settings: RenderSettings) -> tuple[MediaGPU, list[str]]:
+        """The frame's media on the GPU: a single homogeneous medium analytically, otherwise
+        every medium marched (grids and boxes); distinct grids share the memory budget, the
+        largest downsampled first; instances of one grid share its texture."""
+        warnings: list[str] = []
+        media = list(scene.media)
+        if len(media) == 1 and media[0].is_homogeneous:
+            medium = media[0]
+            kind_gpu = MediumGPU(self.gl, medium, None)
+            gpu = MediaGPU(kind_gpu.kind, kind_gpu, [], [])
+            gpu.key = ("homogeneous", medium.density_key)
+            return gpu, warnings
+        everywhere = [m for m in media if m.is_homogeneous and m.box_to_world is None]
+        if everywhere:
+            warnings.append("Fog without bounds renders only alone; with other media it is skipped: "
+                            + ", ".join(f"'{m.name}'" for m in everywhere) + ".")
+            media = [m for m in media if not (m.is_homogeneous and m.box_to_world is None)]
+        if len(media) > MAX_MEDIA:
+            warnings.append(f"At most {MAX_MEDIA} media are rendered; skipped "
+                            + ", ".join(f"'{m.name}'" for m in media[MAX_MEDIA:]) + ".")
+            media = media[:MAX_MEDIA]
+        grids: dict[str, object] = {}
+        for m in media:
+            if m.density is not None and m.grid_key not in grids:
+                grids[m.grid_key] = m
+        most = min(MAX_GRIDS, max_grids(self.gl))
+        if len(grids) > most:
+            kept = set(list(grids)[:most])
+            dropped = [m for m in media if m.density is not None and m.grid_key not in kept]
+            warnings.append(f"At most {most} distinct density grids are rendered at once; "
+                            "skipped " + ", ".join(f"'{m.name}'" for m in dropped) + ".")
+            media = [m for m in media if m.density is None or m.grid_key in kept]
+            grids = {k: v for k, v in grids.items() if k in kept}
+        allowance, budget_note = grid_allowances(
+            {k: (m.density.size * 4, m.name) for k, m in grids.items()}, settings.max_grid_bytes)
+        if budget_note:
+            warnings.append(budget_note)
+        textures: dict[str, MediumGPU] = {}
+        for k, m in grids.items():
+            key = (k, allowance[k], self.gl.max_3d_texture_size)
 
-        def build():
-            grid = prepare_grid(medium.density, medium.index_to_world, self.gl.max_3d_texture_size,
-                                settings.max_grid_bytes, medium.clipping)
-            warnings = list(grid.warnings)
-            if grid.is_empty:
-                warnings.append("The density grid is empty: only the surfaces are rendered.")
-            self.counters["grid_uploads"] += 1
-            return _keyed(MediumGPU(self.gl, medium, grid), key), warnings
+            def build(m=m, k=k, key=key):
+                grid = prepare_grid(m.density, np.eye(4), self.gl.max_3d_texture_size, allowance[k],
+                                    m.clipping)
+                notes = list(grid.warnings)
+                if grid.is_empty:
+                    notes.append("The density grid is empty: only the surfaces are rendered.")
+                self.counters["grid_uploads"] += 1
+                gpu = MediumGPU(self.gl, m, grid)
+                gpu.key = key
+                return _Uploaded(gpu, notes)
 
-        return self._media.get(key, build)[0]
+            entry = self._media.get(key, build)[0]
+            tex, notes = entry.texture, entry.notes
+            warnings += [f"Medium '{m.name}': {n}" if len(grids) > 1 else n for n in notes]
+            if tex.kind == MEDIUM_GRID:
+                textures[k] = tex
+        slots = []
+        for m in media:
+            if m.density is not None and m.grid_key not in textures:
+                continue                       # an empty grid
+            slots.append(MediumSlot(m, textures.get(m.grid_key) if m.density is not None else None))
+        if not slots:
+            gpu = MediaGPU(MEDIUM_NONE, None, [], [])
+            gpu.key = ("none",)
+            return gpu, warnings
+        others = [s.medium.name for s in slots[1:]
+                  if s.medium.has_emission or s.medium.color_grid is not None]
+        if others:
+            warnings.append("Only the first medium's emission and colour grid are rendered; not those of "
+                            + ", ".join(f"'{n}'" for n in others) + ".")
+        used = [t for t in textures.values() if any(s.grid is t for s in slots)]
+        gpu = MediaGPU(MEDIUM_GRID, None, slots, used)
+        gpu.key = tuple(_slot_key(s) for s in slots)
+        return gpu, warnings
 
     def _medium_attributes(self, scene: Scene, settings: RenderSettings,
-                           medium_gpu: MediumGPU) -> AttributesGPU | None:
-        """The medium's emission and colour-grid textures, or None when it has neither. Keyed by
-        the grids, the lattice they are uploaded on and, for the blackbody term evaluated per
-        voxel, the temperature and intensity; not by the emission colour, strength or tint."""
+                           medium_gpu: MediaGPU) -> AttributesGPU | None:
+        """The first medium's emission and colour-grid textures, or None when it has neither.
+        Keyed by the grids, the lattice they are uploaded on and, for the blackbody term
+        evaluated per voxel, the temperature and intensity; not by the emission colour, strength
+        or tint. (Only the first medium emits or reads a colour grid: the others are named.)"""
         medium = scene.medium
         if medium is None or medium_gpu.kind == MEDIUM_NONE:
+            return None
+        if medium_gpu.kind == MEDIUM_GRID and medium_gpu.slots[0].medium is not medium:
             return None
         if not medium.has_emission and medium.color_grid is None:
             return None
         if medium_gpu.kind != MEDIUM_GRID:
             return self._attributes.get(("constant",), lambda: AttributesGPU(self.gl, None))[0]
-        key = (medium.grids_key, medium.density_key, settings.max_grid_bytes,
-               medium_attributes.key(medium))
+        lattice = medium_gpu.slots[0].grid.key if medium_gpu.slots[0].grid is not None else None
+        key = (medium.grids_key, medium.density_key, lattice, medium_attributes.key(medium))
 
         def build():
             self.counters["attribute_uploads"] += 1
             factor = medium_attributes.downsample_factor(medium, medium_gpu.box_to_world)
-            return AttributesGPU(self.gl, medium_attributes.prepare_attributes(medium, factor))
+            return AttributesGPU(self.gl, medium_attributes.prepare_attributes(medium, factor),
+                                 medium_gpu.slots[0].grid.grid_size)
 
         return self._attributes.get(key, build)[0]
 
-    def _plan_light(self, scene, settings, light, medium_gpu, solids) -> _LightPlan:
+    def _plan_light(self, scene, settings, light, medium_gpu, solids, seen_bounds,
+                    warnings, image_side=None) -> list[_LightPlan]:
+        """The faces of a light that add something, each with its maps (built or cached).
+        ``image_side``: the image side the TFM side is capped by (default: the camera image)."""
         gl = self.gl
-        frame = LightFrame.of(light)
         res = int(min(settings.map_resolution, gl.max_texture_size))
-        shadow = None
-        if solids.vertex_count and light.cast_shadow:
-            shadow, built = self._shadows.get((light.key, scene.solids_key, res),
-                                              lambda: ShadowMap(gl, frame, solids, res))
-            self.counters["shadow_maps"] += built
         gobo = None
         if light.gobo is not None:
             gobo, built = self._gobos.get(light.gobo_key, lambda: gobo_texture(gl, light.gobo))
             self.counters["gobos"] += built
-
-        medium = scene.medium
-        light_t, tfm = LIGHT_T_NONE, None
-        if medium_gpu.kind == MEDIUM_GRID:
-            reaches = cone_meets_box(frame, medium_gpu.box_to_world, medium_gpu.lo, medium_gpu.hi)
-            if reaches and (settings.method == "UNSHADOWED" or not light.cast_shadow):
-                light_t = LIGHT_T_UNIT              # the floor, or a light nothing shadows
-            elif reaches and light.use_tfm:
-                if settings.method == "BRUTE_FORCE":
-                    light_t = LIGHT_T_MARCH
-                else:
-                    tfm = self._tfm(scene, settings, light, frame, medium_gpu, shadow,
-                                    tfm_resolution(settings, frame, medium_gpu, res,
-                                                   max(scene.camera.width_px, scene.camera.height_px)))
-                    light_t = LIGHT_T_TFM if tfm is not None else LIGHT_T_NONE
-        elif medium is not None and medium_gpu.kind != 0:
+        boxes = medium_gpu.boxes
+        plans = []
+        for frame in light_faces(light, boxes, solids.bounds):
+            reached = [i for i, box in enumerate(boxes) if _reaches(light, frame, box)]
+            everywhere = medium_gpu.kind == MEDIUM_EVERYWHERE
+            if (light.kind in ("POINT", "AREA") and not reached and not everywhere
+                    and (seen_bounds is None or not face_meets_box(frame, np.eye(4), *seen_bounds))):
+                self.counters["faces_culled"] += 1
+                continue
+            shadow = None
+            if solids.vertex_count and light.cast_shadow:
+                shadow, built = self._shadows.get((light.key, frame.key, scene.solids_key, res),
+                                                  lambda frame=frame: ShadowMap(gl, frame, solids, res))
+                self.counters["shadow_maps"] += built
+            light_t, tfm, tfm_sigma = LIGHT_T_NONE, None, None
             unit = settings.method == "UNSHADOWED" or not light.cast_shadow
-            light_t = LIGHT_T_UNIT if unit else LIGHT_T_ANALYTIC
-        return _LightPlan(light, frame, light_t, shadow, tfm, gobo)
+            if medium_gpu.kind == MEDIUM_GRID:
+                if reached and unit:
+                    light_t = LIGHT_T_UNIT          # the floor, or a light nothing shadows
+                elif reached and light.use_tfm:
+                    if settings.method == "BRUTE_FORCE":
+                        light_t = LIGHT_T_MARCH
+                    else:
+                        side = _face_tfm_resolution(settings, frame, medium_gpu.slots[reached[0]], res,
+                                                    image_side or max(scene.camera.width_px,
+                                                                      scene.camera.height_px))
+                        tfm, tfm_sigma = self._tfm(scene, settings, light, frame, medium_gpu, shadow,
+                                                   side, reached, warnings)
+                        light_t = LIGHT_T_TFM if tfm is not None else LIGHT_T_NONE
+            elif medium_gpu.kind in (MEDIUM_BOX, MEDIUM_EVERYWHERE):
+                if everywhere or reached:
+                    light_t = LIGHT_T_UNIT if unit else LIGHT_T_ANALYTIC
+            plans.append(_LightPlan(light, frame, light_t, shadow, tfm, gobo, tfm_sigma))
+        return plans
 
-    def _tfm(self, scene, settings, light, frame, medium_gpu, shadow, res):
-        """The light's TFM, or None when its rays meet no density. A cached TFM of the same
-        inputs with more coefficients serves a request for fewer when both counts are multiples
-        of 4, or the request is for <= 2 (its first n coefficients are those an n-coefficient map
-        holds)."""
-        medium = scene.medium
+    def _tfm(self, scene, settings, light, frame, medium_gpu, shadow, res, reached, warnings):
+        """The face's TFM and the extinction per unit of its weighted density, or (None, None)
+        when its rays meet no density. The map stores the density of the media the face reaches,
+        each weighted by its mean extinction relative to the first one's (one medium: weight 1,
+        so its sigma changes rebuild nothing)."""
+        slots = medium_gpu.slots
+        ref = slots[reached[0]].medium
+        k_ref = max(float(ref.sigma_t.max()), 1e-12)
+        mean_ref = max(float(ref.sigma_t.mean()), 1e-12)
+        weights = [0.0] * len(slots)
+        for i in reached:       # relative mean extinction: the colour error of other media balances
+            weights[i] = 1.0 if i == reached[0] else float(slots[i].medium.sigma_t.mean()) / mean_ref
+        chroma = {tuple(np.round(slots[i].medium.sigma_t / max(float(slots[i].medium.sigma_t.max()),
+                                                                  1e-12), 3)) for i in reached}
+        if len(chroma) > 1:
+            warnings.append(f"Light '{light.name}': the media it reaches differ in extinction colour; "
+                            f"its transmittance map uses the colour of '{ref.name}' for all.")
         n = int(min(max(settings.coefficients, 1), 16))
         if settings.density_weight is None:
             weight_key = ("auto",)
         else:
-            weight_key = ("fixed", float(settings.density_weight), float(medium.sigma_t.max()))
-        # The grid as uploaded (medium_gpu.key), not its source: a downsampled grid has its own.
-        base = (light.key, scene.solids_key, medium_gpu.key, res, settings.light_steps)
+            weight_key = ("fixed", float(settings.density_weight), k_ref)
+        media_key = tuple((_slot_key(slots[i]), round(weights[i], 9)) for i in reached)
+        base = (light.key, frame.key, scene.solids_key, media_key, res, settings.light_steps)
         key = base + (n, weight_key)
         if (n % 4 == 0 or n <= 2) and key not in self._tfms.items:
             wider = [k for k in self._tfms.items
                      if k[:len(base)] == base and len(k) == len(key) and k[-1] == weight_key
                      and k[-2] > n and k[-2] % 4 == 0]
             if wider:
-                return _FewerCoefficients(self._tfms.get(min(wider, key=lambda k: k[-2]), None)[0], n)
+                if base + ("alpha",) in self._tfms.items:
+                    self._tfms.used.add(base + ("alpha",))    # the wider map's alpha: kept with it
+                return (_FewerCoefficients(self._tfms.get(min(wider, key=lambda k: k[-2]), None)[0], n),
+                        ref.sigma_t)
         if settings.density_weight is None:
             alpha_d, _ = self._tfms.get(
                 base + ("alpha",),
                 lambda: _Value(largest_density_integral(self.gl, frame, medium_gpu, res,
-                                                        settings.light_steps)))
+                                                        settings.light_steps, weights)))
             alpha_d = alpha_d.value
             if alpha_d <= 0.0:
-                return None
+                return None, None
         else:
-            alpha_d = max(float(settings.density_weight), 1e-6) / max(float(medium.sigma_t.max()), 1e-12)
+            alpha_d = max(float(settings.density_weight), 1e-6) / k_ref
 
         def build():
             self.counters["tfms"] += 1
             return TransmittanceMap(self.gl, frame, medium_gpu, shadow,
-                                    res, settings.light_steps, n, alpha_d)
+                                    res, settings.light_steps, n, alpha_d, weights)
 
-        return self._tfms.get(key, build)[0]
+        return self._tfms.get(key, build)[0], ref.sigma_t
 
     def clear_maps(self) -> None:
         """Drop every cached map and buffer (compiled programs stay): the next render is full."""
@@ -420,12 +558,6 @@ class Renderer:
             self.clear_maps()
             self._gl.release()
             self._gl = None
-
-
-def _keyed(medium_gpu: MediumGPU, key) -> MediumGPU:
-    """``medium_gpu`` with ``key``: what its uploaded texture was made from (the TFM key reads it)."""
-    medium_gpu.key = key
-    return medium_gpu
 
 
 class _FewerCoefficients:
@@ -444,8 +576,56 @@ class _FewerCoefficients:
 
 
 @dataclass
+class _Uploaded:
+    """A grid's texture and the notes its preparation raised (unpacks as that pair)."""
+
+    texture: MediumGPU
+    notes: list
+
+    def __iter__(self):
+        return iter((self.texture, self.notes))
+
+    def release(self) -> None:
+        self.texture.release()
+
+
+@dataclass
 class _Value:
     value: float
 
     def release(self) -> None:
         pass
+
+
+def _slot_key(slot: MediumSlot) -> tuple:
+    """What a marched medium's share of a map depends on: its grid texture and placement."""
+    grid = None if slot.grid is None else slot.grid.key
+    return (grid, tuple(np.round(slot.world_to_box, 12).ravel()))
+
+
+def _face_tfm_resolution(settings, frame: LightFrame, slot: MediumSlot, map_res: int, image_side: int) -> int:
+    """The TFM side of a face (passes/tfm.tfm_resolution, the 'FOOTPRINT' rule read on the first
+    medium the face reaches); an orthographic face's footprint is its extent over the voxel."""
+    if frame.ortho and settings.tfm_resolution == "FOOTPRINT":
+        voxel = float(np.linalg.norm(slot.box_to_world[:3, :3], axis=0).min())
+        cap = min(map_res, max(int(image_side), MIN_FOOTPRINT_RESOLUTION))
+        texels = 2.0 * max(frame.tan_xy) / max(voxel, 1e-12)
+        return int(min(cap, max(MIN_FOOTPRINT_RESOLUTION, 16 * math.ceil(texels / 16))))
+    return tfm_resolution(settings, frame, slot, map_res, image_side)
+
+
+def _reaches(light: Light, frame: LightFrame, box) -> bool:
+    """Whether the light's face reaches the box (a spot: its cone, within the frustum)."""
+    if light.kind == "SPOT":
+        return cone_meets_box(frame, *box)
+    return face_meets_box(frame, *box)
+
+
+AREA_NOTE = ("Area light '{name}' is rendered as a point at its centre with a cosine profile, "
+             "without soft shadows (measured within 4 % of Cycles' brightness for a light no larger "
+             "than its distance to the medium; docs/architecture.md).")
+
+
+def _light_notes(lights) -> list[str]:
+    """One line per light kind the renderer approximates."""
+    return [AREA_NOTE.format(name=light.name) for light in lights if light.kind == "AREA"]

@@ -13,7 +13,7 @@ from __future__ import annotations
 import hashlib
 from collections import Counter
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import InitVar, dataclass, field
 from functools import cached_property
 from typing import Literal
 
@@ -89,18 +89,33 @@ class Camera:
         return np.array(self.matrix_world[:3, 3])
 
 
-@dataclass(frozen=True, eq=False)
-class SpotLight:
-    """A Blender spot light of zero radius.
+LIGHT_KINDS = ("SPOT", "POINT", "SUN", "AREA")
 
-    ``power_w`` is Blender's power in watts; the radiant intensity is
-    I = power_w / (4 pi) W/sr whatever the cone. ``spot_size_rad`` is the full cone angle,
-    ``spot_blend`` Blender's blend in [0, 1]. ``gobo`` is an optional projected texture, an
-    (h, w, 3) float32 array (top row first) stretched over the rectangle that bounds the cone.
-    ``cone_scale`` = (sx / sz, sy / sz) of the light object's scale: Cycles renders a spot of a
-    non-uniformly scaled object as an elliptical cone whose half-widths at unit distance are
-    tan(spot_size / 2) times these. ``cast_shadow`` False (Blender's ``use_shadow``): nothing
-    shadows the light, neither the solids nor the medium (as Cycles renders it).
+
+@dataclass(frozen=True, eq=False)
+class Light:
+    """A Blender light: one concept whose ``kind`` chooses its emission and the projection of
+    its maps (light.py turns it into map faces).
+
+    ``kind``:
+    - 'SPOT': a cone; ``power_w`` watts, radiant intensity I = power_w / (4 pi) W/sr whatever the
+      cone; ``spot_size_rad`` is the full cone angle, ``spot_blend`` Blender's blend in [0, 1];
+      ``gobo`` is an optional projected texture, an (h, w, 3) float32 array (top row first)
+      stretched over the square that bounds the cone. One perspective map face.
+    - 'POINT': I = power_w / (4 pi) W/sr in every direction (radius treated as 0). Six cube faces.
+    - 'AREA': approximated by a point at its centre with a cosine emission profile about its
+      normal (local -Z): I(theta) = power_w / pi * cos(theta) W/sr, so that it emits power_w
+      watts (measured against Cycles: its brightness matches this normalisation, not P / 4).
+      ``size_m`` = (size, size_y) in metres, for the report only.
+      Five cube faces (the back one emits nothing).
+    - 'SUN': parallel light travelling along local -Z; ``power_w`` is Blender's strength, the
+      irradiance in W/m^2 on a surface facing it. One orthographic face fitted to the media.
+    Shadows: every kind is shadowed by the solids and the media.
+    Spot only: ``cone_scale`` = (sx / sz, sy / sz) of the light object's scale: Cycles renders a
+    spot of a non-uniformly scaled object as an elliptical cone whose half-widths at unit
+    distance are tan(spot_size / 2) times these. ``cast_shadow`` False (Blender's
+    ``use_shadow``): nothing shadows the light, neither the solids nor the media (as Cycles
+    renders it), for every kind.
     """
 
     matrix_world: np.ndarray
@@ -111,10 +126,14 @@ class SpotLight:
     gobo: np.ndarray | None = None
     use_tfm: bool = True
     name: str = "Spot"
+    kind: Literal["SPOT", "POINT", "SUN", "AREA"] = "SPOT"
+    size_m: tuple[float, float] = (0.0, 0.0)
     cone_scale: tuple[float, float] = (1.0, 1.0)
     cast_shadow: bool = True
 
     def __post_init__(self):
+        if self.kind not in LIGHT_KINDS:
+            raise ValueError(f"light kind must be one of {LIGHT_KINDS}, got {self.kind!r}")
         object.__setattr__(self, "matrix_world", _matrix(self.matrix_world))
         if self.gobo is not None:
             g = np.asarray(self.gobo, dtype=np.float32)
@@ -126,9 +145,11 @@ class SpotLight:
 
     @cached_property
     def key(self) -> str:
-        """Everything the light's shadow map and TFM depend on: its geometry (placement, cone).
-        Colour, power, blend, gobo and use_tfm do not change what those maps hold."""
-        return _digest(self.matrix_world, self.spot_size_rad, tuple(float(s) for s in self.cone_scale))
+        """Everything the light's shadow maps and TFMs depend on: its kind and geometry
+        (placement, cone). Colour, power, blend, gobo and use_tfm do not change what those maps
+        hold."""
+        cone = (self.spot_size_rad, tuple(float(s) for s in self.cone_scale)) if self.kind == "SPOT" else None
+        return _digest(self.kind, self.matrix_world, cone)
 
     @cached_property
     def gobo_key(self) -> str | None:
@@ -146,8 +167,18 @@ class SpotLight:
 
     @property
     def intensity_w_per_sr(self) -> np.ndarray:
-        """Radiant intensity per colour channel, W/sr."""
-        return np.asarray(self.color, dtype=np.float64) * self.power_w / (4.0 * np.pi)
+        """Per colour channel: the radiant intensity in W/sr (on the axis for an area light), or
+        for a sun the irradiance in W/m^2."""
+        c = np.asarray(self.color, dtype=np.float64)
+        if self.kind == "SUN":
+            return c * self.power_w
+        if self.kind == "AREA":
+            return c * self.power_w / np.pi
+        return c * self.power_w / (4.0 * np.pi)
+
+
+SpotLight = Light
+"""The former name of :class:`Light` (kind 'SPOT' by default)."""
 
 
 @dataclass(frozen=True)
@@ -207,6 +238,7 @@ class Medium:
     density: np.ndarray | None = None
     index_to_world: np.ndarray | None = None
     box_to_world: np.ndarray | None = None
+    name: str = "Medium"
     clipping: float = 0.0
     grids: Mapping[str, np.ndarray] = field(default_factory=dict)
     color_grid: str | None = None
@@ -275,6 +307,16 @@ class Medium:
     def sigma_t(self) -> np.ndarray:
         """Extinction per unit density, 1/m, per channel."""
         return np.asarray(self.sigma_a, dtype=np.float64) + np.asarray(self.sigma_s, dtype=np.float64)
+
+    @cached_property
+    def grid_key(self) -> str | None:
+        """What the density texture holds: the grid's values, not where it is placed (instances
+        of one volume share it). None for a homogeneous medium."""
+        if self.density is None:
+            return None
+        if self.source_key is not None:
+            return _digest("source", self.source_key, self.density.shape, float(self.clipping))
+        return _digest(self.density, float(self.clipping))
 
     @cached_property
     def density_key(self) -> str:
@@ -389,22 +431,38 @@ class RenderSettings:
     view_jitter: float | None = None
 
 
+_UNSET = object()
+
+
 @dataclass(frozen=True, eq=False)
 class Scene:
     """Everything to render one frame. ``ambient`` is the world colour (radiance, W/(sr m^2))
-    that lights the medium and the solids; ``world`` the radiance seen behind everything with an
-    opaque film (None: ``ambient``)."""
+    that lights the media and the solids; ``world`` the radiance seen behind everything with an
+    opaque film (None: ``ambient``).
+
+    ``media``: every participating medium; where they overlap their coefficients add up.
+    ``medium`` (a property) is the first of them, None without media. For compatibility the
+    constructor (and ``dataclasses.replace``) also takes ``medium=``: a Medium replaces
+    ``media[0]`` (or makes ``media == (medium,)``), None removes every medium.
+    """
 
     camera: Camera
-    lights: tuple[SpotLight, ...] = ()
-    medium: Medium | None = None
+    lights: tuple[Light, ...] = ()
+    medium: InitVar[Medium | None] = _UNSET
     meshes: tuple[Mesh, ...] = ()
     ambient: RGB = (0.0, 0.0, 0.0)
+    media: tuple[Medium, ...] = ()
     world: RGB | None = None
 
-    def __post_init__(self):
+    def __post_init__(self, medium):
         object.__setattr__(self, "lights", tuple(self.lights))
         object.__setattr__(self, "meshes", tuple(self.meshes))
+        media = tuple(m for m in self.media if m is not None)
+        if medium is None:
+            media = ()
+        elif medium is not _UNSET and (not media or medium is not media[0]):
+            media = (medium, *media[1:])
+        object.__setattr__(self, "media", media)
 
     @cached_property
     def solids_key(self) -> str:
@@ -425,3 +483,7 @@ class Scene:
     def shadow_casters(self) -> tuple[Mesh, ...]:
         """The meshes in the lights' shadow maps."""
         return tuple(m for m in self.meshes if m.cast_shadow)
+
+
+Scene.medium = property(lambda self: self.media[0] if self.media else None,
+                        doc="The first medium (None without media).")

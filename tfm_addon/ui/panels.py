@@ -119,13 +119,15 @@ class TFM_PT_light(_TFMPanel, bpy.types.Panel):
         layout.use_property_split = True
         layout.use_property_decorate = False
         light = context.light
-        if light.type != 'SPOT':
-            layout.label(text="Only spot lights light the medium", icon='INFO')
-            return
         layout.prop(light.tfm, "use_tfm")
-        layout.template_ID(light.tfm, "gobo", open="image.open")
-        if light.shadow_soft_size > 0.0:
+        if light.type == 'SPOT':
+            layout.template_ID(light.tfm, "gobo", open="image.open")
+        if light.type in ('SPOT', 'POINT') and light.shadow_soft_size > 0.0:
             layout.label(text="The radius is treated as zero", icon='INFO')
+        elif light.type == 'SUN' and light.angle > 0.0:
+            layout.label(text="The angle is treated as zero (a sharp sun)", icon='INFO')
+        elif light.type == 'AREA':
+            layout.label(text="Rendered as a point with a cosine profile", icon='INFO')
 
 
 class TFM_PT_world(_TFMPanel, bpy.types.Panel):

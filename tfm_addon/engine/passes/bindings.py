@@ -4,17 +4,18 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..gl_context import GLContext, set_matrix, set_uniforms
+from ..gl_context import GLContext, mat4_bytes, set_matrix, set_uniforms
 from ..light import LightFrame
 from ..medium_grid import PreparedGrid
 from ..scene import Medium
 
-# Texture units, fixed for every program.
-# Texture units of the light passes, one table so that no two textures share a unit (the composite
-# pass reads its three inputs from units 11-13, outside the light passes).
+# Texture units of the light, map and probe passes, one table so that no two textures share a
+# unit (the composite pass, a program that reads nothing else, takes its three inputs from 11-13).
 UNIT = {"u_gb0": 0, "u_gb1": 1, "u_density": 2, "u_shadow": 3, "u_gobo": 4, "u_krange": 5,
         "u_coef0": 6, "u_coef1": 7, "u_coef2": 8, "u_coef3": 9, "u_attrs": 10, "u_color_grid": 11,
-        "u_shadow_depth": 14, "u_occupancy": 15}
+        "u_density1": 12, "u_density2": 13, "u_shadow_depth": 14, "u_occupancy": 15, "u_density3": 16,
+        # the probe pass reads no G-buffer: its points take the G-buffer's unit
+        "u_points": 0}
 
 # The density texture's format: (moderngl dtype, numpy type); values are stored divided by the
 # grid's maximum (``MediumGPU.density_scale``) so that half floats never overflow and the
@@ -27,6 +28,20 @@ GRID_FORMAT = "R16"
 OCCUPANCY_BLOCK = 8     # voxels per side of an occupancy cell (empty-space skipping)
 
 MEDIUM_NONE, MEDIUM_BOX, MEDIUM_EVERYWHERE, MEDIUM_GRID = 0, 1, 2, 3
+"""MEDIUM_GRID marches every medium (density grids and homogeneous boxes, several of them)."""
+
+MAX_MEDIA = 8
+"""Media one pass handles (instances of one grid count each)."""
+GRID_UNITS = tuple(UNIT[name] for name in ("u_density", "u_density1", "u_density2", "u_density3"))
+"""Texture units of the distinct density grids one pass reads: the units UNIT leaves free below
+16 (the fewest a fragment shader has on every platform), and unit 16 where the GL has it."""
+MAX_GRIDS = len(GRID_UNITS)
+
+
+def max_grids(gl: GLContext) -> int:
+    """Distinct density grids one pass can read on this GL: 4, or 3 with 16 texture units."""
+    units = int(gl.ctx.info.get("GL_MAX_TEXTURE_IMAGE_UNITS", 16))
+    return sum(1 for u in GRID_UNITS if u < units)
 
 
 def pass_state(ctx, *, depth_test: bool = False, blend: bool = False) -> None:
@@ -52,12 +67,16 @@ def bind_units(prog) -> None:
 
 
 class MediumGPU:
-    """The medium's bounds as an oriented box and, for a grid, its padded 3D texture."""
+    """One medium's bounds as an oriented box and, for a grid, its padded 3D texture. A grid's
+    texture is made from ``grid`` (prepared with the identity placement): ``index_scale`` maps
+    the texture's index space to the medium's own (a downsampled grid), so instances of one
+    grid share the texture, each with its own ``index_to_world``."""
 
     def __init__(self, gl: GLContext, medium: Medium | None, grid: PreparedGrid | None,
                  grid_format: str | None = None):
         grid_format = grid_format or GRID_FORMAT
         self.texture = None
+        self.index_scale = np.eye(4)
         self.density_scale = 1.0
         self.occupancy = None
         if medium is None or (grid is not None and grid.is_empty):
@@ -66,7 +85,8 @@ class MediumGPU:
         elif grid is not None:
             self.kind = MEDIUM_GRID
             n = grid.density.shape
-            world_to_box = np.linalg.inv(grid.index_to_world)
+            self.index_scale = np.asarray(grid.index_to_world, np.float64)
+            world_to_box = np.linalg.inv(np.asarray(medium.index_to_world) @ self.index_scale)
             lo, hi = nonzero_bounds(grid.density)
             data = grid.padded_xyz_fastest()
             self.grid_size = (n[0] + 2, n[1] + 2, n[2] + 2)
@@ -138,12 +158,127 @@ def occupancy(padded_zyx: np.ndarray, block: int = OCCUPANCY_BLOCK) -> np.ndarra
     return np.ascontiguousarray(d.astype(np.uint8) * 255)
 
 
+class MediumSlot:
+    """One medium of a frame as the marching shaders see it: its box (index space of its grid,
+    or the [-1, 1] cube), the grid texture it reads (None: density 1 in the box), its
+    coefficients per unit density and its weight in the lights' TFMs."""
+
+    def __init__(self, medium: Medium, grid: MediumGPU | None):
+        self.medium, self.grid = medium, grid
+        if grid is not None:
+            to_world = np.asarray(medium.index_to_world) @ grid.index_scale
+            self.lo, self.hi = grid.lo, grid.hi          # the density's non-zero bounds
+        else:
+            to_world = np.asarray(medium.box_to_world)
+            self.lo, self.hi = (-1.0, -1.0, -1.0), (1.0, 1.0, 1.0)
+        self.box_to_world = to_world
+        self.world_to_box = np.linalg.inv(to_world)
+
+
+class MediaGPU:
+    """The media of a frame. ``kind``: MEDIUM_NONE, the analytic MEDIUM_BOX or
+    MEDIUM_EVERYWHERE for a single homogeneous medium (``first``), or MEDIUM_GRID: every medium
+    in ``slots`` marched, their distinct grids in ``grids`` (at most MAX_GRIDS)."""
+
+    def __init__(self, kind: int, first: MediumGPU | None, slots: list[MediumSlot],
+                 grids: list[MediumGPU]):
+        self.kind, self.first, self.slots, self.grids = kind, first, slots, grids
+        src = first if first is not None else None
+        if kind == MEDIUM_GRID:
+            s0 = slots[0]
+            self.world_to_box, self.box_to_world, self.lo, self.hi = (
+                s0.world_to_box, s0.box_to_world, s0.lo, s0.hi)
+        elif src is not None:
+            self.world_to_box, self.box_to_world, self.lo, self.hi = (
+                src.world_to_box, src.box_to_world, src.lo, src.hi)
+        else:
+            self.world_to_box = self.box_to_world = np.eye(4)
+            self.lo = self.hi = (0.0, 0.0, 0.0)
+        self.key = None
+
+    @property
+    def boxes(self) -> list[tuple[np.ndarray, tuple, tuple]]:
+        """(box_to_world, lo, hi) of every marched medium (or the analytic box)."""
+        if self.kind == MEDIUM_GRID:
+            return [(s.box_to_world, s.lo, s.hi) for s in self.slots]
+        if self.kind == MEDIUM_BOX:
+            return [(self.box_to_world, self.lo, self.hi)]
+        return []
+
+    def defines(self) -> dict:
+        """The media's count, grid count and grid slot per medium, compiled into the program
+        (the shaders' loops over media unroll to fixed texture reads)."""
+        if self.kind != MEDIUM_GRID:
+            return {}
+        index = {id(g): i for i, g in enumerate(self.grids)}
+        slots = [index[id(s.grid)] if s.grid is not None else -1 for s in self.slots]
+        slots += [-1] * (MAX_MEDIA - len(slots))
+        return {"N_MEDIA": len(self.slots), "N_GRIDS": max(len(self.grids), 1),
+                "MEDIA_SLOTS": "int[{}]({})".format(MAX_MEDIA, ", ".join(str(s) for s in slots))}
+
+    def bind(self, prog, weights=None) -> None:
+        """Bind the textures and the per-medium uniforms; ``weights``: the TFM weight of each
+        slot (default 1)."""
+        set_matrix(prog, "u_world_to_box", self.world_to_box)
+        set_uniforms(prog, u_box_lo=tuple(self.lo), u_box_hi=tuple(self.hi))
+        if self.kind != MEDIUM_GRID:
+            return
+        n = MAX_MEDIA
+        slots = self.slots
+        pad = n - len(slots)
+        mats = [s.world_to_box for s in slots] + [np.eye(4)] * pad
+        if "u_med_to_box" in prog:
+            u = prog["u_med_to_box"]
+            u.write(b"".join(mat4_bytes(m) for m in mats[:u.array_length]))
+        weights = [1.0] * len(slots) if weights is None else list(weights)
+
+        def vec(values, fill):
+            return [tuple(float(x) for x in v) for v in values] + [fill] * pad
+
+        _set_arrays(
+            prog,
+            u_med_lo=vec([s.lo for s in slots], (0.0, 0.0, 0.0)),
+            u_med_hi=vec([s.hi for s in slots], (-1.0, -1.0, -1.0)),
+            u_med_sigma_t=vec([s.medium.sigma_t for s in slots], (0.0, 0.0, 0.0)),
+            u_med_sigma_s=vec([s.medium.sigma_s for s in slots], (0.0, 0.0, 0.0)),
+            u_med_g=[float(s.medium.anisotropy) for s in slots] + [0.0] * pad,
+            u_med_weight=[float(w) for w in weights] + [0.0] * pad,
+        )
+        first = slots[0].grid
+        if first is not None:    # the first medium's lattice: its colour grid, empty-space skipping
+            set_uniforms(prog, u_grid_size=tuple(float(x) for x in first.grid_size),
+                         u_density_scale=first.density_scale, u_occupancy_block=float(OCCUPANCY_BLOCK))
+            first.occupancy.use(UNIT["u_occupancy"])
+        sizes = [tuple(float(x) for x in g.grid_size) for g in self.grids]
+        sizes += [(1.0, 1.0, 1.0)] * (MAX_GRIDS - len(sizes))
+        scales = [float(g.density_scale) for g in self.grids] + [1.0] * (MAX_GRIDS - len(self.grids))
+        _set_arrays(prog, u_grid_sizes=sizes, u_grid_scales=scales)
+        for g, unit in zip(self.grids, GRID_UNITS, strict=False):
+            g.texture.use(unit)
+
+    def release(self) -> None:
+        pass
+
+
+def _set_arrays(prog, **values) -> None:
+    """Set uniform arrays the program uses, as long as the compiler kept them."""
+    for name, value in values.items():
+        if name in prog:
+            u = prog[name]
+            v = value[:u.array_length]
+            u.value = v if u.array_length > 1 else v[0]
+
+
 def bind_light(prog, frame: LightFrame, intensity, map_res: int, shadow, gobo) -> None:
-    """A light's uniforms; ``shadow`` is a ShadowMap or None, ``gobo`` a texture or None."""
+    """A light face's uniforms; ``shadow`` is a ShadowMap or None, ``gobo`` a texture or None."""
     set_matrix(prog, "u_world_to_light", frame.world_to_light)
+    rect = frame.shadow_rect or (0.0, 0.0, 1.0, 1.0)
     set_uniforms(prog, u_light_pos=tuple(frame.position), u_intensity=tuple(float(x) for x in intensity),
                  u_cos_half=frame.cos_half, u_spot_smooth=frame.spot_smooth,
                  u_tan_half=tuple(float(t) for t in frame.tan_xy),
+                 u_face_ortho=int(frame.ortho), u_profile=int(frame.profile),
+                 u_emit_axis=tuple(float(a) for a in frame.emit_axis),
+                 u_shadow_rect=tuple(float(x) for x in rect),
                  u_cone_scale=tuple(float(s) for s in frame.cone_scale),
                  u_map_res=float(map_res), u_has_shadow=int(shadow is not None),
                  u_has_gobo=int(gobo is not None))

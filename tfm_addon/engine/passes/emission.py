@@ -18,7 +18,10 @@ UNIT_ATTRS, UNIT_COLOR = UNIT["u_attrs"], UNIT["u_color_grid"]
 class AttributesGPU:
     """The attribute grids of one medium as textures (a 1-voxel texture when there are none)."""
 
-    def __init__(self, gl: GLContext, prepared: PreparedAttributes | None):
+    def __init__(self, gl: GLContext, prepared: PreparedAttributes | None,
+                 grid_size: tuple[int, ...] | None = None):
+        """``grid_size``: the padded density texture's size, whose index box [-1, n] bounds a
+        constant emission in a grid (as the reference's march does)."""
         ctx = gl.ctx
         self.strength_grid = prepared is not None and prepared.strength_grid
         self.blackbody_grid = prepared is not None and prepared.blackbody_grid
@@ -32,6 +35,8 @@ class AttributesGPU:
             self.attrs_size = tuple(int(n) + 2 for n in scalars.shape[:3])
         self.attrs = ctx.texture3d(self.attrs_size, 4, data.tobytes(), dtype="f4")
         box = prepared.emission_box if prepared is not None else None
+        if box is None and grid_size is not None:
+            box = ((-1.0, -1.0, -1.0), tuple(float(n) - 2.0 for n in grid_size))
         self.emission_box = box or ((-2.0, -2.0, -2.0), (1e30, 1e30, 1e30))
         self.color = None
         if prepared is not None and prepared.color is not None:

@@ -5,7 +5,7 @@ from __future__ import annotations
 from ..camera import ViewPlane, camera_to_world, clip_matrix
 from ..gl_context import GLContext, set_matrix, set_uniforms
 from ..scene import Camera
-from .bindings import pass_state
+from .bindings import UNIT, pass_state
 from .solids import FORMAT, SolidsBuffer
 
 
@@ -40,8 +40,8 @@ class GBuffer:
         depth.release()
 
     def bind(self) -> None:
-        self.albedo_distance.use(0)
-        self.normal_hit.use(1)
+        self.albedo_distance.use(UNIT["u_gb0"])
+        self.normal_hit.use(UNIT["u_gb1"])
 
     def release(self) -> None:
         self.albedo_distance.release()

@@ -6,9 +6,9 @@ import numpy as np
 
 from ..gl_context import GLContext, set_uniforms
 from ..scene import Medium, RenderSettings
-from .bindings import MediumGPU, bind_light, bind_units, pass_state
+from .bindings import MEDIUM_GRID, UNIT, MediaGPU, bind_light, bind_units, pass_state
 
-POINTS_UNIT = 10
+POINTS_UNIT = UNIT["u_points"]
 
 
 def probe_light_transmittance(
@@ -16,11 +16,12 @@ def probe_light_transmittance(
     points: np.ndarray,
     *,
     medium: Medium | None,
-    medium_gpu: MediumGPU,
+    medium_gpu: MediaGPU,
     settings: RenderSettings,
     light,
     light_t: int,
     tfm,
+    tfm_sigma_t=None,
 ) -> np.ndarray:
     """(n, 3) float32 transmittance per channel from the light to world ``points`` (n, 3);
     ``light`` is (frame, intensity, ShadowMap or None, gobo or None)."""
@@ -33,6 +34,8 @@ def probe_light_transmittance(
     fbo.use()
     pass_state(gl.ctx)
     defines = {"MEDIUM": medium_gpu.kind, "LIGHT_T": light_t}
+    if medium_gpu.kind == MEDIUM_GRID:
+        defines.update(medium_gpu.defines())
     if tfm is not None:
         defines.update(tfm.defines(settings.tfm_filter))
     prog = gl.program("fullscreen.vert", "probe.frag", defines)
@@ -45,7 +48,7 @@ def probe_light_transmittance(
             prog, u_sigma_t=tuple(float(x) for x in medium.sigma_t), u_light_steps=int(settings.light_steps)
         )
     if tfm is not None:
-        tfm.bind(prog, medium.sigma_t)
+        tfm.bind(prog, medium.sigma_t if tfm_sigma_t is None else tfm_sigma_t)
     src.use(POINTS_UNIT)
     set_uniforms(prog, u_points=POINTS_UNIT)
     gl.draw_fullscreen(prog)

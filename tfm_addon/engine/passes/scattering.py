@@ -1,4 +1,4 @@
-"""Pass 4: per light, the light scattered toward the camera and the solids' radiance."""
+"""Pass 4: per light face, the light scattered toward the camera and the solids' radiance."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import numpy as np
 from ..camera import ViewPlane, camera_to_world
 from ..gl_context import GLContext, set_matrix, set_uniforms
 from ..scene import Camera, Medium, RenderSettings
-from .bindings import MEDIUM_GRID, MEDIUM_NONE, MediumGPU, bind_light, bind_units, pass_state
+from .bindings import MEDIUM_GRID, MEDIUM_NONE, MediaGPU, bind_light, bind_units, pass_state
 
 # How a light pass finds the transmittance from the light (the shader's LIGHT_T).
 # LIGHT_T_UNIT: the light reaches the medium but its transmittance is taken as 1 ('UNSHADOWED').
@@ -77,11 +77,14 @@ def camera_uniforms(prog, camera: Camera, plane: ViewPlane) -> None:
 
 
 def run_light_pass(gl: GLContext, *, camera: Camera, plane: ViewPlane, medium: Medium | None,
-                   medium_gpu: MediumGPU, settings: RenderSettings, ambient, first: bool,
-                   light=None, light_t: int = LIGHT_T_NONE, tfm=None, attributes=None) -> None:
-    """Add one pass into the bound ScatteringTargets. ``light`` is (frame, intensity, ShadowMap
-    or None, gobo texture or None) or None for the ambient-only first pass. ``attributes``
-    (emission.AttributesGPU or None): the medium's emission, added by the first pass, and colour grid."""
+                   medium_gpu: MediaGPU, settings: RenderSettings, ambient, first: bool,
+                   light=None, light_t: int = LIGHT_T_NONE, tfm=None, tfm_sigma_t=None,
+                   attributes=None) -> None:
+    """Add one pass into the bound ScatteringTargets. ``light`` is (face, intensity, ShadowMap
+    or None, gobo texture or None) or None for the ambient-only first pass; ``tfm_sigma_t`` the
+    extinction per unit of the TFM's weighted density (default: ``medium``'s). ``attributes``
+    (emission.AttributesGPU or None): the first medium's emission, added by the first pass, and
+    colour grid."""
     medium_kind = medium_gpu.kind
     if light is not None and light_t == LIGHT_T_NONE and not first:
         medium_kind = MEDIUM_NONE          # this light never reaches the medium
@@ -93,6 +96,8 @@ def run_light_pass(gl: GLContext, *, camera: Camera, plane: ViewPlane, medium: M
                "EMISSION": int(emits), "COLOR_GRID": int(colored)}
     if tfm is not None:
         defines.update(tfm.defines(settings.tfm_filter))
+    if medium_kind == MEDIUM_GRID:
+        defines.update(medium_gpu.defines())
     prog = gl.program("fullscreen.vert", "scatter.frag", defines)
     pass_state(gl.ctx, blend=True)          # adds into the targets ScatteringTargets.begin bound
     bind_units(prog)
@@ -108,7 +113,7 @@ def run_light_pass(gl: GLContext, *, camera: Camera, plane: ViewPlane, medium: M
         frame, intensity, shadow, gobo = light
         bind_light(prog, frame, intensity, settings.map_resolution, shadow, gobo)
     if tfm is not None:
-        tfm.bind(prog, medium.sigma_t)
+        tfm.bind(prog, medium.sigma_t if tfm_sigma_t is None else tfm_sigma_t)
     if emits or colored:
         attributes.bind(prog, medium)
     gl.draw_fullscreen(prog)

@@ -1,4 +1,4 @@
-"""Pass 1: distance from a spot light to the nearest solid, per map texel."""
+"""Pass 1: distance from a light face to the nearest solid, per map texel."""
 
 from __future__ import annotations
 
@@ -28,13 +28,17 @@ class ShadowMap:
         fbo.clear(1e30, 0, 0, 0, depth=1.0)
         lo, hi = solids.bounds
         box = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
-        far = float(np.linalg.norm(box - frame.position, axis=1).max()) * 1.01
+        if frame.ortho:
+            far = frame.far * 1.01
+        else:
+            far = float(np.linalg.norm(box - frame.position, axis=1).max()) * 1.01
         far = far if far > 0.0 else 1.0         # scale-free: near and far follow the scene
         near = far * 1e-5
         self.far = far
         prog = gl.program("shadow_map.vert", "shadow_map.frag")
         set_matrix(prog, "u_light_clip", frame.clip_matrix(near, far))
-        set_uniforms(prog, u_light_pos=tuple(frame.position), u_shadow_far=far)
+        set_matrix(prog, "u_world_to_light", frame.world_to_light)
+        set_uniforms(prog, u_light_pos=tuple(frame.position), u_shadow_far=far, u_face_ortho=int(frame.ortho))
         vao = ctx.vertex_array(prog, [(solids.vbo, POSITION_ONLY, "in_position")])
         vao.render(vertices=solids.vertex_count)
         pass_state(ctx)

@@ -1,4 +1,4 @@
-"""Pass 3: the transmittance function map of one spot light (METHOD.md section 3)."""
+"""Pass 3: the transmittance function map of one light face (METHOD.md section 3)."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import numpy as np
 
 from ..gl_context import GLContext, set_uniforms
 from ..light import LightFrame
-from .bindings import MediumGPU, bind_light, bind_units, pass_state
+from .bindings import UNIT, MediaGPU, bind_light, bind_units, pass_state
 
 MAX_COEFFICIENTS = 16
 COEF_DTYPE = "f4"      # "f2" (half floats) gives the same SSIM on every bench scene, no faster on llvmpipe
@@ -16,7 +16,7 @@ TEXELS_PER_VOXEL = 1.0          # the 'FOOTPRINT' resolution rule (docs/benchmar
 MIN_FOOTPRINT_RESOLUTION = 64
 
 
-def footprint_resolution(frame: LightFrame, medium: MediumGPU, cap: int) -> int:
+def footprint_resolution(frame: LightFrame, medium, cap: int) -> int:
     """The TFM side, texels, for ``tfm_resolution='FOOTPRINT'``: TEXELS_PER_VOXEL map texels per
     voxel where the medium's non-zero box comes nearest to the light (the map's texels grow
     with distance, so farther voxels get more), a multiple of 16 in
@@ -32,7 +32,7 @@ def footprint_resolution(frame: LightFrame, medium: MediumGPU, cap: int) -> int:
     return int(min(cap, max(MIN_FOOTPRINT_RESOLUTION, 16 * math.ceil(texels / 16))))
 
 
-def tfm_resolution(settings, frame: LightFrame, medium: MediumGPU, map_res: int,
+def tfm_resolution(settings, frame: LightFrame, medium, map_res: int,
                    image_side: int | None = None) -> int:
     """The TFM side for ``settings.tfm_resolution`` (RenderSettings), at most ``map_res``;
     'FOOTPRINT' also at most ``image_side`` (the image's larger side, pixels): a map finer than
@@ -47,10 +47,10 @@ def tfm_resolution(settings, frame: LightFrame, medium: MediumGPU, map_res: int,
     return int(min(max(int(r), 1), map_res))
 
 
-def largest_density_integral(gl: GLContext, frame: LightFrame, medium: MediumGPU, resolution: int,
-                             light_steps: int) -> float:
-    """The largest integral of the density (metres at unit density) along the light's rays,
-    marched on a coarse map that ignores the solids."""
+def largest_density_integral(gl: GLContext, frame: LightFrame, medium: MediaGPU, resolution: int,
+                             light_steps: int, weights=None) -> float:
+    """The largest integral of the weighted density (metres at unit density) along the face's
+    rays, marched on a coarse map that ignores the solids."""
     ctx = gl.ctx
     res = max(16, resolution // 4)
     tex = ctx.texture((res, res), 4, dtype="f4")
@@ -58,9 +58,9 @@ def largest_density_integral(gl: GLContext, frame: LightFrame, medium: MediumGPU
     fbo.use()
     pass_state(ctx)
     prog = gl.program("fullscreen.vert", "tfm_build.frag", {"OPTICAL_DEPTH_ONLY": 1, "N_COEFF": 1,
-                                                            "N_TARGETS": 1})
+                                                            "N_TARGETS": 1, **medium.defines()})
     bind_units(prog)
-    medium.bind(prog)
+    medium.bind(prog, weights)
     bind_light(prog, frame, (0, 0, 0), res, None, None)
     set_uniforms(prog, u_light_steps=int(light_steps), u_inv_alpha=1.0)
     gl.draw_fullscreen(prog)
@@ -76,8 +76,8 @@ class TransmittanceMap:
     F(x) = exp(-tau_D(x) / alpha_D), so that T = F ** (alpha_D * sigma_t) per channel; with
     n <= 2 the coefficients sit in the K range texture's z, w (one fetch per lookup)."""
 
-    def __init__(self, gl: GLContext, frame: LightFrame, medium: MediumGPU, shadow, resolution: int,
-                 light_steps: int, coefficients: int, alpha_d: float):
+    def __init__(self, gl: GLContext, frame: LightFrame, medium: MediaGPU, shadow, resolution: int,
+                 light_steps: int, coefficients: int, alpha_d: float, weights=None):
         ctx = gl.ctx
         n = int(min(max(coefficients, 1), MAX_COEFFICIENTS))
         self.coefficients = n
@@ -92,9 +92,10 @@ class TransmittanceMap:
         fbo = ctx.framebuffer([self.krange, *self.coef])
         fbo.use()
         pass_state(ctx)
-        prog = gl.program("fullscreen.vert", "tfm_build.frag", {"N_COEFF": n, "N_TARGETS": targets})
+        prog = gl.program("fullscreen.vert", "tfm_build.frag", {"N_COEFF": n, "N_TARGETS": targets,
+                                                                **medium.defines()})
         bind_units(prog)
-        medium.bind(prog)
+        medium.bind(prog, weights)
         bind_light(prog, frame, (0, 0, 0), resolution, shadow, None)
         set_uniforms(prog, u_light_steps=int(light_steps), u_inv_alpha=1.0 / self.alpha_d)
         gl.draw_fullscreen(prog)
@@ -105,9 +106,10 @@ class TransmittanceMap:
                 "TFM_FILTER": int(tfm_filter == "LINEAR")}
 
     def bind(self, prog, sigma_t) -> None:
-        self.krange.use(5)
+        """``sigma_t``: the extinction per unit of the map's weighted density, per channel."""
+        self.krange.use(UNIT["u_krange"])
         for i, t in enumerate(self.coef):
-            t.use(6 + i)
+            t.use(UNIT[f"u_coef{i}"])
         set_uniforms(prog, u_tfm_exponent=tuple(float(self.alpha_d * s) for s in sigma_t))
 
     def release(self) -> None:

@@ -1,4 +1,4 @@
-// Shared by the fragment shaders: the medium's bounds and density, the spot light, the phase.
+// Shared by the fragment shaders: the media's bounds and densities, the light face, the phase.
 const float PI = 3.14159265358979;
 const float NO_HIT = 1e30;
 
@@ -46,13 +46,96 @@ float density_at(vec3 p) {
     return density_at_index((u_world_to_box * vec4(p, 1.0)).xyz);
 }
 
-// ---- the spot light ----
-uniform mat4 u_world_to_light;   // rigid: the light at the origin shining along -Z
-uniform vec3 u_light_pos;
-uniform vec3 u_intensity;        // W/sr per channel
-uniform float u_cos_half;        // cos of half the cone angle (in the cone's scaled space)
+#ifdef N_MEDIA
+// ---- several media (MEDIUM 3): N_MEDIA boxes, each a grid slot (or -1: density 1 in its box) ----
+const int MAX_MEDIA = 8;
+uniform mat4 u_med_to_box[MAX_MEDIA];     // world to the medium's index (or [-1, 1]) space
+uniform vec3 u_med_lo[MAX_MEDIA];
+uniform vec3 u_med_hi[MAX_MEDIA];
+uniform vec3 u_med_sigma_t[MAX_MEDIA];    // 1/m per unit density
+uniform vec3 u_med_sigma_s[MAX_MEDIA];
+uniform float u_med_g[MAX_MEDIA];
+uniform float u_med_weight[MAX_MEDIA];    // the medium's weight in the lights' TFMs
+uniform vec3 u_grid_sizes[4];             // padded texture sizes of the grid slots
+uniform float u_grid_scales[4];           // each texture holds density / its scale
+#if N_GRIDS > 1
+uniform sampler3D u_density1;
+#endif
+#if N_GRIDS > 2
+uniform sampler3D u_density2;
+#endif
+#if N_GRIDS > 3
+uniform sampler3D u_density3;
+#endif
+
+float grid_fetch(int slot, vec3 idx) {
+#if N_GRIDS > 1
+    if (slot == 1) return texture(u_density1, (idx + 1.5) / u_grid_sizes[1]).r * u_grid_scales[1];
+#endif
+#if N_GRIDS > 2
+    if (slot == 2) return texture(u_density2, (idx + 1.5) / u_grid_sizes[2]).r * u_grid_scales[2];
+#endif
+#if N_GRIDS > 3
+    if (slot == 3) return texture(u_density3, (idx + 1.5) / u_grid_sizes[3]).r * u_grid_scales[3];
+#endif
+    return texture(u_density, (idx + 1.5) / u_grid_sizes[0]).r * u_grid_scales[0];
+}
+
+// Each medium's grid slot (-1: a box of density 1), fixed when the program is compiled, so that
+// once the loops over the media are unrolled every fetch reads one known texture.
+const int MEDIA_SLOT[MAX_MEDIA] = MEDIA_SLOTS;
+
+// Density of medium m at a world point (0 outside its box).
+float medium_density(int m, vec3 p) {
+    vec3 idx = (u_med_to_box[m] * vec4(p, 1.0)).xyz;
+    if (any(lessThan(idx, u_med_lo[m])) || any(greaterThan(idx, u_med_hi[m]))) return 0.0;
+    return MEDIA_SLOT[m] < 0 ? 1.0 : grid_fetch(MEDIA_SLOT[m], idx);
+}
+
+// The TFM's density: the media's densities weighted as the map stores them.
+float weighted_density(vec3 p) {
+    float d = 0.0;
+    for (int m = 0; m < N_MEDIA; ++m) d += u_med_weight[m] * medium_density(m, p);
+    return d;
+}
+
+// Extinction (1/m per channel) of all media at p.
+vec3 extinction_at(vec3 p) {
+    vec3 s = vec3(0.0);
+    for (int m = 0; m < N_MEDIA; ++m) s += u_med_sigma_t[m] * medium_density(m, p);
+    return s;
+}
+
+// The ray (o, d) against every medium's box: the union's (t_in, t_out); t_in >= t_out: missed.
+vec2 media_interval(vec3 o, vec3 d) {
+    vec2 r = vec2(1e30, -1e30);
+    for (int m = 0; m < N_MEDIA; ++m) {
+        vec3 ob = (u_med_to_box[m] * vec4(o, 1.0)).xyz;
+        vec3 db = (u_med_to_box[m] * vec4(d, 0.0)).xyz;
+        db = mix(db, vec3(1e-12), lessThan(abs(db), vec3(1e-12)));
+        vec3 t0 = (u_med_lo[m] - ob) / db;
+        vec3 t1 = (u_med_hi[m] - ob) / db;
+        vec3 tmin = min(t0, t1);
+        vec3 tmax = max(t0, t1);
+        float a = max(max(tmin.x, tmin.y), tmin.z);
+        float b = min(min(tmax.x, tmax.y), tmax.z);
+        if (b > a) r = vec2(min(r.x, a), max(r.y, b));
+    }
+    return r;
+}
+#endif
+
+// ---- one projection face of a light (light.py's LightFrame) ----
+uniform mat4 u_world_to_light;   // rigid: the face looking along -Z (a sun: origin on its near plane)
+uniform vec3 u_light_pos;        // the face's origin, world
+uniform vec3 u_intensity;        // W/sr per channel (a sun: irradiance, W/m^2)
+uniform float u_cos_half;        // cos of half the cone angle
 uniform float u_spot_smooth;     // (1 - cos_half) * blend
-uniform vec2 u_tan_half;         // half-widths of the map frustum at unit distance, x and y
+uniform vec2 u_tan_half;         // half-widths of the frustum at unit distance (ortho: metres)
+uniform int u_face_ortho;        // 1: orthographic face (a sun)
+uniform int u_profile;           // 0 spot cone, 1 uniform, 2 cosine about u_emit_axis
+uniform vec3 u_emit_axis;        // face space
+uniform vec4 u_shadow_rect;      // ortho: face-space centre and half extents of the shadow map
 uniform vec2 u_cone_scale;       // an elliptical cone's x, y scale (object scale x/z, y/z)
 uniform float u_map_res;         // texels per side of the shadow map and TFM
 uniform int u_has_shadow;
@@ -65,7 +148,37 @@ uniform sampler2D u_gobo;
 vec3 light_space(vec3 p) { return (u_world_to_light * vec4(p, 1.0)).xyz; }
 
 // Map coordinates in [0, 1]^2 of a light-space point in front of the light.
-vec2 light_uv(vec3 q) { return 0.5 + 0.5 * q.xy / (-q.z * u_tan_half); }
+vec2 light_uv(vec3 q) { return 0.5 + 0.5 * q.xy / ((u_face_ortho == 1 ? 1.0 : -q.z) * u_tan_half); }
+
+// Shadow-map coordinates (an orthographic face's shadow map covers its own rectangle).
+vec2 shadow_uv(vec3 q) {
+    if (u_face_ortho == 1) return 0.5 + 0.5 * (q.xy - u_shadow_rect.xy) / u_shadow_rect.zw;
+    return light_uv(q);
+}
+
+// Distance along the light's ray from the face's origin (ortho: depth below its near plane).
+float light_distance(vec3 q) { return u_face_ortho == 1 ? -q.z : length(q); }
+
+// Direction the light travels at q, face space.
+vec3 light_travel(vec3 q, float r) { return u_face_ortho == 1 ? vec3(0.0, 0.0, -1.0) : q / max(r, 1e-30); }
+
+// Whether q belongs to this face: the cube faces split the sphere; a spot and a sun take all.
+bool in_face(vec3 q) {
+    if (u_profile == 0 || u_face_ortho == 1) return true;
+    return q.z < 0.0 && all(lessThanEqual(abs(q.xy), -q.z * u_tan_half));
+}
+
+float spot_falloff(vec3 q);
+
+// Intensity factor at q by direction (the spot cone, none, or the area light's cosine) times
+// the distance falloff.
+float emission_profile(vec3 q, float r) {
+    if (u_face_ortho == 1) return 1.0;
+    float f = 1.0 / (r * r);
+    if (u_profile == 1) return f;
+    if (u_profile == 2) return f * max(dot(q / max(r, 1e-30), u_emit_axis), 0.0);
+    return q.z < 0.0 ? f * spot_falloff(q) : 0.0;
+}
 
 float spot_falloff(vec3 q) {
     vec3 s = vec3(q.xy / u_cone_scale, q.z);       // Cycles' elliptical cone: scaled, then round
@@ -84,7 +197,9 @@ float spot_falloff(vec3 q) {
 float g_bias_texels = 0.0;
 float solid_visibility(vec2 uv, float r) {
     if (u_has_shadow == 0) return 1.0;
-    float bias = r * (g_bias_texels * max(u_tan_half.x, u_tan_half.y) / u_map_res) + 2e-4 * u_shadow_far;
+    if (u_face_ortho == 1 && (any(lessThan(uv, vec2(0.0))) || any(greaterThan(uv, vec2(1.0))))) return 1.0;
+    float footprint = u_face_ortho == 1 ? max(u_shadow_rect.z, u_shadow_rect.w) : r * max(u_tan_half.x, u_tan_half.y);
+    float bias = g_bias_texels * footprint / u_map_res + 2e-4 * u_shadow_far;
     return texture(u_shadow_depth, vec3(uv, (r - bias) / u_shadow_far));
 }
 

@@ -7,5 +7,5 @@ out vec4 o_transmittance;
 void main() {
     vec3 p = texelFetch(u_points, ivec2(gl_FragCoord.xy), 0).xyz;
     vec3 q = light_space(p);
-    o_transmittance = vec4(light_transmittance(p, q, length(q)), 1.0);
+    o_transmittance = vec4(light_transmittance(p, q, light_distance(q)), 1.0);
 }

@@ -27,22 +27,24 @@ layout(location = 1) out vec4 o_surface;
 layout(location = 2) out vec4 o_transmittance;
 
 #if HAS_LIGHT
-// Radiance arriving at p (q in light space) from the light, past solids and medium; r is set to
-// the distance to the light.
+// Radiance arriving at p (q in light space) from the light face, past solids and medium; r is
+// set to the light distance (light.py: the faces of a point light split the sphere).
 vec3 light_arriving(vec3 p, vec3 q, out float r) {
-    r = length(q);
-    float spot = q.z < 0.0 ? spot_falloff(q) : 0.0;
-    if (spot <= 0.0) return vec3(0.0);
+    r = light_distance(q);
+    if (!in_face(q)) return vec3(0.0);
+    float emit = emission_profile(q, r);
+    if (emit <= 0.0) return vec3(0.0);
     vec2 uv = light_uv(q);
-    float vis = solid_visibility(uv, r);
+    float vis = solid_visibility(shadow_uv(q), r);
     if (vis <= 0.0) return vec3(0.0);
-    return u_intensity * (spot * vis / (r * r)) * gobo(uv) * light_transmittance(p, q, r);
+    return u_intensity * (emit * vis) * gobo(uv) * light_transmittance(p, q, r);
 }
 
 // Part of the ray (o, d) inside the pyramid that bounds the light's cone.
 vec2 frustum_interval(vec3 o, vec3 d, vec2 range) {
     vec3 oq = light_space(o);
     vec3 dq = mat3(u_world_to_light) * d;
+    if (u_face_ortho == 1) return range;       // a sun lights the whole segment
     vec4 A = vec4(-oq.z * u_tan_half.x - oq.x, -oq.z * u_tan_half.x + oq.x,
                   -oq.z * u_tan_half.y - oq.y, -oq.z * u_tan_half.y + oq.y);
     vec4 B = vec4(-dq.z * u_tan_half.x - dq.x, -dq.z * u_tan_half.x + dq.x,
@@ -103,12 +105,12 @@ void main() {
         surface += albedo * u_ambient;
 #endif
 #if HAS_LIGHT
-        vec3 l = u_light_pos - P;
-        float ndl = dot(n, normalize(l));
+        vec3 qP = light_space(P);
+        float ndl = dot(n, toward_light(P, qP, light_distance(qP)));
         if (ndl > 0.0) {
             float r;
             g_bias_texels = 3.0;    // the solid's own shadow-map texels must not shadow it
-            surface += albedo / PI * ndl * light_arriving(P, light_space(P), r);
+            surface += albedo / PI * ndl * light_arriving(P, qP, r);
             g_bias_texels = 0.0;
         }
 #endif
@@ -117,64 +119,90 @@ void main() {
 #if MEDIUM != 0
 #if MEDIUM == 2
     vec2 seg = vec2(t_near, t_end);
-#else
-    vec2 seg = box_interval(o, d);
-#if MEDIUM == 3 && EMISSION
-    // The box is the density's non-zero bounds; emission may glow outside them.
+#elif MEDIUM == 3
+    vec2 seg = media_interval(o, d);
+#if EMISSION
+    // The boxes are the densities' non-zero bounds; the first medium's emission may glow outside.
     vec2 emit_seg = emission_interval((u_world_to_box * vec4(o, 1.0)).xyz, (u_world_to_box * vec4(d, 0.0)).xyz);
     if (emit_seg.y > emit_seg.x)
         seg = seg.y > seg.x ? vec2(min(seg.x, emit_seg.x), max(seg.y, emit_seg.y)) : emit_seg;
 #endif
     seg = vec2(max(seg.x, t_near), min(seg.y, t_end));
+#else
+    vec2 seg = box_interval(o, d);
+    seg = vec2(max(seg.x, t_near), min(seg.y, t_end));
 #endif
     if (seg.y > seg.x) {
 #if MEDIUM == 3
-        // Density grid: one march for the view transmittance and the scattered light.
+        // Every medium along the ray: one march for the view transmittance and the scattered
+        // light; overlapping media add their coefficients, the phase is their sigma_s mixture.
         float dt = (seg.y - seg.x) / float(u_view_steps);
-        float tau = 0.0;
-        float sigma_t_min = min(min(u_sigma_t.r, u_sigma_t.g), u_sigma_t.b);
-        // Positions along the ray, incrementally in box and light space.
+        vec3 tau = vec3(0.0);
+        // The first medium's index space: its emission and colour grid (fire's attributes).
         vec3 ob = (u_world_to_box * vec4(o, 1.0)).xyz;
         vec3 db = (u_world_to_box * vec4(d, 0.0)).xyz;
 #if EMISSION
         vec2 emit = emission_interval(ob, db);
 #endif
+        float t_stop = seg.y;       // past it this pass adds nothing
 #if HAS_LIGHT
         vec3 oq = light_space(o);
         vec3 dq = mat3(u_world_to_light) * d;
+#if !FIRST_PASS
+        // A later pass adds only this face's light: it marches the same samples as the first
+        // pass but stops where the ray leaves the face's frustum (a sun's box: never).
+        t_stop = frustum_interval(o, d, seg).y;
+#endif
 #endif
         for (int i = 0; i < u_view_steps; ++i) {
             float t = seg.x + (float(i) + step_at) * dt;
-            float D = density_at_index(ob + db * t);
+            if (t > t_stop) break;
+            vec3 p = o + d * t;
+            float D[N_MEDIA];
+            bool any_d = false;
+            vec3 st = vec3(0.0);
+            for (int m = 0; m < N_MEDIA; ++m) {
+                D[m] = medium_density(m, p);
+                any_d = any_d || D[m] > 0.0;
+                st += u_med_sigma_t[m] * D[m];
+            }
 #if EMISSION
             if (t >= emit.x && t <= emit.y)
-                scatter += exp(-u_sigma_t * (tau + 0.5 * D * dt)) * emission_at_index(ob + db * t) * dt;
-            if (D > 0.0) {     // emission glows where the density is 0: no empty-space skipping
-#else
-            if (D <= 0.0) {     // in an empty occupancy cell: on to the first sample past it
+                scatter += exp(-(tau + 0.5 * st * dt)) * emission_at_index(ob + db * t) * dt;
+#elif N_MEDIA == 1
+            if (!any_d)       // in an empty occupancy cell: on to the first sample past it
                 i = max(i, int(ceil((skip_empty(ob, db, t) - seg.x) / dt - 0.501)) - 1);
-            } else {
 #endif
-                vec3 tv = exp(-u_sigma_t * (tau + 0.5 * D * dt));
+            if (any_d) {
+                vec3 tint0 = vec3(1.0);     // the first medium's scattering colour per voxel
+#if COLOR_GRID
+                tint0 = color_at_index(ob + db * t);
+#endif
+                vec3 ss = vec3(0.0);
+                for (int m = 0; m < N_MEDIA; ++m) ss += u_med_sigma_s[m] * (m == 0 ? tint0 : vec3(1.0)) * D[m];
+                vec3 tv = exp(-(tau + 0.5 * st * dt));
                 vec3 src = vec3(0.0);
 #if FIRST_PASS
-                src += u_ambient;
+                src += ss * u_ambient;
 #endif
 #if HAS_LIGHT
                 vec3 q = oq + dq * t;
                 float r;
-                vec3 li = light_arriving(o + d * t, q, r);
-                if (any(greaterThan(li, vec3(0.0)))) src += li * hg_phase(-dot(q, dq) / r, phase_g);
+                vec3 li = light_arriving(p, q, r);
+                if (any(greaterThan(li, vec3(0.0)))) {
+                    float c = -dot(light_travel(q, r), dq);
+                    vec3 ssp = vec3(0.0);
+                    for (int m = 0; m < N_MEDIA; ++m)
+                        ssp += u_med_sigma_s[m] * (m == 0 ? tint0 : vec3(1.0)) * (D[m] * hg_phase(c, u_med_g[m]));
+                    src += li * ssp;
+                }
 #endif
-#if COLOR_GRID
-                src *= color_at_index(ob + db * t);
-#endif
-                scatter += tv * u_sigma_s * D * dt * src;
-                tau += D * dt;
-                if (sigma_t_min * tau > 6.9078) break;    // view transmittance < 1e-3
+                scatter += tv * dt * src;
+                tau += st * dt;
+                if (min(min(tau.r, tau.g), tau.b) > 6.9078) break;    // view transmittance < 1e-3
             }
         }
-        transmittance = exp(-u_sigma_t * tau);
+        transmittance = exp(-tau);
 #else
         // Homogeneous: analytic transmittance and ambient term.
         float len = seg.y - seg.x;
@@ -202,8 +230,8 @@ void main() {
             vec3 qb = light_space(o + d * cs.y);
             w_in = -qa.z;
             w_out = -qb.z;
-            projective = min(w_in, w_out) > 1e-6 * max(w_in, w_out)
-                      && length(light_uv(qb) - light_uv(qa)) * u_map_res > 1.0;
+            projective = u_face_ortho == 0 && min(w_in, w_out) > 1e-6 * max(w_in, w_out)
+                      && length(light_uv(qb) - light_uv(qa)) * u_map_res > 1.0;   // ortho: affine
 #endif
             float span = cs.y - cs.x;
             float s_prev = 0.0;
@@ -224,7 +252,7 @@ void main() {
                 vec3 li = light_arriving(o + d * t, q, r);
                 if (any(greaterThan(li, vec3(0.0)))) {
                     vec3 tv = exp(-u_sigma_t * (t - seg.x));
-                    scatter += tv * u_sigma_s * dt * li * hg_phase(-dot(q, dq) / r, phase_g);
+                    scatter += tv * u_sigma_s * dt * li * hg_phase(-dot(light_travel(q, r), dq), phase_g);
                 }
             }
         }

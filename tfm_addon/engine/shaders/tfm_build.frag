@@ -1,5 +1,5 @@
 #include "common.glsl"
-// One texel per light ray: march the density from where the ray enters the medium (K_in) to
+// One texel per light ray of a face: march the media's weighted density from where the ray enters the medium (K_in) to
 // where it leaves it or meets a solid (K_out), both tightened to where the density is not zero, and project F(x) = exp(-tau_D(x) / alpha_D)
 // onto N_COEFF cosines, x in [0, 1] from K_in to K_out (METHOD.md section 3).
 // With OPTICAL_DEPTH_ONLY the texel holds tau_D(1) alone (used to choose alpha automatically).
@@ -26,14 +26,24 @@ layout(location = 4) out vec4 o_coef3;
 
 void main() {
     vec2 uv = gl_FragCoord.xy / u_map_res;
-    vec3 dir_light = normalize(vec3((uv * 2.0 - 1.0) * u_tan_half, -1.0));
     mat3 light_to_world = transpose(mat3(u_world_to_light));
-    vec3 dir = light_to_world * dir_light;
+    vec3 origin = u_light_pos;
+    vec3 dir;
+    vec2 suv = uv;
+    if (u_face_ortho == 1) {
+        vec3 q0 = vec3((uv * 2.0 - 1.0) * u_tan_half, 0.0);
+        origin = u_light_pos + light_to_world * q0;
+        dir = light_to_world * vec3(0.0, 0.0, -1.0);
+        suv = shadow_uv(q0);
+    } else {
+        dir = light_to_world * normalize(vec3((uv * 2.0 - 1.0) * u_tan_half, -1.0));
+    }
 
-    vec2 k = box_interval(u_light_pos, dir);
+    vec2 k = media_interval(origin, dir);
     float k_in = max(k.x, 0.0);
     float k_out = k.y;
-    if (u_has_shadow == 1) k_out = min(k_out, texelFetch(u_shadow, ivec2(uv * vec2(textureSize(u_shadow, 0))), 0).r);
+    if (u_has_shadow == 1 && all(greaterThanEqual(suv, vec2(0.0))) && all(lessThanEqual(suv, vec2(1.0))))
+        k_out = min(k_out, texture(u_shadow, suv).r);
 
 #ifndef OPTICAL_DEPTH_ONLY
     // Tighten [K_in, K_out] to the part of the ray where the density is not zero, so that the
@@ -43,7 +53,7 @@ void main() {
         int first = u_light_steps;
         int last = -1;
         for (int m = 0; m < u_light_steps; ++m) {
-            if (density_at(u_light_pos + dir * (k_in + (float(m) + 0.5) * dt)) > 0.0) {
+            if (weighted_density(origin + dir * (k_in + (float(m) + 0.5) * dt)) > 0.0) {
                 first = min(first, m);
                 last = m;
             }
@@ -64,7 +74,7 @@ void main() {
         float dx = 1.0 / float(u_light_steps);
         for (int m = 0; m < u_light_steps; ++m) {
             float x = (float(m) + 0.5) * dx;
-            float d = density_at(u_light_pos + dir * (k_in + x * (k_out - k_in)));
+            float d = weighted_density(origin + dir * (k_in + x * (k_out - k_in)));
 #ifndef OPTICAL_DEPTH_ONLY
             float f = exp(-(tau + 0.5 * d * dt) * u_inv_alpha);
             float c1 = cos(PI * x);

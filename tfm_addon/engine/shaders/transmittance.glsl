@@ -1,4 +1,4 @@
-// The transmittance from a spot light to a point, by the method LIGHT_T:
+// The transmittance from a light face to a point, by the method LIGHT_T:
 // 0 TFM lookup, 1 march (brute force), 2 analytic (homogeneous), 3 none (the light's rays never
 // cross the medium). Needs common.glsl.
 uniform vec3 u_sigma_t;        // 1/m per unit density
@@ -116,27 +116,33 @@ float tfm_lookup(vec2 uv, float r) {
 }
 #endif
 
-// Transmittance from the light to p (q: p in light space, r: its distance to the light).
+// Unit direction from p toward the light, world (q: p in face space, r: light_distance).
+vec3 toward_light(vec3 p, vec3 q, float r) {
+    if (u_face_ortho == 1) return transpose(mat3(u_world_to_light)) * vec3(0.0, 0.0, 1.0);
+    return (u_light_pos - p) / max(r, 1e-30);
+}
+
+// Transmittance from the light to p (q: p in light space, r: its light_distance).
 vec3 light_transmittance(vec3 p, vec3 q, float r) {
 #if LIGHT_T == 0
-    return exp2(u_tfm_exponent * log2(max(tfm_lookup(light_uv(q), r), 1e-30)));   // F^exponent, one log
+    vec2 uv = light_uv(q);
+    if (u_face_ortho == 1 && (any(lessThan(uv, vec2(0.0))) || any(greaterThan(uv, vec2(1.0))))) return vec3(1.0);
+    return exp2(u_tfm_exponent * log2(max(tfm_lookup(uv, r), 1e-30)));   // F^exponent, one log
 #elif LIGHT_T == 1
-    vec3 dir = (u_light_pos - p) / r;
-    vec2 k = box_interval(p, dir);
+    vec3 dir = toward_light(p, q, r);
+    vec2 k = media_interval(p, dir);
     float a = max(k.x, 0.0);
     float b = min(k.y, r);
     if (b <= a) return vec3(1.0);
     float dt = (b - a) / float(u_light_steps);
-    vec3 pb = (u_world_to_box * vec4(p + dir * (a + 0.5 * dt), 1.0)).xyz;
-    vec3 step = (u_world_to_box * vec4(dir * dt, 0.0)).xyz;
-    float tau = 0.0;
-    for (int i = 0; i < u_light_steps; ++i) tau += density_at_index(pb + step * float(i));
-    return exp(-u_sigma_t * tau * dt);
+    vec3 tau = vec3(0.0);
+    for (int i = 0; i < u_light_steps; ++i) tau += extinction_at(p + dir * (a + (float(i) + 0.5) * dt));
+    return exp(-tau * dt);
 #elif LIGHT_T == 2
 #if MEDIUM == 2
     return exp(-u_sigma_t * r);
 #else
-    vec3 dir = (u_light_pos - p) / r;
+    vec3 dir = toward_light(p, q, r);
     vec2 k = box_interval(p, dir);
     return exp(-u_sigma_t * max(min(k.y, r) - max(k.x, 0.0), 0.0));
 #endif
