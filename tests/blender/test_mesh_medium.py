@@ -133,3 +133,25 @@ def test_orbit_rebuilds_nothing_and_an_edit_rebuilds_once(blank, tmp_path):
     render_passes(tmp_path, "edited_again")
     assert cache.counters["voxelisations"] == built + 1
     assert dict(worker.counters)["grid_uploads"] == after.get("grid_uploads", 0) + 1
+
+
+def test_instances_share_one_grid(blank, tmp_path):
+    """Two linked duplicates of a mesh medium: two media, one voxelisation, one density array."""
+    builder = _mod("blender.scene_builder")
+    builder.build(_scene("sphere"), str(tmp_path), settings=SETTINGS)
+    ob = _add_medium("sphere", builder)
+    twin = ob.copy()                       # shares the mesh data
+    twin.location.x += 2.0
+    bpy.context.scene.collection.objects.link(twin)
+    cache = _mod("engine.mesh_volume").occupancy_cache
+    cache.clear()
+    built = cache.counters["voxelisations"]
+    ex = _mod("blender.extract").extract(bpy.context.evaluated_depsgraph_get())
+    assert len(ex.media) == 2 and ex.media[0].density is ex.media[1].density
+    assert cache.counters["voxelisations"] == built + 1
+    shift = ex.media[1].index_to_world[:3, 3] - ex.media[0].index_to_world[:3, 3]
+    np.testing.assert_allclose(shift, (2.0, 0.0, 0.0), atol=1e-6)
+    worker = _mod("blender.render_worker").get_worker()
+    uploads = dict(worker.counters).get("grid_uploads", 0)
+    render_passes(tmp_path, "twins")
+    assert dict(worker.counters)["grid_uploads"] == uploads + 1     # one texture for both
