@@ -6,6 +6,7 @@ import dataclasses
 import numpy as np
 
 from tfm_addon.engine import RenderSettings
+from tfm_addon.engine import renderer as renderer_module
 from tfm_addon.engine.sampling import frame_settings, render_samples, subpixel_offset, view_steps_per_sample
 from tfm_addon.scenes import smoke_scene
 
@@ -67,3 +68,26 @@ def test_auto_spreads_the_view_steps_over_the_samples_at_the_same_quality(render
     err_spread = float(np.abs(spread - reference).mean())
     err_full = float(np.abs(full - reference).mean())
     assert err_spread <= 1.25 * err_full, (err_spread, err_full)
+
+
+def test_samples_redraw_one_gbuffer_allocation_into_the_same_gl_objects(fresh, renderer, monkeypatch):
+    # Every jittered sample is a new view (its G-buffer contents are drawn again), but the
+    # textures and framebuffer are reused: two sets for all the samples (the current view's and
+    # the one the cache is about to release), not one per sample. The image equals, bit for bit,
+    # that of the same samples drawn into G-buffers allocated afresh (no pool).
+    scene = smoke_scene(width=40, height=24, n=32)
+    pooled = render_samples(fresh, scene, SETTINGS, 12)
+    assert fresh.counters["gbuffers"] == 12 and fresh.counters["gbuffer_objects"] == 2
+    moved = dataclasses.replace(scene, camera=dataclasses.replace(scene.camera, shift_x=0.05))
+    render_samples(fresh, moved, SETTINGS, 4)
+    assert fresh.counters["gbuffers"] == 16 and fresh.counters["gbuffer_objects"] == 2
+    render_samples(fresh, smoke_scene(width=20, height=12, n=32), SETTINGS, 3)
+    assert fresh.counters["gbuffer_objects"] == 4      # another size: its own objects
+    monkeypatch.setattr(renderer_module, "GBUFFER_POOL", 0)
+    renderer.clear_maps()
+    before = renderer.counters["gbuffer_objects"]
+    unpooled = render_samples(renderer, scene, SETTINGS, 12)
+    assert renderer.counters["gbuffer_objects"] - before == 12
+    assert np.array_equal(pooled.combined, unpooled.combined)
+    for name in pooled.passes:
+        assert np.array_equal(pooled.passes[name], unpooled.passes[name])
