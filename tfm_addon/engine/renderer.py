@@ -149,7 +149,9 @@ class Renderer:
     """Renders scenes with one OpenGL context, created on first use on the calling thread;
     every call must come from that thread (see worker.RenderWorker).
 
-    ``counters`` counts what was built: 'grid_uploads', 'shadow_maps', 'tfms', 'gbuffers',
+    ``counters`` counts what was built: 'grid_uploads', 'shadow_maps', 'tfms', 'gbuffers' (G-buffer
+    contents drawn, one per new view; 'gbuffer_objects' counts the GL textures and framebuffers
+    they were drawn into, reused across views of one size),
     'light_passes', 'renders' (maps and passes per light face), and 'faces_culled' (faces of
     point and area lights that reach neither a medium nor a visible solid: no maps, no pass).
     A camera-only change rebuilds no light map; changing sigma_a or sigma_s of a lone medium
@@ -166,6 +168,7 @@ class Renderer:
         self._tfms = _Cache()
         self._gobos = _Cache()
         self._gbuffers = _Cache()
+        self._gbuffer_pool: dict[tuple[int, int], list[GBuffer]] = {}  # free G-buffer objects by size
         self._targets = _Cache()
         self._attributes = _Cache()
         self._caches = [self._media, self._solids, self._shadows, self._tfms, self._gobos,
@@ -244,7 +247,7 @@ class Renderer:
             plane = view_plane(scene.camera)
             gbuffer, built = self._gbuffers.get(
                 (scene.camera.key, tuple(m.key for m in scene.camera_meshes)),
-                lambda: GBuffer(gl, scene.camera, plane, seen))
+                lambda: self._gbuffer_for(scene.camera, plane, seen))
             self.counters["gbuffers"] += built
             step("gbuffer", t0)
 
@@ -545,12 +548,34 @@ class Renderer:
 
         return self._tfms.get(key, build)[0], ref.sigma_t
 
+    def _gbuffer_for(self, camera, plane, solids) -> _PooledGBuffer:
+        """A G-buffer drawn for ``camera``: GL objects of that size that the cache released (the
+        previous sample's) are drawn into again; new ones are made only when none is free."""
+        size = (plane.width_px, plane.height_px)
+        free = self._gbuffer_pool.setdefault(size, [])
+        if free:
+            gbuffer = free.pop()
+        else:
+            gbuffer = GBuffer(self.gl, size)
+            self.counters["gbuffer_objects"] += 1
+        entry = _PooledGBuffer(gbuffer, self._gbuffer_pool)
+        try:
+            gbuffer.draw(self.gl, camera, plane, solids)
+        except BaseException:
+            entry.release()
+            raise
+        return entry
+
     def clear_maps(self) -> None:
         """Drop every cached map and buffer (compiled programs stay): the next render is full."""
         if self._gl is not None:
             with self._gl.ctx:
                 for cache in self._caches:
                     cache.clear()
+                for free in self._gbuffer_pool.values():
+                    for gbuffer in free:
+                        gbuffer.release()
+                self._gbuffer_pool.clear()
 
     def release(self) -> None:
         """Release every GPU resource and the context."""
@@ -573,6 +598,27 @@ class _FewerCoefficients:
 
     def bind(self, prog, sigma_t) -> None:
         self.tfm.bind(prog, sigma_t)
+
+
+class _PooledGBuffer:
+    """A cached G-buffer whose release hands its GL objects back to the renderer's pool (at most
+    GBUFFER_POOL free per size) for the next view's contents, instead of freeing them."""
+
+    def __init__(self, gbuffer: GBuffer, pool: dict):
+        self.gbuffer, self._pool = gbuffer, pool
+
+    def bind(self) -> None:
+        self.gbuffer.bind()
+
+    def release(self) -> None:
+        free = self._pool.setdefault(self.gbuffer.size, [])
+        if len(free) < GBUFFER_POOL:
+            free.append(self.gbuffer)
+        else:
+            self.gbuffer.release()
+
+
+GBUFFER_POOL = 2
 
 
 @dataclass

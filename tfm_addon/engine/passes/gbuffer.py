@@ -11,38 +11,52 @@ from .solids import FORMAT, SolidsBuffer
 
 class GBuffer:
     """Two RGBA32F textures the size of the pixel window: (albedo, distance along the view ray
-    in metres) and (world normal, 1 where a solid is seen, 2 where a holdout is seen)."""
+    in metres) and (world normal, 1 where a solid is seen, 2 where a holdout is seen), with their
+    framebuffer and depth buffer. ``draw`` re-renders the contents for a view into the same GL
+    objects, so that samples that only move the camera (antialiasing jitter) allocate nothing."""
 
-    def __init__(self, gl: GLContext, camera: Camera, plane: ViewPlane, solids: SolidsBuffer):
+    def __init__(self, gl: GLContext, size: tuple[int, int]):
         ctx = gl.ctx
-        size = (plane.width_px, plane.height_px)
-        self.albedo_distance = ctx.texture(size, 4, dtype="f4")
-        self.normal_hit = ctx.texture(size, 4, dtype="f4")
+        self.size = (int(size[0]), int(size[1]))
+        self.albedo_distance = ctx.texture(self.size, 4, dtype="f4")
+        self.normal_hit = ctx.texture(self.size, 4, dtype="f4")
         for t in (self.albedo_distance, self.normal_hit):
             t.filter = (ctx.NEAREST, ctx.NEAREST)
-        depth = ctx.depth_renderbuffer(size)
-        fbo = ctx.framebuffer([self.albedo_distance, self.normal_hit], depth)
-        fbo.use()
+        self.depth = ctx.depth_renderbuffer(self.size)
+        self.fbo = ctx.framebuffer([self.albedo_distance, self.normal_hit], self.depth)
+        self._vao = None
+        self._vao_solids = None   # the SolidsBuffer the vertex array reads (held: compared by identity)
+
+    def draw(self, gl: GLContext, camera: Camera, plane: ViewPlane, solids: SolidsBuffer) -> None:
+        """Render ``solids`` seen by ``camera`` (``plane`` its pixel window, of this size)."""
+        ctx = gl.ctx
+        self.fbo.use()
         pass_state(ctx, depth_test=True)
-        fbo.clear(0, 0, 0, 0, depth=1.0)
+        self.fbo.clear(0, 0, 0, 0, depth=1.0)
         if solids.vertex_count:
             prog = gl.program("gbuffer.vert", "gbuffer.frag")
             c2w = camera_to_world(camera)
             set_matrix(prog, "u_camera_clip", clip_matrix(camera))
             set_uniforms(prog, u_camera_pos=tuple(c2w[:3, 3]),
                          u_camera_forward=tuple(-c2w[:3, 2]), u_ortho=int(plane.ortho))
-            vao = ctx.vertex_array(prog, [(solids.vbo, FORMAT, "in_position", "in_normal", "in_albedo",
-                                            "in_holdout")])
-            vao.render(vertices=solids.vertex_count)
-            vao.release()
+            if self._vao_solids is not solids:
+                if self._vao is not None:
+                    self._vao.release()
+                self._vao = ctx.vertex_array(prog, [(solids.vbo, FORMAT, "in_position", "in_normal",
+                                                     "in_albedo", "in_holdout")])
+                self._vao_solids = solids
+            self._vao.render(vertices=solids.vertex_count)
         pass_state(ctx)
-        fbo.release()
-        depth.release()
 
     def bind(self) -> None:
         self.albedo_distance.use(UNIT["u_gb0"])
         self.normal_hit.use(UNIT["u_gb1"])
 
     def release(self) -> None:
+        if self._vao is not None:
+            self._vao.release()
+            self._vao, self._vao_solids = None, None
+        self.fbo.release()
+        self.depth.release()
         self.albedo_distance.release()
         self.normal_hit.release()
