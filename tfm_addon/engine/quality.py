@@ -11,14 +11,15 @@ The rule and the sweeps it comes from are written down in ``docs/benchmark.md``:
   longest view / light ray crosses through the non-zero density, times the steps per voxel the
   density's sharpness asks for (``sharpness``: one step per "feature", the distance over which
   the density changes by its maximum, clamped to ``STEPS_PER_VOXEL`` for the view,
-  ``LIGHT_STEPS_PER_VOXEL`` for the TFM build, whose cosines smooth the light ray anyway),
+  ``LIGHT_STEPS_PER_VOXEL`` for the TFM build, whose cosines smooth the light ray anyway, and
+  for a smooth density at most ``SMOOTH_LIGHT_STEPS_PER_COEFFICIENT`` per coefficient),
   clamped to ``MIN_STEPS``..``MAX_STEPS``;
 - homogeneous medium: no TFM (analytic transmittance), projective-space sampling,
   ``HOMOGENEOUS_VIEW_STEPS`` view steps;
 - the TFM filter: 'LINEAR' (as accurate as 'EXACT' on every benchmark scene, SSIM within 1e-4,
   for a quarter of the lookups; docs/benchmark.md);
 - the TFM's side from the medium's footprint in the light's view ('FOOTPRINT': one texel per
-  voxel where the medium is nearest to the light for a sharp density, one per two voxels for a
+  voxel where the medium is nearest to the light for a sharp density, one per three voxels for a
   smooth one (``footprint_texels_per_voxel``), at most the map resolution); the shadow maps keep
   the user's resolution;
 - map resolution, method and ambient are the user's.
@@ -46,6 +47,7 @@ STEPS_PER_VOXEL = (0.1, 0.5)        # the range the sharpness may ask for
 MIN_STEPS = 32
 LIGHT_STEPS_PER_VOXEL = (0.1, 0.25)  # the TFM build: its cosines smooth the transmittance along the ray
 LIGHT_MIN_STEPS = 32
+SMOOTH_LIGHT_STEPS_PER_COEFFICIENT = 8   # a smooth density's TFM build: at most this many steps per cosine
 MAX_STEPS = 256
 HOMOGENEOUS_VIEW_STEPS = 32
 
@@ -206,7 +208,7 @@ def medium_stats(scene: Scene) -> MediumStats | None:
 
 def footprint_texels_per_voxel(m) -> float:
     """TFM texels per voxel of the 'FOOTPRINT' side for the medium ``m``: one for a sharp density
-    (sharpness >= SHARP_FOOTPRINT, a step of its maximum within two voxels), half for a smooth
+    (sharpness >= SHARP_FOOTPRINT, a step of its maximum within two voxels), a third for a smooth
     one, whose transmittance changes over several voxels (docs/benchmark.md; a density grid only:
     other media get one)."""
     from .passes import tfm
@@ -340,8 +342,11 @@ def auto_settings(scene: Scene, settings: RenderSettings | None = None) -> Rende
         return settings
     if scene.medium.density is None:
         return dataclasses.replace(settings, sampling="PROJECTIVE", view_steps=HOMOGENEOUS_VIEW_STEPS)
-    return dataclasses.replace(settings, coefficients=auto_coefficients(stats.optical_depth, stats.sharpness),
+    n = auto_coefficients(stats.optical_depth, stats.sharpness)
+    light_steps = auto_steps(stats.light_voxels, stats.sharpness, LIGHT_STEPS_PER_VOXEL, LIGHT_MIN_STEPS)
+    if stats.sharpness < SHARP_FOOTPRINT:
+        light_steps = max(LIGHT_MIN_STEPS, min(light_steps, SMOOTH_LIGHT_STEPS_PER_COEFFICIENT * n))
+    return dataclasses.replace(settings, coefficients=n,
                                density_weight=None, tfm_filter="LINEAR", tfm_resolution="FOOTPRINT",
-                               light_steps=auto_steps(stats.light_voxels, stats.sharpness,
-                                                      LIGHT_STEPS_PER_VOXEL, LIGHT_MIN_STEPS),
+                               light_steps=light_steps,
                                view_steps=auto_steps(stats.view_voxels, stats.sharpness))

@@ -13,7 +13,7 @@ from .bindings import UNIT, MediaGPU, bind_light, bind_units, pass_state
 MAX_COEFFICIENTS = 16
 COEF_DTYPE = "f4"      # "f2" (half floats) gives the same SSIM on every bench scene, no faster on llvmpipe
 TEXELS_PER_VOXEL = 1.0          # the 'FOOTPRINT' resolution rule (docs/benchmark.md): sharp densities
-SMOOTH_TEXELS_PER_VOXEL = 0.5   # ... and smooth ones (quality.footprint_texels_per_voxel)
+SMOOTH_TEXELS_PER_VOXEL = 1 / 3  # ... and smooth ones (quality.footprint_texels_per_voxel)
 MIN_FOOTPRINT_RESOLUTION = 64
 
 
