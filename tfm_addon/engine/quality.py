@@ -3,20 +3,25 @@ against the ground truth, chosen from a few numbers measured on the scene (numpy
 
 The rule and the sweeps it comes from are written down in ``docs/benchmark.md``:
 
-- heterogeneous medium: density weighting on (automatic alpha); the coefficient count from the
-  largest optical depth tau along the lights' rays (``AUTO_COEFFICIENTS``; 2 coefficients, packed
-  beside the K range in one texture, where tau <= 2); view and light steps
-  from the number of voxels the longest view / light ray crosses through the non-zero density,
-  times the steps per voxel the density's sharpness asks for (``sharpness``: one step per
-  "feature", the distance over which the density changes by its maximum, clamped to
-  ``STEPS_PER_VOXEL``), clamped to ``MIN_STEPS``..``MAX_STEPS``;
+- heterogeneous medium: density weighting on (automatic alpha, for a spot reaching one medium
+  the probe's largest density integral below: no GPU pass, no read-back); the coefficient count
+  from the largest optical depth tau along the lights' rays (``AUTO_COEFFICIENTS``; 2
+  coefficients, packed beside the K range in one texture, where tau <= 2; a smooth density reads
+  the table at ``SMOOTH_DEPTH_SCALE`` tau); view and light steps from the number of voxels the
+  longest view / light ray crosses through the non-zero density, times the steps per voxel the
+  density's sharpness asks for (``sharpness``: one step per "feature", the distance over which
+  the density changes by its maximum, clamped to ``STEPS_PER_VOXEL`` for the view,
+  ``LIGHT_STEPS_PER_VOXEL`` for the TFM build, whose cosines smooth the light ray anyway, and
+  for a smooth density at most ``SMOOTH_LIGHT_STEPS_PER_COEFFICIENT`` per coefficient),
+  clamped to ``MIN_STEPS``..``MAX_STEPS``;
 - homogeneous medium: no TFM (analytic transmittance), projective-space sampling,
   ``HOMOGENEOUS_VIEW_STEPS`` view steps;
 - the TFM filter: 'LINEAR' (as accurate as 'EXACT' on every benchmark scene, SSIM within 1e-4,
   for a quarter of the lookups; docs/benchmark.md);
 - the TFM's side from the medium's footprint in the light's view ('FOOTPRINT': one texel per
-  voxel where the medium is nearest to the light, at most the map resolution; SSIM within 3e-4
-  of 512^2 maps on every benchmark scene); the shadow maps keep the user's resolution;
+  voxel where the medium is nearest to the light for a sharp density, one per three voxels for a
+  smooth one (``footprint_texels_per_voxel``), at most the map resolution); the shadow maps keep
+  the user's resolution;
 - map resolution, method and ambient are the user's.
 """
 
@@ -36,8 +41,13 @@ from .scene import RenderSettings, Scene
 
 # (largest optical depth, coefficients): the first row whose depth is >= tau applies.
 AUTO_COEFFICIENTS: tuple[tuple[float, int], ...] = ((2.0, 2), (4.0, 4), (16.0, 8), (math.inf, 16))
+SHARP_FOOTPRINT = 0.5               # sharpness from which the TFM keeps one texel per voxel
+SMOOTH_DEPTH_SCALE = 0.25           # a smooth density's optical depth, as the coefficient table reads it
 STEPS_PER_VOXEL = (0.1, 0.5)        # the range the sharpness may ask for
 MIN_STEPS = 32
+LIGHT_STEPS_PER_VOXEL = (0.1, 0.25)  # the TFM build: its cosines smooth the transmittance along the ray
+LIGHT_MIN_STEPS = 32
+SMOOTH_LIGHT_STEPS_PER_COEFFICIENT = 8   # a smooth density's TFM build: at most this many steps per cosine
 MAX_STEPS = 256
 HOMOGENEOUS_VIEW_STEPS = 32
 
@@ -194,6 +204,30 @@ def medium_stats(scene: Scene) -> MediumStats | None:
                        sharpness=0.0 if grid is None else grid[2])
 
 
+
+
+def footprint_texels_per_voxel(m) -> float:
+    """TFM texels per voxel of the 'FOOTPRINT' side for the medium ``m``: one for a sharp density
+    (sharpness >= SHARP_FOOTPRINT, a step of its maximum within two voxels), a third for a smooth
+    one, whose transmittance changes over several voxels (docs/benchmark.md; a density grid only:
+    other media get one)."""
+    from .passes import tfm
+
+    if m is None or getattr(m, "density", None) is None:
+        return tfm.TEXELS_PER_VOXEL
+    sharp = _summary(m)[2] >= SHARP_FOOTPRINT
+    return tfm.TEXELS_PER_VOXEL if sharp else tfm.SMOOTH_TEXELS_PER_VOXEL
+
+
+def light_density_integral(m, light) -> float:
+    """The largest density integral (metres at unit density) along the light's rays through the
+    medium ``m``, from the probe above (cached by density and light: the number ``AUTO`` already
+    computed for the frame). The renderer takes it as automatic alpha for ``AUTO``, in place of a
+    GPU pass and its read-back."""
+    grid = _summary(m) if m.density is not None else None
+    return float(_cached(("light", m.density_key, light.key), lambda: _light_part(m, light, grid))[0])
+
+
 def _cached(key, build):
     if key in _cache:
         _cache.move_to_end(key)
@@ -278,18 +312,24 @@ def sharpness(density: np.ndarray) -> float:
     return float(np.percentile(jump, 99)) / top
 
 
-def auto_coefficients(optical_depth: float) -> int:
-    """The coefficient count for the largest optical depth along the lights' rays."""
+def auto_coefficients(optical_depth: float, sharpness: float = 1.0) -> int:
+    """The coefficient count for the largest optical depth along the lights' rays; a smooth
+    density (sharpness < SHARP_FOOTPRINT) reads the table at SMOOTH_DEPTH_SCALE times its depth:
+    its transmittance has no steps for the cosines to ring on (docs/benchmark.md)."""
+    if sharpness < SHARP_FOOTPRINT:
+        optical_depth *= SMOOTH_DEPTH_SCALE
     for depth, n in AUTO_COEFFICIENTS:
         if optical_depth <= depth:
             return n
     return AUTO_COEFFICIENTS[-1][1]
 
 
-def auto_steps(voxels: float, sharpness: float) -> int:
-    """Steps along a ray that crosses ``voxels`` voxels of a density of this sharpness."""
-    per_voxel = min(max(sharpness, STEPS_PER_VOXEL[0]), STEPS_PER_VOXEL[1])
-    return int(min(MAX_STEPS, max(MIN_STEPS, math.ceil(per_voxel * voxels))))
+def auto_steps(voxels: float, sharpness: float, per_voxel_range: tuple[float, float] = STEPS_PER_VOXEL,
+               min_steps: int = MIN_STEPS) -> int:
+    """Steps along a ray that crosses ``voxels`` voxels of a density of this sharpness, at the
+    sharpness clamped to ``per_voxel_range`` steps per voxel (the view's by default)."""
+    per_voxel = min(max(sharpness, per_voxel_range[0]), per_voxel_range[1])
+    return int(min(MAX_STEPS, max(min_steps, math.ceil(per_voxel * voxels))))
 
 
 def auto_settings(scene: Scene, settings: RenderSettings | None = None) -> RenderSettings:
@@ -302,7 +342,11 @@ def auto_settings(scene: Scene, settings: RenderSettings | None = None) -> Rende
         return settings
     if scene.medium.density is None:
         return dataclasses.replace(settings, sampling="PROJECTIVE", view_steps=HOMOGENEOUS_VIEW_STEPS)
-    return dataclasses.replace(settings, coefficients=auto_coefficients(stats.optical_depth),
+    n = auto_coefficients(stats.optical_depth, stats.sharpness)
+    light_steps = auto_steps(stats.light_voxels, stats.sharpness, LIGHT_STEPS_PER_VOXEL, LIGHT_MIN_STEPS)
+    if stats.sharpness < SHARP_FOOTPRINT:
+        light_steps = max(LIGHT_MIN_STEPS, min(light_steps, SMOOTH_LIGHT_STEPS_PER_COEFFICIENT * n))
+    return dataclasses.replace(settings, coefficients=n,
                                density_weight=None, tfm_filter="LINEAR", tfm_resolution="FOOTPRINT",
-                               light_steps=auto_steps(stats.light_voxels, stats.sharpness),
+                               light_steps=light_steps,
                                view_steps=auto_steps(stats.view_voxels, stats.sharpness))

@@ -46,7 +46,7 @@ from .passes.scattering import (
 from .passes.shadow_map import ShadowMap
 from .passes.solids import SolidsBuffer
 from .passes.tfm import MIN_FOOTPRINT_RESOLUTION, TransmittanceMap, largest_density_integral, tfm_resolution
-from .quality import auto_settings
+from .quality import auto_settings, footprint_texels_per_voxel, light_density_integral
 from .scene import Light, RenderSettings, Scene
 
 
@@ -530,7 +530,13 @@ class Renderer:
                     self._tfms.used.add(base + ("alpha",))    # the wider map's alpha: kept with it
                 return (_FewerCoefficients(self._tfms.get(min(wider, key=lambda k: k[-2]), None)[0], n),
                         ref.sigma_t)
-        if settings.density_weight is None:
+        probed = 0.0
+        if (settings.density_weight is None and settings.quality == "AUTO" and light.kind == "SPOT"
+                and len(reached) == 1 and ref.density is not None):
+            probed = light_density_integral(ref, light)     # AUTO's probe: no GPU pass, no read-back
+        if probed > 0.0:
+            alpha_d = probed
+        elif settings.density_weight is None:
             alpha_d, _ = self._tfms.get(
                 base + ("alpha",),
                 lambda: _Value(largest_density_integral(self.gl, frame, medium_gpu, res,
@@ -651,13 +657,15 @@ def _slot_key(slot: MediumSlot) -> tuple:
 
 def _face_tfm_resolution(settings, frame: LightFrame, slot: MediumSlot, map_res: int, image_side: int) -> int:
     """The TFM side of a face (passes/tfm.tfm_resolution, the 'FOOTPRINT' rule read on the first
-    medium the face reaches); an orthographic face's footprint is its extent over the voxel."""
+    medium the face reaches, at quality.footprint_texels_per_voxel of its density); an
+    orthographic face's footprint is its extent over the voxel."""
+    per_voxel = footprint_texels_per_voxel(slot.medium) if settings.tfm_resolution == "FOOTPRINT" else 1.0
     if frame.ortho and settings.tfm_resolution == "FOOTPRINT":
         voxel = float(np.linalg.norm(slot.box_to_world[:3, :3], axis=0).min())
         cap = min(map_res, max(int(image_side), MIN_FOOTPRINT_RESOLUTION))
-        texels = 2.0 * max(frame.tan_xy) / max(voxel, 1e-12)
+        texels = per_voxel * 2.0 * max(frame.tan_xy) / max(voxel, 1e-12)
         return int(min(cap, max(MIN_FOOTPRINT_RESOLUTION, 16 * math.ceil(texels / 16))))
-    return tfm_resolution(settings, frame, slot, map_res, image_side)
+    return tfm_resolution(settings, frame, slot, map_res, image_side, per_voxel)
 
 
 def _reaches(light: Light, frame: LightFrame, box) -> bool:

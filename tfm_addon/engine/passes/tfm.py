@@ -12,12 +12,14 @@ from .bindings import UNIT, MediaGPU, bind_light, bind_units, pass_state
 
 MAX_COEFFICIENTS = 16
 COEF_DTYPE = "f4"      # "f2" (half floats) gives the same SSIM on every bench scene, no faster on llvmpipe
-TEXELS_PER_VOXEL = 1.0          # the 'FOOTPRINT' resolution rule (docs/benchmark.md)
+TEXELS_PER_VOXEL = 1.0          # the 'FOOTPRINT' resolution rule (docs/benchmark.md): sharp densities
+SMOOTH_TEXELS_PER_VOXEL = 1 / 3  # ... and smooth ones (quality.footprint_texels_per_voxel)
 MIN_FOOTPRINT_RESOLUTION = 64
 
 
-def footprint_resolution(frame: LightFrame, medium, cap: int) -> int:
-    """The TFM side, texels, for ``tfm_resolution='FOOTPRINT'``: TEXELS_PER_VOXEL map texels per
+def footprint_resolution(frame: LightFrame, medium, cap: int,
+                         texels_per_voxel: float = TEXELS_PER_VOXEL) -> int:
+    """The TFM side, texels, for ``tfm_resolution='FOOTPRINT'``: ``texels_per_voxel`` map texels per
     voxel where the medium's non-zero box comes nearest to the light (the map's texels grow
     with distance, so farther voxels get more), a multiple of 16 in
     [MIN_FOOTPRINT_RESOLUTION, cap]; ``cap`` when the light is inside that box."""
@@ -28,12 +30,12 @@ def footprint_resolution(frame: LightFrame, medium, cap: int) -> int:
     voxel = float(np.linalg.norm(b2w[:3, :3], axis=0).min())
     if distance <= 0.0 or voxel <= 0.0:
         return int(cap)
-    texels = TEXELS_PER_VOXEL * 2.0 * frame.tan_half * distance / voxel
+    texels = texels_per_voxel * 2.0 * frame.tan_half * distance / voxel
     return int(min(cap, max(MIN_FOOTPRINT_RESOLUTION, 16 * math.ceil(texels / 16))))
 
 
 def tfm_resolution(settings, frame: LightFrame, medium, map_res: int,
-                   image_side: int | None = None) -> int:
+                   image_side: int | None = None, texels_per_voxel: float = TEXELS_PER_VOXEL) -> int:
     """The TFM side for ``settings.tfm_resolution`` (RenderSettings), at most ``map_res``;
     'FOOTPRINT' also at most ``image_side`` (the image's larger side, pixels): a map finer than
     the image is not seen where the medium fits in the frame."""
@@ -43,7 +45,7 @@ def tfm_resolution(settings, frame: LightFrame, medium, map_res: int,
     if r == "FOOTPRINT":
         cap = map_res if image_side is None else min(map_res, max(int(image_side),
                                                                   MIN_FOOTPRINT_RESOLUTION))
-        return footprint_resolution(frame, medium, cap)
+        return footprint_resolution(frame, medium, cap, texels_per_voxel)
     return int(min(max(int(r), 1), map_res))
 
 
