@@ -225,7 +225,10 @@ class Renderer:
             t0 = time.perf_counter()
             medium_gpu, medium_warnings = self._medium(scene, settings)
             warnings += medium_warnings
-            attributes = self._medium_attributes(scene, settings, medium_gpu)
+            # The medium that emits and reads its colour grid: the first one marched (the scene's
+            # first may have been skipped: unbounded fog beside other media, an empty grid).
+            medium = medium_gpu.slots[0].medium if medium_gpu.kind == MEDIUM_GRID else scene.medium
+            attributes = self._medium_attributes(medium, medium_gpu)
             warnings += attributes.warnings if attributes is not None else []
             casters = self._solid_set(scene.shadow_casters)
             seen = self._solid_set(scene.camera_meshes)
@@ -253,7 +256,7 @@ class Renderer:
             targets.begin(gl.ctx)
             gbuffer.bind()
             ambient = scene.ambient if settings.ambient else (0.0, 0.0, 0.0)
-            common = dict(camera=scene.camera, plane=plane, medium=scene.medium,
+            common = dict(camera=scene.camera, plane=plane, medium=medium,
                           medium_gpu=medium_gpu, settings=settings, ambient=ambient,
                           attributes=attributes)
             if not plans:
@@ -422,29 +425,29 @@ class Renderer:
         gpu.key = tuple(_slot_key(s) for s in slots)
         return gpu, warnings
 
-    def _medium_attributes(self, scene: Scene, settings: RenderSettings,
-                           medium_gpu: MediaGPU) -> AttributesGPU | None:
-        """The first medium's emission and colour-grid textures, or None when it has neither.
-        Keyed by the grids, the lattice they are uploaded on and, for the blackbody term
-        evaluated per voxel, the temperature and intensity; not by the emission colour, strength
-        or tint. (Only the first medium emits or reads a colour grid: the others are named.)"""
-        medium = scene.medium
+    def _medium_attributes(self, medium, medium_gpu: MediaGPU) -> AttributesGPU | None:
+        """The emission and colour-grid textures of ``medium`` (the first medium marched), or
+        None when it has neither. Keyed by the grids, the lattice they are uploaded on and, for
+        the blackbody term evaluated per voxel, the temperature and intensity; not by the
+        emission colour, strength or tint. (Only the first medium emits or reads a colour grid:
+        the others are named.)"""
         if medium is None or medium_gpu.kind == MEDIUM_NONE:
-            return None
-        if medium_gpu.kind == MEDIUM_GRID and medium_gpu.slots[0].medium is not medium:
             return None
         if not medium.has_emission and medium.color_grid is None:
             return None
         if medium_gpu.kind != MEDIUM_GRID:
             return self._attributes.get(("constant",), lambda: AttributesGPU(self.gl, None))[0]
-        lattice = medium_gpu.slots[0].grid.key if medium_gpu.slots[0].grid is not None else None
-        key = (medium.grids_key, medium.density_key, lattice, medium_attributes.key(medium))
+        first = medium_gpu.slots[0].grid
+        if first is None:        # a homogeneous box marched with grids: it glows in its [-1, 1] box
+            return self._attributes.get(("constant", "box"),
+                                        lambda: AttributesGPU(self.gl, None, (3, 3, 3)))[0]
+        key = (medium.grids_key, medium.density_key, first.key, medium_attributes.key(medium))
 
         def build():
             self.counters["attribute_uploads"] += 1
             factor = medium_attributes.downsample_factor(medium, medium_gpu.box_to_world)
             return AttributesGPU(self.gl, medium_attributes.prepare_attributes(medium, factor),
-                                 medium_gpu.slots[0].grid.grid_size)
+                                 first.grid_size)
 
         return self._attributes.get(key, build)[0]
 
