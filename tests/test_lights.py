@@ -203,3 +203,23 @@ def test_a_fog_box_and_a_grid_together(renderer):
                   meshes=(plane_mesh((0, 0, 0), 8.0),))
     out, _ = _compare(renderer, scene)
     assert any("extinction colour" in w for w in out.warnings)     # grey smoke, coloured fog
+
+
+def test_a_gl_with_16_texture_units_renders_three_grids_and_names_the_fourth(fresh):
+    """Where the fragment shader has 16 texture units (the fewest GL guarantees) a pass reads 3
+    density grids (the 4th grid's unit is 16): every sampler a program then declares has a unit
+    below 16, the 4th medium is named and the image is that of the first three."""
+    from tfm_addon.engine.passes import bindings
+    info = fresh.gl.ctx.info
+    info["GL_MAX_TEXTURE_IMAGE_UNITS"] = 16        # moderngl keeps this dict: the GL now says 16
+    assert bindings.max_grids(fresh.gl) == 3
+    always = {n: u for n, u in bindings.UNIT.items() if u not in bindings.GRID_UNITS[3:]}
+    assert max(always.values()) < 16, always
+    media = tuple(_smoke(center=(x, 0.0, 1.2), size=1.0, seed=i + 1, name=f"S{i}")
+                  for i, x in enumerate((-1.5, -0.5, 0.5, 1.5)))
+    scene = Scene(camera=_camera(48, 27), lights=(_sun(),), media=media)
+    out = fresh.render(scene, SETTINGS)
+    assert any("At most 3 distinct density grids" in w and "'S3'" in w for w in out.warnings), out.warnings
+    ref = render_reference(dataclasses.replace(scene, media=media[:3]), **STEPS)
+    s, b = ssim(out.rgb, ref.rgb), brightness_ratio(out.rgb, ref.rgb)
+    assert s >= 0.99 and abs(b - 1) <= 0.02, (s, b)
