@@ -223,3 +223,16 @@ def test_a_gl_with_16_texture_units_renders_three_grids_and_names_the_fourth(fre
     ref = render_reference(dataclasses.replace(scene, media=media[:3]), **STEPS)
     s, b = ssim(out.rgb, ref.rgb), brightness_ratio(out.rgb, ref.rgb)
     assert s >= 0.99 and abs(b - 1) <= 0.02, (s, b)
+
+
+def test_replace_with_new_media_keeps_them():
+    """``dataclasses.replace(scene, media=...)`` renders the media it is given: it passed the old
+    first medium on as ``medium=``, which replaced the new first one (a scene without media got
+    none of the new ones)."""
+    a, b, c = _smoke(name="A"), _smoke(name="B"), _smoke(name="C")
+    bare, two = Scene(camera=_camera()), Scene(camera=_camera(), media=(a, b))
+    names = [[m.name for m in s.media] for s in (
+        dataclasses.replace(bare, media=(a, b)), dataclasses.replace(two, media=(c,)),
+        dataclasses.replace(two, medium=c), dataclasses.replace(two, medium=None),
+        dataclasses.replace(two, lights=()))]
+    assert names == [["A", "B"], ["C"], ["C", "B"], [], ["A", "B"]]
