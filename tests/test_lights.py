@@ -236,3 +236,24 @@ def test_replace_with_new_media_keeps_them():
         dataclasses.replace(two, medium=c), dataclasses.replace(two, medium=None),
         dataclasses.replace(two, lights=()))]
     assert names == [["A", "B"], ["C"], ["C", "B"], [], ["A", "B"]]
+
+
+@pytest.mark.parametrize("skipped", ["empty grid", "unbounded fog"])
+def test_auto_reads_the_first_medium_marched(renderer, skipped):
+    """AUTO chooses from the first medium the renderer marches, not from one it skips ahead of
+    it: behind an empty grid it chose 2 coefficients for a dense smoke (brightness 3.3 % off),
+    behind unbounded fog the homogeneous medium's settings."""
+    from tfm_addon.engine.renderer import effective_settings
+    dense = _smoke(sigma_s=(12.0,) * 3, sigma_a=(1.0,) * 3)
+    if skipped == "empty grid":
+        ahead = dataclasses.replace(_smoke(), density=np.zeros((8, 8, 8), np.float32), name="Empty")
+    else:
+        ahead = Medium(sigma_a=(0.0,) * 3, sigma_s=(0.0,) * 3, name="Unbounded")
+    auto = RenderSettings(quality="AUTO")
+    alone = Scene(camera=_camera(64, 36), lights=(_sun(),), media=(dense,))
+    behind = dataclasses.replace(alone, media=(ahead, dense))
+    assert effective_settings(behind, auto) == effective_settings(alone, auto)
+    ref = render_reference(alone, view_steps=128, light_steps=128)
+    out = renderer.render(behind, auto)
+    b = brightness_ratio(out.rgb, ref.rgb)
+    assert ssim(out.rgb, ref.rgb) >= 0.999 and abs(b - 1) <= 0.01, b

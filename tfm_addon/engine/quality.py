@@ -292,11 +292,28 @@ def auto_steps(voxels: float, sharpness: float) -> int:
     return int(min(MAX_STEPS, max(MIN_STEPS, math.ceil(per_voxel * voxels))))
 
 
+def marched_first(scene: Scene) -> Scene:
+    """``scene`` without the media in front of the first one the renderer marches (unbounded fog
+    beside other media, empty grids: it skips them), so that the rule reads that one."""
+    media = list(scene.media)
+    if len(media) > 1:
+        media = [m for m in media if m.density is not None or m.box_to_world is not None] or media
+    while len(media) > 1 and media[0].density is not None and _is_empty(media[0]):
+        media.pop(0)
+    return scene if len(media) == len(scene.media) else dataclasses.replace(scene, media=tuple(media))
+
+
+def _is_empty(m) -> bool:
+    lo, hi = _cached(("bounds", m.density_key), lambda: _summary(m)[3])
+    return any(h <= lo_ for lo_, h in zip(lo, hi, strict=True))     # nonzero_bounds: lo = hi
+
+
 def auto_settings(scene: Scene, settings: RenderSettings | None = None) -> RenderSettings:
     """``settings`` (default: RenderSettings()) with the quality knobs chosen for ``scene`` by
     the rule above. A pure function of the scene's content; the same scene gives the same
     settings."""
     settings = settings or RenderSettings()
+    scene = marched_first(scene)
     stats = medium_stats(scene)
     if stats is None:
         return settings
