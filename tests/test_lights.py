@@ -257,3 +257,21 @@ def test_auto_reads_the_first_medium_marched(renderer, skipped):
     out = renderer.render(behind, auto)
     b = brightness_ratio(out.rgb, ref.rgb)
     assert ssim(out.rgb, ref.rgb) >= 0.999 and abs(b - 1) <= 0.01, b
+
+
+def test_footprint_side_of_a_face_is_the_finest_its_grids_ask_for(fresh):
+    """A spot through a fog box and a smoke grid: its FOOTPRINT TFM has the grid's side whatever the
+    media's order (the box, first, set it: its 'voxel' is its half side, so 64 texels for 80)."""
+    fog = Medium(sigma_a=(0.02,) * 3, sigma_s=(0.25,) * 3, box_to_world=translate_scale((0, 0, 1.2), 1.6),
+                 name="Fog")
+    spot = Light(matrix_world=look_at((-2.5, -1.0, 4.0), (0, 0, 1.0)), power_w=1500.0,
+                 spot_size_rad=math.radians(45), spot_blend=0.2)
+    smoke = Medium(sigma_a=(0.2,) * 3, sigma_s=(6.0,) * 3, density=smoke_density(64, seed=1),
+                   index_to_world=grid_to_world((64, 64, 64), 2.0, (0, 0, 1.2)), name="Smoke")
+    settings = dataclasses.replace(SETTINGS, map_resolution=512, tfm_resolution="FOOTPRINT")
+    sides = []
+    for media in ((smoke, fog), (fog, smoke)):
+        fresh.clear_maps()
+        fresh.render(Scene(camera=_camera(64, 36), lights=(spot,), media=media), settings, map_image_side=512)
+        sides.append(sorted(k[4] for k in fresh._tfms.items if k[-1] != "alpha"))
+    assert sides[0] == sides[1] == [80], sides

@@ -484,9 +484,8 @@ class Renderer:
                     if settings.method == "BRUTE_FORCE":
                         light_t = LIGHT_T_MARCH
                     else:
-                        side = _face_tfm_resolution(settings, frame, medium_gpu.slots[reached[0]], res,
-                                                    image_side or max(scene.camera.width_px,
-                                                                      scene.camera.height_px))
+                        side = _face_side(settings, frame, medium_gpu.slots, reached, res,
+                                          image_side or max(scene.camera.width_px, scene.camera.height_px))
                         tfm, tfm_sigma = self._tfm(scene, settings, light, frame, medium_gpu, shadow,
                                                    side, reached, warnings)
                         light_t = LIGHT_T_TFM if tfm is not None else LIGHT_T_NONE
@@ -606,9 +605,16 @@ def _slot_key(slot: MediumSlot) -> tuple:
     return (grid, tuple(np.round(slot.world_to_box, 12).ravel()))
 
 
+def _face_side(settings, frame: LightFrame, slots, reached, map_res: int, image_side: int) -> int:
+    """The TFM side of a face: the finest that the grids it reaches ask for (a homogeneous box has
+    no voxel; it sets the side only where the face reaches no grid), whatever the media's order."""
+    grids = [i for i in reached if slots[i].grid is not None] or reached
+    return max(_face_tfm_resolution(settings, frame, slots[i], map_res, image_side) for i in grids)
+
+
 def _face_tfm_resolution(settings, frame: LightFrame, slot: MediumSlot, map_res: int, image_side: int) -> int:
-    """The TFM side of a face (passes/tfm.tfm_resolution, the 'FOOTPRINT' rule read on the first
-    medium the face reaches); an orthographic face's footprint is its extent over the voxel."""
+    """The TFM side of a face for one medium (passes/tfm.tfm_resolution, the 'FOOTPRINT' rule read
+    on ``slot``); an orthographic face's footprint is its extent over the voxel."""
     if frame.ortho and settings.tfm_resolution == "FOOTPRINT":
         voxel = float(np.linalg.norm(slot.box_to_world[:3, :3], axis=0).min())
         cap = min(map_res, max(int(image_side), MIN_FOOTPRINT_RESOLUTION))
