@@ -199,3 +199,22 @@ def test_the_first_marched_medium_emits(renderer, first):
     assert ref.max() > 0.05
     assert np.all(np.abs(ratio - 1.0) <= 0.02), ratio
     assert metrics.ssim(out, ref) >= 0.98
+
+
+def test_moving_an_emitting_medium_uploads_no_attribute_grid(fresh):
+    """A move of a fire changes its placement only: no grid or attribute texture is uploaded again
+    (the attributes were keyed by the placement: one upload per move), and the image is that of a
+    renderer that builds everything."""
+    scene = scenes.fire_scene(48, 27, 24, kind="FIRE", with_light=True)
+    fresh.render(scene, SETTINGS)
+    placed = scene.medium.index_to_world.copy()
+    placed[0, 3] += 0.3
+    moved = dataclasses.replace(scene, medium=dataclasses.replace(scene.medium, index_to_world=placed))
+    before = dict(fresh.counters)
+    out = fresh.render(moved, SETTINGS).combined
+    assert fresh.counters["attribute_uploads"] == before["attribute_uploads"]
+    assert fresh.counters["grid_uploads"] == before["grid_uploads"]
+    fresh.clear_maps()
+    again = fresh.render(moved, SETTINGS).combined
+    assert fresh.counters["attribute_uploads"] == before["attribute_uploads"] + 1
+    assert np.abs(out - again).max() <= 1e-6

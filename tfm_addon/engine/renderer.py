@@ -429,8 +429,8 @@ class Renderer:
         """The emission and colour-grid textures of ``medium`` (the first medium marched), or
         None when it has neither. Keyed by the grids, the lattice they are uploaded on and, for
         the blackbody term evaluated per voxel, the temperature and intensity; not by the
-        emission colour, strength or tint. (Only the first medium emits or reads a colour grid:
-        the others are named.)"""
+        placement, nor the emission colour, strength or tint. (Only the first medium emits or
+        reads a colour grid: the others are named.)"""
         if medium is None or medium_gpu.kind == MEDIUM_NONE:
             return None
         if not medium.has_emission and medium.color_grid is None:
@@ -441,7 +441,10 @@ class Renderer:
         if first is None:        # a homogeneous box marched with grids: it glows in its [-1, 1] box
             return self._attributes.get(("constant", "box"),
                                         lambda: AttributesGPU(self.gl, None, (3, 3, 3)))[0]
-        key = (medium.grids_key, medium.density_key, first.key, medium_attributes.key(medium))
+        # Not by the placement: moving the medium re-uploads nothing (the lattice is first.key's).
+        content = (medium.grids_key if medium.source_key is None
+                   else ("source", medium.source_key, tuple(sorted(medium.grids))))
+        key = (content, first.key, medium_attributes.key(medium))
 
         def build():
             self.counters["attribute_uploads"] += 1
