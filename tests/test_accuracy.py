@@ -179,3 +179,23 @@ def test_auto_quality_is_what_the_renderer_uses_and_reaches_ssim_099(renderer, s
     np.testing.assert_array_equal(auto.combined, explicit.combined)
     assert chosen.density_weight is None and 1 <= chosen.coefficients <= 16
     assert ssim(auto.rgb, ref.rgb) >= 0.99
+
+
+def test_auto_summarises_a_grid_once_whatever_its_placement():
+    """Moving a volume redoes AUTO's light part only: the grid's summary (cleaning, coarse copy,
+    sharpness, bounds) is the content's (it was keyed by the placement: ~45 ms per move at 128^3)."""
+    import dataclasses
+
+    from tfm_addon.engine import quality
+    from tfm_addon.scenes import smoke_scene
+
+    scene = smoke_scene(width=32, height=18, n=24)
+    quality._cache.clear()
+    quality.auto_settings(scene)
+    placed = scene.medium.index_to_world.copy()
+    for dx in (0.1, 0.2):
+        placed[0, 3] += dx
+        medium = dataclasses.replace(scene.medium, index_to_world=placed.copy())
+        quality.auto_settings(dataclasses.replace(scene, medium=medium))
+    assert sum(k[0] == "grid" for k in quality._cache) == 1
+    assert sum(k[0] == "light" for k in quality._cache) == 3      # the light part per placement

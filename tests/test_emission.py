@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from tfm_addon import scenes
-from tfm_addon.engine import Medium, Renderer, RenderSettings, blackbody, metrics
+from tfm_addon.engine import Medium, Renderer, RenderSettings, Scene, blackbody, metrics
 from tfm_addon.engine.reference import blackbody_rec709, render_reference
 from tfm_addon.engine.scene import HASHED, GridValue
 
@@ -179,3 +179,42 @@ def test_every_sampler_of_the_light_map_and_probe_shaders_has_its_own_unit():
         assert names <= set(bindings.UNIT), (program, sorted(names - set(bindings.UNIT)))
         units = [bindings.UNIT[n] for n in names]
         assert len(set(units)) == len(units), (program, sorted((bindings.UNIT[n], n) for n in names))
+
+
+@pytest.mark.parametrize("first", ["glowing box", "empty grid before it"])
+def test_the_first_marched_medium_emits(renderer, first):
+    """The medium that emits is the first one marched: a glowing fog box beside a smoke grid
+    (crashed: the attributes read the box's missing grid), or after a skipped empty grid (its
+    emission was dropped in silence: 0 % of the reference's light)."""
+    from tests.test_lights import _camera, _smoke
+    glow = Medium(sigma_a=(0.1,) * 3, sigma_s=(0.3,) * 3, name="Glow", box_to_world=scenes.translate_scale(
+        (0.8, 0.0, 1.0), 1.0), emission_color=(1.0, 0.5, 0.2), emission_strength=GridValue(offset=0.8))
+    media = (glow, _smoke())
+    if first != "glowing box":
+        media = (dataclasses.replace(_smoke(), density=np.zeros((8, 8, 8), np.float32), name="Empty"), *media)
+    scene = Scene(camera=_camera(48, 27), lights=(), media=media)
+    out = renderer.render(scene, SETTINGS).combined[..., :3]
+    ref = render_reference(scene, view_steps=96, light_steps=96).combined[..., :3]
+    ratio = out.sum(axis=(0, 1)) / ref.sum(axis=(0, 1))
+    assert ref.max() > 0.05
+    assert np.all(np.abs(ratio - 1.0) <= 0.02), ratio
+    assert metrics.ssim(out, ref) >= 0.98
+
+
+def test_moving_an_emitting_medium_uploads_no_attribute_grid(fresh):
+    """A move of a fire changes its placement only: no grid or attribute texture is uploaded again
+    (the attributes were keyed by the placement: one upload per move), and the image is that of a
+    renderer that builds everything."""
+    scene = scenes.fire_scene(48, 27, 24, kind="FIRE", with_light=True)
+    fresh.render(scene, SETTINGS)
+    placed = scene.medium.index_to_world.copy()
+    placed[0, 3] += 0.3
+    moved = dataclasses.replace(scene, medium=dataclasses.replace(scene.medium, index_to_world=placed))
+    before = dict(fresh.counters)
+    out = fresh.render(moved, SETTINGS).combined
+    assert fresh.counters["attribute_uploads"] == before["attribute_uploads"]
+    assert fresh.counters["grid_uploads"] == before["grid_uploads"]
+    fresh.clear_maps()
+    again = fresh.render(moved, SETTINGS).combined
+    assert fresh.counters["attribute_uploads"] == before["attribute_uploads"] + 1
+    assert np.abs(out - again).max() <= 1e-6

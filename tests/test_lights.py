@@ -203,3 +203,75 @@ def test_a_fog_box_and_a_grid_together(renderer):
                   meshes=(plane_mesh((0, 0, 0), 8.0),))
     out, _ = _compare(renderer, scene)
     assert any("extinction colour" in w for w in out.warnings)     # grey smoke, coloured fog
+
+
+def test_a_gl_with_16_texture_units_renders_three_grids_and_names_the_fourth(fresh):
+    """Where the fragment shader has 16 texture units (the fewest GL guarantees) a pass reads 3
+    density grids (the 4th grid's unit is 16): every sampler a program then declares has a unit
+    below 16, the 4th medium is named and the image is that of the first three."""
+    from tfm_addon.engine.passes import bindings
+    info = fresh.gl.ctx.info
+    info["GL_MAX_TEXTURE_IMAGE_UNITS"] = 16        # moderngl keeps this dict: the GL now says 16
+    assert bindings.max_grids(fresh.gl) == 3
+    always = {n: u for n, u in bindings.UNIT.items() if u not in bindings.GRID_UNITS[3:]}
+    assert max(always.values()) < 16, always
+    media = tuple(_smoke(center=(x, 0.0, 1.2), size=1.0, seed=i + 1, name=f"S{i}")
+                  for i, x in enumerate((-1.5, -0.5, 0.5, 1.5)))
+    scene = Scene(camera=_camera(48, 27), lights=(_sun(),), media=media)
+    out = fresh.render(scene, SETTINGS)
+    assert any("At most 3 distinct density grids" in w and "'S3'" in w for w in out.warnings), out.warnings
+    ref = render_reference(dataclasses.replace(scene, media=media[:3]), **STEPS)
+    s, b = ssim(out.rgb, ref.rgb), brightness_ratio(out.rgb, ref.rgb)
+    assert s >= 0.99 and abs(b - 1) <= 0.02, (s, b)
+
+
+def test_replace_with_new_media_keeps_them():
+    """``dataclasses.replace(scene, media=...)`` renders the media it is given: it passed the old
+    first medium on as ``medium=``, which replaced the new first one (a scene without media got
+    none of the new ones)."""
+    a, b, c = _smoke(name="A"), _smoke(name="B"), _smoke(name="C")
+    bare, two = Scene(camera=_camera()), Scene(camera=_camera(), media=(a, b))
+    names = [[m.name for m in s.media] for s in (
+        dataclasses.replace(bare, media=(a, b)), dataclasses.replace(two, media=(c,)),
+        dataclasses.replace(two, medium=c), dataclasses.replace(two, medium=None),
+        dataclasses.replace(two, lights=()))]
+    assert names == [["A", "B"], ["C"], ["C", "B"], [], ["A", "B"]]
+
+
+@pytest.mark.parametrize("skipped", ["empty grid", "unbounded fog"])
+def test_auto_reads_the_first_medium_marched(renderer, skipped):
+    """AUTO chooses from the first medium the renderer marches, not from one it skips ahead of
+    it: behind an empty grid it chose 2 coefficients for a dense smoke (brightness 3.3 % off),
+    behind unbounded fog the homogeneous medium's settings."""
+    from tfm_addon.engine.renderer import effective_settings
+    dense = _smoke(sigma_s=(12.0,) * 3, sigma_a=(1.0,) * 3)
+    if skipped == "empty grid":
+        ahead = dataclasses.replace(_smoke(), density=np.zeros((8, 8, 8), np.float32), name="Empty")
+    else:
+        ahead = Medium(sigma_a=(0.0,) * 3, sigma_s=(0.0,) * 3, name="Unbounded")
+    auto = RenderSettings(quality="AUTO")
+    alone = Scene(camera=_camera(64, 36), lights=(_sun(),), media=(dense,))
+    behind = dataclasses.replace(alone, media=(ahead, dense))
+    assert effective_settings(behind, auto) == effective_settings(alone, auto)
+    ref = render_reference(alone, view_steps=128, light_steps=128)
+    out = renderer.render(behind, auto)
+    b = brightness_ratio(out.rgb, ref.rgb)
+    assert ssim(out.rgb, ref.rgb) >= 0.999 and abs(b - 1) <= 0.01, b
+
+
+def test_footprint_side_of_a_face_is_the_finest_its_grids_ask_for(fresh):
+    """A spot through a fog box and a smoke grid: its FOOTPRINT TFM has the grid's side whatever the
+    media's order (the box, first, set it: its 'voxel' is its half side, so 64 texels for 80)."""
+    fog = Medium(sigma_a=(0.02,) * 3, sigma_s=(0.25,) * 3, box_to_world=translate_scale((0, 0, 1.2), 1.6),
+                 name="Fog")
+    spot = Light(matrix_world=look_at((-2.5, -1.0, 4.0), (0, 0, 1.0)), power_w=1500.0,
+                 spot_size_rad=math.radians(45), spot_blend=0.2)
+    smoke = Medium(sigma_a=(0.2,) * 3, sigma_s=(6.0,) * 3, density=smoke_density(64, seed=1),
+                   index_to_world=grid_to_world((64, 64, 64), 2.0, (0, 0, 1.2)), name="Smoke")
+    settings = dataclasses.replace(SETTINGS, map_resolution=512, tfm_resolution="FOOTPRINT")
+    sides = []
+    for media in ((smoke, fog), (fog, smoke)):
+        fresh.clear_maps()
+        fresh.render(Scene(camera=_camera(64, 36), lights=(spot,), media=media), settings, map_image_side=512)
+        sides.append(sorted(k[4] for k in fresh._tfms.items if k[-1] != "alpha"))
+    assert sides[0] == sides[1] == [80], sides

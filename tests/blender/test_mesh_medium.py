@@ -135,8 +135,9 @@ def test_orbit_rebuilds_nothing_and_an_edit_rebuilds_once(blank, tmp_path):
     assert dict(worker.counters)["grid_uploads"] == after.get("grid_uploads", 0) + 1
 
 
-def test_instances_share_one_grid(blank, tmp_path):
-    """Two linked duplicates of a mesh medium: two media, one voxelisation, one density array."""
+def test_instances_share_one_grid(blank, tmp_path, monkeypatch):
+    """Two linked duplicates of a mesh medium: two media, one voxelisation, one density array,
+    the mesh's triangles read once (they were read and hashed per instance)."""
     builder = _mod("blender.scene_builder")
     builder.build(_scene("sphere"), str(tmp_path), settings=SETTINGS)
     ob = _add_medium("sphere", builder)
@@ -146,8 +147,13 @@ def test_instances_share_one_grid(blank, tmp_path):
     cache = _mod("engine.mesh_volume").occupancy_cache
     cache.clear()
     built = cache.counters["voxelisations"]
+    meshes, reads = _mod("blender.meshes"), []
+    triangles = meshes.triangles
+    monkeypatch.setattr(meshes, "triangles", lambda evaluated: reads.append(1) or triangles(evaluated))
     ex = _mod("blender.extract").extract(bpy.context.evaluated_depsgraph_get())
+    monkeypatch.undo()
     assert len(ex.media) == 2 and ex.media[0].density is ex.media[1].density
+    assert len(reads) == 2      # the twins' one mesh, and the ground
     assert cache.counters["voxelisations"] == built + 1
     shift = ex.media[1].index_to_world[:3, 3] - ex.media[0].index_to_world[:3, 3]
     np.testing.assert_allclose(shift, (2.0, 0.0, 0.0), atol=1e-6)

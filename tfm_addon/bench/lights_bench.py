@@ -11,21 +11,11 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from dataclasses import dataclass
 
 from ..engine import Light, Medium, Renderer, RenderSettings, Scene
 from ..scenes import grid_to_world, look_at, plane_mesh, smoke_density, smoke_scene, translate_scale
+from .renderer_bench import Size  # width, height, grid, map_resolution, repeats
 from .timing import time_side_by_side
-
-
-@dataclass(frozen=True)
-class Size:
-    width: int
-    height: int
-    grid: int
-    map_resolution: int
-    repeats: int
-
 
 FULL = Size(320, 180, 64, 256, 3)
 QUICK = Size(48, 27, 16, 32, 1)

@@ -261,7 +261,8 @@ def _walk_instances(depsgraph, parts: Change, cache: GridCache,
             if materials.has_volume_only(material):
                 if Change.MEDIUM in parts:
                     media.append(_label(instance))
-                    found = _mesh_medium(instance, material, notes[Change.MEDIUM], volume_resolution)
+                    found = _mesh_medium(instance, material, notes[Change.MEDIUM], volume_resolution,
+                                         arrays)
                     _medium_visibility_notes(depsgraph, instance, notes[Change.MEDIUM])
                     if found is not None:
                         found_media.append(replace(found, name=_label(instance)))
@@ -486,9 +487,11 @@ def _fluid_medium(instance, frame: int, cache: GridCache, notes: list[str],
 
 
 def _mesh_medium(instance, material, notes: list[str],
-                 resolution: int = mesh_volume.DEFAULT_RESOLUTION) -> Medium | None:
+                 resolution: int = mesh_volume.DEFAULT_RESOLUTION,
+                 arrays: dict | None = None) -> Medium | None:
     """A mesh with a volume-only material: the medium inside its surface, a coverage grid
-    voxelised once per shape (engine/mesh_volume.py) and placed by the instance's matrix."""
+    voxelised once per shape (engine/mesh_volume.py) and placed by the instance's matrix.
+    ``arrays``: evaluated mesh data -> (vertices, triangles), shared by the instances of a walk."""
     ob = instance.object
     label = f"Object '{_label(instance)}'"
     read = _sigma(material, None, label, notes)
@@ -496,13 +499,17 @@ def _mesh_medium(instance, material, notes: list[str],
         # Principled Volume's Density Attribute ("density") reads 1 on a mesh, as in Cycles.
         notes.append(f"{label}: a mesh has no grid '{read['grid']}'; its medium has the material's "
                      f"constant density")
-    arrays = meshes.triangles(ob)
-    if arrays is None:
+    arrays = {} if arrays is None else arrays
+    key = ob.data.as_pointer() if ob.type == 'MESH' else ob.as_pointer()
+    if key not in arrays:        # instances of one mesh read and hash its triangles once
+        arrays[key] = meshes.triangles(ob)
+    mesh = arrays[key]
+    if mesh is None:
         notes.append(f"{label}: the mesh has no faces, so it holds no medium")
         return None
     fields = _drop_missing(read["fields"], {}, label, notes, "is not rendered in a mesh medium")
     medium, mesh_notes = mesh_volume.mesh_medium(
-        arrays[0], arrays[1], np.array(instance.matrix_world), resolution=resolution, label=label,
+        mesh[0], mesh[1], np.array(instance.matrix_world), resolution=resolution, label=label,
         **fields)
     notes.extend(mesh_notes)
     return medium

@@ -96,7 +96,7 @@ def _bounds_of(m):
     """(world -> local matrix, lo, hi, local units per voxel): the medium's box in its own space."""
     if m.density is not None:
         to_local = np.linalg.inv(np.asarray(m.index_to_world, dtype=np.float64))
-        lo, hi = _cached(("bounds", m.density_key), lambda: _summary(m)[3])
+        lo, hi = _cached(("bounds", m.grid_key), lambda: _summary(m)[3])
         return to_local, np.asarray(lo), np.asarray(hi), 1.0
     if m.box_to_world is not None:
         return np.linalg.inv(np.asarray(m.box_to_world, dtype=np.float64)), -np.ones(3), np.ones(3), None
@@ -175,9 +175,10 @@ def _camera_rays(scene: Scene, n: int) -> tuple[np.ndarray, np.ndarray]:
 
 def medium_stats(scene: Scene) -> MediumStats | None:
     """The numbers the rule reads, or None without a medium. Each part is cached by what it
-    depends on: the grid's (coarse copy, sharpness) by the density, the optical depth and light
-    chord by the density and light (not sigma: the optical depth is sigma times a density
-    integral), so that a camera or light move costs milliseconds and a sigma edit nothing."""
+    depends on: the grid's (coarse copy, sharpness, bounds) by its content, not its placement,
+    the optical depth and light chord by the placed density and light (not sigma: the optical
+    depth is sigma times a density integral), so that a camera, light or volume move costs
+    milliseconds and a sigma edit nothing."""
     m = scene.medium
     if m is None:
         return None
@@ -240,7 +241,7 @@ def _cached(key, build):
 
 
 def _summary(m):
-    return _cached(("grid", m.density_key), lambda: _grid_summary(m))
+    return _cached(("grid", m.grid_key), lambda: _grid_summary(m))
 
 
 def _grid_summary(m) -> tuple[np.ndarray, int, float, tuple]:
@@ -332,11 +333,28 @@ def auto_steps(voxels: float, sharpness: float, per_voxel_range: tuple[float, fl
     return int(min(MAX_STEPS, max(min_steps, math.ceil(per_voxel * voxels))))
 
 
+def marched_first(scene: Scene) -> Scene:
+    """``scene`` without the media in front of the first one the renderer marches (unbounded fog
+    beside other media, empty grids: it skips them), so that the rule reads that one."""
+    media = list(scene.media)
+    if len(media) > 1:
+        media = [m for m in media if m.density is not None or m.box_to_world is not None] or media
+    while len(media) > 1 and media[0].density is not None and _is_empty(media[0]):
+        media.pop(0)
+    return scene if len(media) == len(scene.media) else dataclasses.replace(scene, media=tuple(media))
+
+
+def _is_empty(m) -> bool:
+    lo, hi = _cached(("bounds", m.grid_key), lambda: _summary(m)[3])
+    return any(h <= lo_ for lo_, h in zip(lo, hi, strict=True))     # nonzero_bounds: lo = hi
+
+
 def auto_settings(scene: Scene, settings: RenderSettings | None = None) -> RenderSettings:
     """``settings`` (default: RenderSettings()) with the quality knobs chosen for ``scene`` by
     the rule above. A pure function of the scene's content; the same scene gives the same
     settings."""
     settings = settings or RenderSettings()
+    scene = marched_first(scene)
     stats = medium_stats(scene)
     if stats is None:
         return settings

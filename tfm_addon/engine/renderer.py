@@ -228,7 +228,10 @@ class Renderer:
             t0 = time.perf_counter()
             medium_gpu, medium_warnings = self._medium(scene, settings)
             warnings += medium_warnings
-            attributes = self._medium_attributes(scene, settings, medium_gpu)
+            # The medium that emits and reads its colour grid: the first one marched (the scene's
+            # first may have been skipped: unbounded fog beside other media, an empty grid).
+            medium = medium_gpu.slots[0].medium if medium_gpu.kind == MEDIUM_GRID else scene.medium
+            attributes = self._medium_attributes(medium, medium_gpu)
             warnings += attributes.warnings if attributes is not None else []
             casters = self._solid_set(scene.shadow_casters)
             seen = self._solid_set(scene.camera_meshes)
@@ -256,7 +259,7 @@ class Renderer:
             targets.begin(gl.ctx)
             gbuffer.bind()
             ambient = scene.ambient if settings.ambient else (0.0, 0.0, 0.0)
-            common = dict(camera=scene.camera, plane=plane, medium=scene.medium,
+            common = dict(camera=scene.camera, plane=plane, medium=medium,
                           medium_gpu=medium_gpu, settings=settings, ambient=ambient,
                           attributes=attributes)
             if not plans:
@@ -425,29 +428,32 @@ class Renderer:
         gpu.key = tuple(_slot_key(s) for s in slots)
         return gpu, warnings
 
-    def _medium_attributes(self, scene: Scene, settings: RenderSettings,
-                           medium_gpu: MediaGPU) -> AttributesGPU | None:
-        """The first medium's emission and colour-grid textures, or None when it has neither.
-        Keyed by the grids, the lattice they are uploaded on and, for the blackbody term
-        evaluated per voxel, the temperature and intensity; not by the emission colour, strength
-        or tint. (Only the first medium emits or reads a colour grid: the others are named.)"""
-        medium = scene.medium
+    def _medium_attributes(self, medium, medium_gpu: MediaGPU) -> AttributesGPU | None:
+        """The emission and colour-grid textures of ``medium`` (the first medium marched), or
+        None when it has neither. Keyed by the grids, the lattice they are uploaded on and, for
+        the blackbody term evaluated per voxel, the temperature and intensity; not by the
+        placement, nor the emission colour, strength or tint. (Only the first medium emits or
+        reads a colour grid: the others are named.)"""
         if medium is None or medium_gpu.kind == MEDIUM_NONE:
-            return None
-        if medium_gpu.kind == MEDIUM_GRID and medium_gpu.slots[0].medium is not medium:
             return None
         if not medium.has_emission and medium.color_grid is None:
             return None
         if medium_gpu.kind != MEDIUM_GRID:
             return self._attributes.get(("constant",), lambda: AttributesGPU(self.gl, None))[0]
-        lattice = medium_gpu.slots[0].grid.key if medium_gpu.slots[0].grid is not None else None
-        key = (medium.grids_key, medium.density_key, lattice, medium_attributes.key(medium))
+        first = medium_gpu.slots[0].grid
+        if first is None:        # a homogeneous box marched with grids: it glows in its [-1, 1] box
+            return self._attributes.get(("constant", "box"),
+                                        lambda: AttributesGPU(self.gl, None, (3, 3, 3)))[0]
+        # Not by the placement: moving the medium re-uploads nothing (the lattice is first.key's).
+        content = (medium.grids_key if medium.source_key is None
+                   else ("source", medium.source_key, tuple(sorted(medium.grids))))
+        key = (content, first.key, medium_attributes.key(medium))
 
         def build():
             self.counters["attribute_uploads"] += 1
             factor = medium_attributes.downsample_factor(medium, medium_gpu.box_to_world)
             return AttributesGPU(self.gl, medium_attributes.prepare_attributes(medium, factor),
-                                 medium_gpu.slots[0].grid.grid_size)
+                                 first.grid_size)
 
         return self._attributes.get(key, build)[0]
 
@@ -484,9 +490,8 @@ class Renderer:
                     if settings.method == "BRUTE_FORCE":
                         light_t = LIGHT_T_MARCH
                     else:
-                        side = _face_tfm_resolution(settings, frame, medium_gpu.slots[reached[0]], res,
-                                                    image_side or max(scene.camera.width_px,
-                                                                      scene.camera.height_px))
+                        side = _face_side(settings, frame, medium_gpu.slots, reached, res,
+                                          image_side or max(scene.camera.width_px, scene.camera.height_px))
                         tfm, tfm_sigma = self._tfm(scene, settings, light, frame, medium_gpu, shadow,
                                                    side, reached, warnings)
                         light_t = LIGHT_T_TFM if tfm is not None else LIGHT_T_NONE
@@ -655,10 +660,17 @@ def _slot_key(slot: MediumSlot) -> tuple:
     return (grid, tuple(np.round(slot.world_to_box, 12).ravel()))
 
 
+def _face_side(settings, frame: LightFrame, slots, reached, map_res: int, image_side: int) -> int:
+    """The TFM side of a face: the finest that the grids it reaches ask for (a homogeneous box has
+    no voxel; it sets the side only where the face reaches no grid), whatever the media's order."""
+    grids = [i for i in reached if slots[i].grid is not None] or reached
+    return max(_face_tfm_resolution(settings, frame, slots[i], map_res, image_side) for i in grids)
+
+
 def _face_tfm_resolution(settings, frame: LightFrame, slot: MediumSlot, map_res: int, image_side: int) -> int:
-    """The TFM side of a face (passes/tfm.tfm_resolution, the 'FOOTPRINT' rule read on the first
-    medium the face reaches, at quality.footprint_texels_per_voxel of its density); an
-    orthographic face's footprint is its extent over the voxel."""
+    """The TFM side of a face for one medium (passes/tfm.tfm_resolution, the FOOTPRINT rule read
+    on ``slot``, at quality.footprint_texels_per_voxel of its density); an orthographic face's footprint
+    is its extent over the voxel."""
     per_voxel = footprint_texels_per_voxel(slot.medium) if settings.tfm_resolution == "FOOTPRINT" else 1.0
     if frame.ortho and settings.tfm_resolution == "FOOTPRINT":
         voxel = float(np.linalg.norm(slot.box_to_world[:3, :3], axis=0).min())

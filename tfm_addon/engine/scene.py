@@ -434,6 +434,10 @@ class RenderSettings:
 _UNSET = object()
 
 
+class _Media(tuple):
+    """A Scene's media as it stored them (so that ``replace`` tells them from media it is given)."""
+
+
 @dataclass(frozen=True, eq=False)
 class Scene:
     """Everything to render one frame. ``ambient`` is the world colour (radiance, W/(sr m^2))
@@ -443,7 +447,8 @@ class Scene:
     ``media``: every participating medium; where they overlap their coefficients add up.
     ``medium`` (a property) is the first of them, None without media. For compatibility the
     constructor (and ``dataclasses.replace``) also takes ``medium=``: a Medium replaces
-    ``media[0]`` (or makes ``media == (medium,)``), None removes every medium.
+    ``media[0]`` (or makes ``media == (medium,)``), None removes every medium; media given
+    explicitly (non-empty) win over ``medium=``.
     """
 
     camera: Camera
@@ -457,11 +462,14 @@ class Scene:
     def __post_init__(self, medium):
         object.__setattr__(self, "lights", tuple(self.lights))
         object.__setattr__(self, "meshes", tuple(self.meshes))
-        media = tuple(m for m in self.media if m is not None)
-        if medium is None:
-            media = ()
+        given = self.media
+        media = _Media(m for m in given if m is not None)
+        if media and not isinstance(given, _Media):
+            pass     # media given: they win (``replace`` passes the old first medium as ``medium``)
+        elif medium is None:
+            media = _Media()
         elif medium is not _UNSET and (not media or medium is not media[0]):
-            media = (medium, *media[1:])
+            media = _Media((medium, *media[1:]))
         object.__setattr__(self, "media", media)
 
     @cached_property
