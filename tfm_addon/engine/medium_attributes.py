@@ -27,7 +27,7 @@ class PreparedAttributes:
     blackbody_grid: bool
     color: np.ndarray | None
     warnings: list[str] = field(default_factory=list)
-    emission_box: tuple[tuple[float, ...], tuple[float, ...]] | None = None  # index space; None: grid box
+    emission_box: tuple[tuple[float, ...], tuple[float, ...]] | None = None  # where grids emit, index space
 
 
 
@@ -102,23 +102,37 @@ def prepare_attributes(medium: Medium, factor: int) -> PreparedAttributes:
     return PreparedAttributes(scalars, strength, bb, color, warnings, _emission_box(medium, scalars))
 
 
-def _emission_box(medium: Medium, scalars: np.ndarray | None):
-    """Index-space bounds of the voxels that can emit, one voxel wider (the trilinear support);
-    None when a constant emits everywhere in the grid's box."""
-    v = medium.emission_strength
-    strength_constant = v.offset > 0.0 and any(c != 0.0 for c in medium.emission_color)
-    if scalars is None or strength_constant or not uses_blackbody_grid(medium) and \
-            medium.blackbody_intensity.offset > 0.0:
-        return None
+def emitting_voxels(scalars: np.ndarray, strength_grid: bool, blackbody_grid: bool) -> np.ndarray:
+    """(nx, ny, nz) bool: the voxels whose grids can emit (a strength grid above 0, a blackbody
+    term not 0), whatever the strength's scale and offset (uniforms) are."""
     live = np.zeros(scalars.shape[:3], bool)
-    if uses_strength_grid(medium) and v.scale > 0.0:
+    if strength_grid:
         live |= scalars[..., STRENGTH] > 0.0
-    if uses_blackbody_grid(medium):
+    if blackbody_grid:
         live |= np.any(scalars[..., BLACKBODY:] != 0.0, axis=-1)
+    return live
+
+
+def _emission_box(medium: Medium, scalars: np.ndarray | None):
+    """Index-space bounds of the voxels whose grids can emit, one voxel wider (the trilinear
+    support); None when the emission reads no grid. A constant part of the emission (a strength
+    offset, a blackbody term without grid) glows in the whole grid box besides: passes/emission
+    widens the box to it when it binds, since that part is a uniform."""
+    if scalars is None:
+        return None
+    live = emitting_voxels(scalars, uses_strength_grid(medium), uses_blackbody_grid(medium))
     if not live.any():
         return ((0.0, 0.0, 0.0), (-1.0, -1.0, -1.0))
     idx = np.argwhere(live)
     return (tuple(float(x) - 1.0 for x in idx.min(axis=0)), tuple(float(x) + 1.0 for x in idx.max(axis=0)))
+
+
+def constant_emits(medium: Medium) -> bool:
+    """Whether a constant part of the emission glows wherever the medium is: a strength offset
+    above 0 with a colour, or a blackbody term that reads no grid."""
+    glows = medium.emission_strength.offset > 0.0 and any(c != 0.0 for c in medium.emission_color)
+    burns = any(c != 0.0 for c in medium.blackbody_tint) and any(c != 0.0 for c in constant_blackbody(medium))
+    return medium.has_emission and (glows or burns)
 
 
 def constant_blackbody(medium: Medium) -> tuple[float, float, float]:

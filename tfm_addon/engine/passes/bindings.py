@@ -102,7 +102,7 @@ class MediumGPU:
                                             dtype=dtype)
             self.texture.filter = (gl.ctx.LINEAR, gl.ctx.LINEAR)
             self.texture.repeat_x = self.texture.repeat_y = self.texture.repeat_z = False
-            occ = occupancy(data)
+            occ = self.occupancy_cells = occupancy(data)
             self.occupancy_size = occ.shape[::-1]
             self.occupancy = gl.ctx.texture3d(self.occupancy_size, 1, occ.tobytes(), dtype="f1")
             self.occupancy.filter = (gl.ctx.NEAREST, gl.ctx.NEAREST)

@@ -27,15 +27,16 @@ float density_at_index(vec3 idx) {
     return texture(u_density, (idx + 1.5) / u_grid_size).r * u_density_scale;
 }
 
-// Empty-space skipping: u_occupancy is 1 where a cell of u_occupancy_block^3 padded voxels may
-// hold non-zero density (passes/bindings.occupancy). The ray parameter where the ray ob + db t
-// (box space) leaves the empty cell holding its point at t, or t when that cell is not empty.
+// Empty-space skipping: u_occupancy's R is 1 where a cell of u_occupancy_block^3 padded voxels may
+// hold non-zero density (passes/bindings.occupancy), its G (an emitting medium's, passes/emission)
+// where the cell may emit. The ray parameter where the ray ob + db t (box space) leaves the empty
+// cell holding its point at t, or t when that cell is not empty.
 uniform sampler3D u_occupancy;
 uniform float u_occupancy_block;
 float skip_empty(vec3 ob, vec3 db, float t) {
     ivec3 cell = clamp(ivec3(floor((ob + db * t + 1.0) / u_occupancy_block)), ivec3(0),
                        textureSize(u_occupancy, 0) - 1);
-    if (texelFetch(u_occupancy, cell, 0).r > 0.0) return t;
+    if (any(greaterThan(texelFetch(u_occupancy, cell, 0).rg, vec2(0.0)))) return t;
     db = mix(db, vec3(1e-12), lessThan(abs(db), vec3(1e-12)));
     vec3 tb = ((vec3(cell) + step(0.0, db)) * u_occupancy_block - 1.0 - ob) / db;
     return max(t, min(min(tb.x, tb.y), tb.z));

@@ -1,6 +1,6 @@
 // The medium's own light (EMISSION) and per-voxel scattering colour (COLOR_GRID), as Cycles'
 // Principled Volume defines them: emission is not scaled by density; the blackbody term is
-// evaluated per voxel on the CPU (engine/blackbody.py).
+// evaluated per voxel on the CPU (engine/blackbody.py). EMISSION 2: read from grids, 1: constant.
 #if EMISSION
 uniform sampler3D u_attrs;       // up to four attribute grids (padded like the density), or 1 voxel
 uniform vec3 u_attrs_size;       // padded texture size, voxels
@@ -22,11 +22,32 @@ vec2 emission_interval(vec3 ob, vec3 db) {
     return vec2(max(max(lo.x, lo.y), lo.z), min(min(hi.x, hi.y), hi.z));
 }
 
-// Emitted radiance per metre at a point in box (grid index) space.
-vec3 emission_at_index(vec3 idx) {
-    vec4 a = texture(u_attrs, (idx + 1.5) / u_attrs_size);
+// Emitted radiance per metre for the attribute values a (grid channels).
+vec3 emission_of(vec4 a) {
     float strength = u_strength.z < 0.0 ? u_strength.y : u_strength.x * max(a.r, 0.0) + u_strength.y;
     return u_emission_color * max(strength, 0.0) + u_bb_tint * (u_bb_grid == 1 ? a.gba : u_bb_const);
+}
+
+// Emitted radiance per metre at a point in box (grid index) space.
+vec3 emission_at_index(vec3 idx) {
+#if EMISSION == 2
+    return emission_of(texture(u_attrs, (idx + 1.5) / u_attrs_size));
+#else
+    return emission_of(vec4(0.0));      // a constant emission reads no grid
+#endif
+}
+
+// Emitted radiance per metre where no grid emits: in the cells u_occupancy's G channel leaves 0
+// (passes/emission), or everywhere for a constant emission.
+vec3 emission_constant() {
+    return emission_of(vec4(0.0));
+}
+
+// How many of the march's samples k in [k_lo, k_hi), at t = t0 + (k + at) dt, lie in [e.x, e.y].
+int samples_within(vec2 e, int k_lo, int k_hi, float t0, float dt, float at) {
+    float lo = clamp(ceil((e.x - t0) / dt - at), float(k_lo), float(k_hi));
+    float hi = clamp(floor((e.y - t0) / dt - at) + 1.0, lo, float(k_hi));
+    return int(hi - lo);
 }
 #endif
 

@@ -169,9 +169,18 @@ void main() {
 #if EMISSION
             if (t >= emit.x && t <= emit.y)
                 scatter += exp(-(tau + 0.5 * st * dt)) * emission_at_index(ob + db * t) * dt;
-#elif N_MEDIA == 1
-            if (!any_d)       // in an empty occupancy cell: on to the first sample past it
-                i = max(i, int(ceil((skip_empty(ob, db, t) - seg.x) / dt - 0.501)) - 1);
+#endif
+#if N_MEDIA == 1
+            if (!any_d) {     // in an empty occupancy cell: on to the first sample past it
+                int next = max(i + 1, int(ceil((skip_empty(ob, db, t) - seg.x) / dt - 0.501)));
+#if EMISSION
+                // The samples skipped (no density, no emitting voxel near) glow with the constant
+                // part of the emission alone, under this sample's transmittance (st is 0).
+                scatter += float(samples_within(emit, i + 1, min(next, u_view_steps), seg.x, dt, step_at))
+                    * exp(-(tau + 0.5 * st * dt)) * emission_constant() * dt;
+#endif
+                i = next - 1;
+            }
 #endif
             if (any_d) {
                 vec3 tint0 = vec3(1.0);     // the first medium's scattering colour per voxel
