@@ -76,6 +76,13 @@ class AttributesGPU:
             return self.grid_box
         return self.grids_box
 
+    def program_kind(self, medium: Medium) -> int:
+        """The march's EMISSION define for ``medium``: 1 a constant (reads no grid), 2 grids, 3 grids
+        and a constant part (which the skipped samples add)."""
+        if not self.reads_grid:
+            return 1
+        return 3 if constant_emits(medium) else 2
+
     def bind(self, prog, medium: Medium, emits: bool = True) -> None:
         """The uniforms and textures of ``medium``'s emission (``emits``: the program adds it,
         and skips the cells where it neither absorbs nor glows through these cells) and colour

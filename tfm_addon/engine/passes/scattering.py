@@ -93,7 +93,7 @@ def run_light_pass(gl: GLContext, *, camera: Camera, plane: ViewPlane, medium: M
     defines = {"MEDIUM": medium_kind, "LIGHT_T": light_t, "FIRST_PASS": int(first),
                "HAS_LIGHT": int(light is not None),
                "PROJECTIVE": int(settings.sampling == "PROJECTIVE"),
-               "EMISSION": (2 if attributes.reads_grid else 1) if emits else 0, "COLOR_GRID": int(colored)}
+               "EMISSION": attributes.program_kind(medium) if emits else 0, "COLOR_GRID": int(colored)}
     if tfm is not None:
         defines.update(tfm.defines(settings.tfm_filter))
     if medium_kind == MEDIUM_GRID:

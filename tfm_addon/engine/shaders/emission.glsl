@@ -1,6 +1,7 @@
 // The medium's own light (EMISSION) and per-voxel scattering colour (COLOR_GRID), as Cycles'
 // Principled Volume defines them: emission is not scaled by density; the blackbody term is
-// evaluated per voxel on the CPU (engine/blackbody.py). EMISSION 2: read from grids, 1: constant.
+// evaluated per voxel on the CPU (engine/blackbody.py). EMISSION 1: a constant, 2: read from grids,
+// 3: from grids plus a constant part (passes/emission.AttributesGPU.program_kind).
 #if EMISSION
 uniform sampler3D u_attrs;       // up to four attribute grids (padded like the density), or 1 voxel
 uniform vec3 u_attrs_size;       // padded texture size, voxels
@@ -30,7 +31,7 @@ vec3 emission_of(vec4 a) {
 
 // Emitted radiance per metre at a point in box (grid index) space.
 vec3 emission_at_index(vec3 idx) {
-#if EMISSION == 2
+#if EMISSION >= 2
     return emission_of(texture(u_attrs, (idx + 1.5) / u_attrs_size));
 #else
     return emission_of(vec4(0.0));      // a constant emission reads no grid

@@ -173,7 +173,7 @@ void main() {
 #if N_MEDIA == 1
             if (!any_d) {     // in an empty occupancy cell: on to the first sample past it
                 int next = max(i + 1, int(ceil((skip_empty(ob, db, t) - seg.x) / dt - 0.501)));
-#if EMISSION
+#if EMISSION && EMISSION != 2
                 // The samples skipped (no density, no emitting voxel near) glow with the constant
                 // part of the emission alone, under this sample's transmittance (st is 0).
                 scatter += float(samples_within(emit, i + 1, min(next, u_view_steps), seg.x, dt, step_at))
