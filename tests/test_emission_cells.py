@@ -113,3 +113,28 @@ def test_a_constant_emission_reads_no_attribute_texture(fresh):
     fresh.render(_fire("grids"), SETTINGS)
     emitting = [dict(k[2]).get("EMISSION") for k in fresh.gl._programs if k[1] == "scatter.frag"]
     assert 2 in emitting
+
+
+def test_emission_cells_mark_every_cell_where_the_grids_emit():
+    """G of the emitting medium's occupancy: outside the marked cells the trilinear strength is
+    at most 0 and the blackbody term 0, negative blackbody channels (below ~800 K) included."""
+    from scipy import ndimage
+
+    from tfm_addon.engine.medium_attributes import emitting_voxels, padded_xyz_fastest
+
+    rng = np.random.default_rng(5)
+    n = 40
+    scalars = np.zeros((n, n, n, 4), np.float32)
+    scalars[3:9, 20:26, 5:11, 0] = rng.uniform(-1.0, 1.0, (6, 6, 6))      # strength, some negative
+    scalars[30:34, 4:8, 28:33, 3] = -0.2                                   # a negative blue term
+    live = emitting_voxels(scalars, strength_grid=True, blackbody_grid=True)
+    cells = bindings.occupancy(padded_xyz_fastest(live[..., None].astype(np.uint8))[..., 0])
+    b = bindings.OCCUPANCY_BLOCK
+    p = rng.uniform(0.0, n + 1.0, size=(200_000, 3))                         # padded index space
+    cell = np.floor(p / b).astype(int)
+    marked = cells[cell[:, 2], cell[:, 1], cell[:, 0]] > 0
+    padded = np.pad(scalars, ((1, 1), (1, 1), (1, 1), (0, 0)))
+    value = np.stack([ndimage.map_coordinates(padded[..., k], p.T, order=1) for k in range(4)], axis=-1)
+    assert (value[~marked, 0] <= 1e-7).all()
+    assert (np.abs(value[~marked, 1:]) <= 1e-7).all()
+    assert marked.mean() < 0.3 and (np.abs(value[marked]) > 1e-3).any()
