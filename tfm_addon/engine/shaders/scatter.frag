@@ -167,8 +167,9 @@ void main() {
                 st += u_med_sigma_t[m] * D[m];
             }
 #if EMISSION
+            vec3 tv_e = exp(-(tau + 0.5 * st * dt));     // for this sample and those it skips
             if (t >= emit.x && t <= emit.y)
-                scatter += exp(-(tau + 0.5 * st * dt)) * emission_at_index(ob + db * t) * dt;
+                scatter += tv_e * emission_at_index(ob + db * t) * dt;
 #endif
 #if N_MEDIA == 1
             if (!any_d) {     // in an empty occupancy cell: on to the first sample past it
@@ -177,7 +178,7 @@ void main() {
                 // The samples skipped (no density, no emitting voxel near) glow with the constant
                 // part of the emission alone, under this sample's transmittance (st is 0).
                 scatter += float(samples_within(emit, i + 1, min(next, u_view_steps), seg.x, dt, step_at))
-                    * exp(-(tau + 0.5 * st * dt)) * emission_constant() * dt;
+                    * tv_e * emission_constant() * dt;
 #endif
                 i = next - 1;
             }
