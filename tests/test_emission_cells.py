@@ -138,3 +138,17 @@ def test_emission_cells_mark_every_cell_where_the_grids_emit():
     assert (value[~marked, 0] <= 1e-7).all()
     assert (np.abs(value[~marked, 1:]) <= 1e-7).all()
     assert marked.mean() < 0.3 and (np.abs(value[marked]) > 1e-3).any()
+
+
+def test_a_flame_inside_dense_smoke_stops_where_the_view_is_opaque(renderer):
+    """A dense fire (optical depth ~20 across): the march stops at view transmittance 1e-3,
+    skipped cells and all, and still matches the reference that marches every sample."""
+    scene = scenes.fire_scene(64, 36, 24, kind="FIRE")
+    scene = dataclasses.replace(scene, medium=dataclasses.replace(
+        scene.medium, sigma_s=(12.0,) * 3, sigma_a=(6.0,) * 3))
+    out = renderer.render(scene, SETTINGS).combined[..., :3]
+    ref = render_reference(scene, view_steps=96, light_steps=96).combined[..., :3]
+    ratio = out.sum(axis=(0, 1)) / ref.sum(axis=(0, 1))
+    assert ref.max() > 0.05
+    assert np.all(np.abs(ratio - 1.0) <= 0.01), ratio
+    assert np.abs(out - ref).max() <= 0.01 * ref.max()
