@@ -128,6 +128,15 @@ class GLContext:
             vao = self._fullscreen[id(prog)] = self.ctx.vertex_array(prog, [])
         vao.render(vertices=3)
 
+    def draw_rects(self, prog, vbo, vertices: int) -> None:
+        """Run ``prog`` (fullscreen.vert with RECTS) over the triangles of ``vbo`` (2 floats a
+        vertex, window pixels)."""
+        vao = self.ctx.vertex_array(prog, [(vbo, "2f", "in_px")])
+        try:
+            vao.render(vertices=vertices)
+        finally:
+            vao.release()
+
     def release(self) -> None:
         for vao in self._fullscreen.values():
             vao.release()
