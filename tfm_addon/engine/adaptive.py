@@ -1,12 +1,21 @@
 """Adaptive sampling: after the first samples of a frame, only the pixels whose samples still
 differ (mesh edges, shadow edges, the jittered march through the medium) take more.
 
-Every pixel takes ``ADAPTIVE_MIN_SAMPLES`` samples. Then a pixel goes on sampling when the
-standard deviation of its samples so far (the largest over R, G, B) exceeds ``ADAPTIVE_THRESHOLD``
-times the frame's white (the 99.9th percentile of the mean image's largest channel), or when one
-of its 8 neighbours' does (an edge the first samples barely touched); the others keep the mean
-of their first samples. The decision is taken once per frame, from the samples alone, so that
-frames rendered by different processes stay equal bit for bit.
+Two decisions per frame, each from the samples alone (so that frames rendered by different
+processes stay equal bit for bit), each kept for the rest of the frame:
+
+1. After ``ADAPTIVE_FIRST_SAMPLES`` samples, a pixel goes on if, in any of R, G, B and alpha, the
+   standard deviation of its samples or the contrast of its 3x3 neighbourhood in their mean
+   (largest minus smallest) exceeds ``ADAPTIVE_FIRST_THRESHOLD``, colours in units of the frame's
+   white (the 99.9th percentile of the mean image's largest colour channel), alpha as it is: flat
+   regions (an unlit ground, the empty background) stop there, edges (alpha's too: a transparent
+   film) and the medium go on.
+2. After ``ADAPTIVE_MIN_SAMPLES`` samples, a pixel still going goes on if the standard deviation
+   of its samples exceeds ``ADAPTIVE_THRESHOLD`` (same units).
+
+Each decision also keeps the 8 neighbours of a pixel that goes on (an edge the first samples
+barely touched). A pixel that stops keeps the mean of its samples. A sub-pixel feature that the
+first samples all miss (a wire thinner than a pixel between the pixel centres) is not found.
 
 The camera's light passes then draw only the active pixels: rectangles of whole TILE x TILE
 blocks (the blocks llvmpipe shades together; a fragment ``discard`` does not spare them the
@@ -21,8 +30,10 @@ from functools import cached_property
 
 import numpy as np
 
-ADAPTIVE_MIN_SAMPLES = 8      # samples every pixel takes before the decision
-ADAPTIVE_THRESHOLD = 0.01     # standard deviation, in units of the frame's white, below which a pixel stops
+ADAPTIVE_FIRST_SAMPLES = 2    # samples every pixel takes before the first decision
+ADAPTIVE_FIRST_THRESHOLD = 0.005   # its standard deviation and neighbourhood contrast, in units of the white
+ADAPTIVE_MIN_SAMPLES = 8      # samples a pixel that went on takes before the second decision
+ADAPTIVE_THRESHOLD = 0.01     # its standard deviation, in units of the frame's white
 TILE = 4                      # pixels per side of the blocks the passes draw
 
 
@@ -73,15 +84,24 @@ def active_pixels(mask: np.ndarray) -> ActivePixels:
                                                digest_size=16).hexdigest())
 
 
-def unconverged(mean: np.ndarray, square_mean: np.ndarray,
-                threshold: float = ADAPTIVE_THRESHOLD) -> np.ndarray:
+def unconverged(mean: np.ndarray, square_mean: np.ndarray, threshold: float = ADAPTIVE_THRESHOLD,
+                contrast: bool = False) -> np.ndarray:
     """The pixels that go on sampling: (h, w) bool from the per-pixel mean and mean square of the
-    samples so far ((h, w, 3) each, linear RGB), see the module's docstring."""
+    samples so far ((h, w, 4) each, linear RGB in units of the frame's white and alpha as it is,
+    or (h, w, 3) without alpha); ``contrast``: the neighbourhood's contrast counts too (the first
+    decision). See the module's docstring."""
     from scipy import ndimage
 
-    top = np.asarray(mean, dtype=np.float64).max(axis=-1)
+    mean = np.asarray(mean, dtype=np.float64)
+    top = mean[..., :3].max(axis=-1)
     white = float(np.percentile(top, 99.9)) if top.size else 0.0
     white = white if white > 0 else 1.0
-    variance = np.maximum(np.asarray(square_mean, np.float64) - np.asarray(mean, np.float64) ** 2, 0.0)
-    spread = np.sqrt(variance).max(axis=-1) / white
-    return ndimage.maximum_filter(spread > threshold, size=3, mode="constant", cval=False)
+    scale = np.ones(mean.shape[-1])
+    scale[:3] = white                 # alpha (a 4th channel) is measured against 1
+    sd = np.sqrt(np.maximum(np.asarray(square_mean, np.float64) - mean ** 2, 0.0)) / scale
+    going = sd.max(axis=-1) > threshold
+    if contrast:
+        lo = ndimage.minimum_filter(mean, size=(3, 3, 1), mode="nearest")
+        hi = ndimage.maximum_filter(mean, size=(3, 3, 1), mode="nearest")
+        going |= ((hi - lo) / scale).max(axis=-1) > threshold
+    return ndimage.maximum_filter(going, size=3, mode="constant", cval=False)

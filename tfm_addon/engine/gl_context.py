@@ -150,7 +150,7 @@ class GLContext:
 def set_uniforms(prog, **values) -> None:
     """Set the uniforms the program uses; the compiler drops unused ones, so skip those."""
     for name, value in values.items():
-        if name in prog:
+        if prog.get(name, None) is not None:   # a dict look-up (`in` walks every member)
             prog[name].value = value
 
 
@@ -162,5 +162,5 @@ def mat4_bytes(m) -> bytes:
 
 
 def set_matrix(prog, name: str, m) -> None:
-    if name in prog:
+    if prog.get(name, None) is not None:
         prog[name].write(mat4_bytes(m))

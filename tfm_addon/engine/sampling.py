@@ -15,7 +15,15 @@ from collections.abc import Callable, Iterator
 
 import numpy as np
 
-from .adaptive import ADAPTIVE_MIN_SAMPLES, ADAPTIVE_THRESHOLD, ActivePixels, active_pixels, unconverged
+from .adaptive import (
+    ADAPTIVE_FIRST_SAMPLES,
+    ADAPTIVE_FIRST_THRESHOLD,
+    ADAPTIVE_MIN_SAMPLES,
+    ADAPTIVE_THRESHOLD,
+    ActivePixels,
+    active_pixels,
+    unconverged,
+)
 from .output import RenderOutput
 from .renderer import Renderer, effective_settings
 from .scene import Camera, RenderSettings, Scene
@@ -79,37 +87,40 @@ def sample_scene(scene: Scene, settings: RenderSettings, k: int) -> tuple[Scene,
 class Accumulator:
     """The float32 running mean of a frame's samples (combined image and passes), per pixel over
     the samples that pixel took (adaptive sampling: ``add`` with ``active``), and the mean square
-    of the combined RGB (float64) over the samples before the adaptive decision, which reads it."""
+    of the combined RGBA (float64) over the samples before the last adaptive decision, which reads it."""
 
     def __init__(self):
         self.count = 0
         self.output: RenderOutput | None = None
         self.pixel_samples: np.ndarray | None = None   # (h, w) samples each pixel took
-        self.square_mean: np.ndarray | None = None     # (h, w, 3) float64 mean of combined RGB squared
-        self.active: ActivePixels | None = None        # the frame's adaptive decision, once taken
+        self.square_mean: np.ndarray | None = None     # (h, w, 4) float64 mean of combined RGBA squared
+        self.active: ActivePixels | None = None        # the pixels still sampling, once decided
+        self.decisions = 0                             # adaptive decisions taken (0, 1, 2)
 
-    def add(self, out: RenderOutput, active: np.ndarray | None = None) -> None:
+    def add(self, out: RenderOutput, active: np.ndarray | None = None, spread: bool = True) -> None:
         """Fold one sample in; ``active`` (h, w bool, top row first): the pixels it shaded (None:
-        all); the other pixels keep their mean."""
+        all); the other pixels keep their mean. ``spread``: update the mean square too."""
         self.count += 1
-        rgb = out.combined[..., :3].astype(np.float64) if active is None else None
+        rgba = out.combined.astype(np.float64) if spread else None
         if self.output is None:
             self.output = RenderOutput(combined=out.combined.astype(np.float32, copy=True),
                                        passes={k: v.astype(np.float32, copy=True)
                                                for k, v in out.passes.items()},
                                        warnings=list(out.warnings), timings_s=dict(out.timings_s))
             self.pixel_samples = np.ones(out.combined.shape[:2], dtype=np.int32)
-            self.square_mean = rgb * rgb
+            self.square_mean = rgba * rgba
             return
         acc = self.output
         if active is None:
             self.pixel_samples += 1
             w = np.float32(1.0 / self.count)
-            self.square_mean += (rgb * rgb - self.square_mean) * (1.0 / self.count)
-        else:     # after the adaptive decision: its statistics are no longer read
+            wd = 1.0 / self.count
+        else:
             self.pixel_samples += active
-            w = np.where(active, np.float32(1.0) / self.pixel_samples, np.float32(0.0)).astype(np.float32)
-            w = w[..., None]
+            wd = np.where(active, 1.0 / self.pixel_samples, 0.0)[..., None]
+            w = wd.astype(np.float32)
+        if rgba is not None:
+            self.square_mean += (rgba * rgba - self.square_mean) * wd
         acc.combined += (out.combined - acc.combined) * w
         for name, image in out.passes.items():
             if name in acc.passes:
@@ -163,22 +174,29 @@ def iter_samples(renderer: Renderer, scene: Scene, settings: RenderSettings | No
     """Render samples ``first`` .. ``samples - 1`` of ``scene`` into ``accumulator`` and yield it
     after each. ``progress`` gets the fraction of all ``samples`` done; ``cancel`` is the renderer's
     (checked between passes); ``client`` is the renderer's cache client. ``adaptive_threshold``:
-    from sample ADAPTIVE_MIN_SAMPLES on (when ``samples`` is at least twice that), only the pixels
-    whose samples still vary by more than this take more (engine/adaptive.py); None: every pixel
-    takes every sample."""
+    when ``samples`` is at least twice ADAPTIVE_MIN_SAMPLES, adaptive sampling (engine/adaptive.py:
+    after ADAPTIVE_FIRST_SAMPLES and after ADAPTIVE_MIN_SAMPLES samples, only the pixels whose
+    samples still vary take more; this is the second decision's threshold); None: every pixel takes
+    every sample."""
     n = max(int(samples), 1)
     settings = frame_settings(scene, settings, n)
     acc = accumulator or Accumulator()
+    adaptive = adaptive_threshold is not None and n >= 2 * ADAPTIVE_MIN_SAMPLES
     for k in range(first, n):
-        if (acc.active is None and adaptive_threshold is not None and k == ADAPTIVE_MIN_SAMPLES
-                and n >= 2 * ADAPTIVE_MIN_SAMPLES and acc.count == ADAPTIVE_MIN_SAMPLES):
-            acc.active = active_pixels(unconverged(acc.output.combined[..., :3], acc.square_mean,
-                                                   adaptive_threshold))
+        if adaptive and acc.count == k:
+            if k == ADAPTIVE_FIRST_SAMPLES and acc.decisions == 0:
+                acc.active = active_pixels(unconverged(acc.output.combined, acc.square_mean,
+                                                       ADAPTIVE_FIRST_THRESHOLD, contrast=True))
+                acc.decisions = 1
+            elif k == ADAPTIVE_MIN_SAMPLES and acc.decisions == 1:
+                going = unconverged(acc.output.combined, acc.square_mean, adaptive_threshold)
+                acc.active = active_pixels(going & acc.active.mask)
+                acc.decisions = 2
         active = acc.active
         sub = None if progress is None else (lambda f, k=k: progress((k + f) / n))
         s_scene, s_settings = sample_scene(scene, settings, k)
         acc.add(renderer.render(s_scene, s_settings, cancel, sub, passes, client=client, active=active),
-                None if active is None else active.mask)
+                None if active is None else active.mask, spread=acc.decisions < 2)
         yield acc
 
 
