@@ -84,24 +84,38 @@ def active_pixels(mask: np.ndarray) -> ActivePixels:
                                                digest_size=16).hexdigest())
 
 
+def _neighbourhood(a: np.ndarray, pick) -> np.ndarray:
+    """``pick`` (np.maximum or np.minimum) over each pixel's 3x3 neighbourhood of ``a`` (h, w, ...),
+    edges repeated."""
+    h, w = a.shape[:2]
+    pad = np.pad(a, ((1, 1), (1, 1)) + ((0, 0),) * (a.ndim - 2), mode="edge")
+    out = pad[1:h + 1, 1:w + 1].copy()
+    for dy in range(3):
+        for dx in range(3):
+            if dy != 1 or dx != 1:
+                pick(out, pad[dy:dy + h, dx:dx + w], out=out)
+    return out
+
+
 def unconverged(mean: np.ndarray, square_mean: np.ndarray, threshold: float = ADAPTIVE_THRESHOLD,
                 contrast: bool = False) -> np.ndarray:
     """The pixels that go on sampling: (h, w) bool from the per-pixel mean and mean square of the
     samples so far ((h, w, 4) each, linear RGB in units of the frame's white and alpha as it is,
     or (h, w, 3) without alpha); ``contrast``: the neighbourhood's contrast counts too (the first
     decision). See the module's docstring."""
-    from scipy import ndimage
-
-    mean = np.asarray(mean, dtype=np.float64)
-    top = mean[..., :3].max(axis=-1)
-    white = float(np.percentile(top, 99.9)) if top.size else 0.0
+    mean = np.asarray(mean, dtype=np.float32)
+    top = mean[..., :3].max(axis=-1).ravel()
+    if top.size:
+        k = int(0.999 * (top.size - 1))       # the 99.9th percentile, nearest rank
+        white = float(np.partition(top, k)[k])
+    else:
+        white = 0.0
     white = white if white > 0 else 1.0
-    scale = np.ones(mean.shape[-1])
+    scale = np.ones(mean.shape[-1], dtype=np.float32)
     scale[:3] = white                 # alpha (a 4th channel) is measured against 1
-    sd = np.sqrt(np.maximum(np.asarray(square_mean, np.float64) - mean ** 2, 0.0)) / scale
-    going = sd.max(axis=-1) > threshold
+    variance = np.maximum(np.asarray(square_mean, np.float32) - mean * mean, 0.0)
+    going = (variance / (scale * scale)).max(axis=-1) > threshold * threshold
     if contrast:
-        lo = ndimage.minimum_filter(mean, size=(3, 3, 1), mode="nearest")
-        hi = ndimage.maximum_filter(mean, size=(3, 3, 1), mode="nearest")
-        going |= ((hi - lo) / scale).max(axis=-1) > threshold
-    return ndimage.maximum_filter(going, size=3, mode="constant", cval=False)
+        spread = (_neighbourhood(mean, np.maximum) - _neighbourhood(mean, np.minimum)) / scale
+        going |= spread.max(axis=-1) > threshold
+    return _neighbourhood(going, np.logical_or)

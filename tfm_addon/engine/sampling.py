@@ -87,13 +87,13 @@ def sample_scene(scene: Scene, settings: RenderSettings, k: int) -> tuple[Scene,
 class Accumulator:
     """The float32 running mean of a frame's samples (combined image and passes), per pixel over
     the samples that pixel took (adaptive sampling: ``add`` with ``active``), and the mean square
-    of the combined RGBA (float64) over the samples before the last adaptive decision, which reads it."""
+    of the combined RGBA over the samples before the last adaptive decision, which reads it."""
 
     def __init__(self):
         self.count = 0
         self.output: RenderOutput | None = None
         self.pixel_samples: np.ndarray | None = None   # (h, w) samples each pixel took
-        self.square_mean: np.ndarray | None = None     # (h, w, 4) float64 mean of combined RGBA squared
+        self.square_mean: np.ndarray | None = None     # (h, w, 4) float32 mean of combined RGBA squared
         self.active: ActivePixels | None = None        # the pixels still sampling, once decided
         self.decisions = 0                             # adaptive decisions taken (0, 1, 2)
 
@@ -101,26 +101,24 @@ class Accumulator:
         """Fold one sample in; ``active`` (h, w bool, top row first): the pixels it shaded (None:
         all); the other pixels keep their mean. ``spread``: update the mean square too."""
         self.count += 1
-        rgba = out.combined.astype(np.float64) if spread else None
         if self.output is None:
             self.output = RenderOutput(combined=out.combined.astype(np.float32, copy=True),
                                        passes={k: v.astype(np.float32, copy=True)
                                                for k, v in out.passes.items()},
                                        warnings=list(out.warnings), timings_s=dict(out.timings_s))
             self.pixel_samples = np.ones(out.combined.shape[:2], dtype=np.int32)
-            self.square_mean = rgba * rgba
+            self.square_mean = np.square(self.output.combined)
             return
         acc = self.output
         if active is None:
             self.pixel_samples += 1
             w = np.float32(1.0 / self.count)
-            wd = 1.0 / self.count
         else:
             self.pixel_samples += active
-            wd = np.where(active, 1.0 / self.pixel_samples, 0.0)[..., None]
-            w = wd.astype(np.float32)
-        if rgba is not None:
-            self.square_mean += (rgba * rgba - self.square_mean) * wd
+            w = np.zeros(active.shape + (1,), dtype=np.float32)
+            np.divide(np.float32(1.0), self.pixel_samples[..., None], out=w, where=active[..., None])
+        if spread:
+            self.square_mean += (np.square(out.combined) - self.square_mean) * w
         acc.combined += (out.combined - acc.combined) * w
         for name, image in out.passes.items():
             if name in acc.passes:
