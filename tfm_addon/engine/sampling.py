@@ -5,6 +5,8 @@ Sample k of every frame uses the same offsets (they depend on k alone), so frame
 different processes, in any order, are equal bit for bit. Sample 0 is the pixel centre with the
 march at its interval midpoints: one sample is the unjittered image. Light maps do not depend on
 the camera or the march offset, so the renderer builds them once for all the samples of a frame.
+From 16 samples on the sampling is adaptive (adaptive.py): the pixels whose first samples agree
+stop early, decided from the frame's own samples (still the same bits in any process).
 """
 
 from __future__ import annotations
