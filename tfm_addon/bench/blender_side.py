@@ -62,6 +62,17 @@ def main(job_path: str) -> int:
                                        file=f"{_file(name)}.exr"))
         step(f"{name}: {seconds:.1f} s")
 
+    for samples in job.get("cycles_adaptive_samples", []):    # Cycles' own adaptive sampling, its defaults
+        name = f"Cycles {samples} spp adaptive"
+        blender_scene.cycles(samples, seed=1)
+        bpy.context.scene.cycles.use_adaptive_sampling = True
+        seconds = _render(folder / f"{_file(name)}.exr")
+        c = bpy.context.scene.cycles
+        results["renders"].append(dict(name=name, engine="CYCLES", samples=samples, seconds=seconds,
+                                       file=f"{_file(name)}.exr", adaptive_threshold=c.adaptive_threshold,
+                                       adaptive_min_samples=c.adaptive_min_samples))
+        step(f"{name}: {seconds:.1f} s")
+
     for preset, taa in job["eevee_runs"]:
         blender_scene.eevee(preset, scene)
         e = bpy.context.scene.eevee

@@ -315,24 +315,29 @@ def run_callbacks(width: int, height: int, n: int, folder: Path, log=print) -> d
     return json.loads(out.read_text())
 
 
-AA_SAMPLES = (1, 2, 4, 8, 16, 24, 32, 48, 64)
-AA_FINE_SAMPLES = (16, 24, 32, 48)   # the rows with AUTO's settings but a map-resolution TFM
-AA_ROUNDS = 3
+AA_SAMPLES = (1, 2, 4, 8, 16, 18, 24, 32, 48, 64)
+AA_UNIFORM_SAMPLES = (16, 24, 32)   # the same with adaptive sampling off: every pixel takes every sample
+AA_ROUNDS = 5
+AA_REPEATS = 3                      # TFM timings per row and round (median), the rows interleaved
 
 
 def run_aa(out: Path, width: int = 160, height: int = 90, n: int = 64, log=print,
            rounds: int = AA_ROUNDS) -> str:
-    """Final-render antialiasing: TFM at AA_SAMPLES samples (quality AUTO) and Cycles at 256 spp
-    against Cycles at 4096 spp (rendered once), on the smoke with the bar and the ground plane;
-    one run of ``rounds`` rounds, each timing every TFM sample count once and then one Cycles
-    256 spp render (its own Blender process, timed around its render call), so that the load of
-    the shared machine weighs on both alike; medians over the rounds."""
+    """Final-render antialiasing: TFM at AA_SAMPLES samples (quality AUTO, adaptive sampling) and
+    at AA_UNIFORM_SAMPLES without adaptive sampling, Cycles at 256 spp with the reference
+    settings of BLENDER.md (its adaptive sampling off) and with its adaptive sampling on (Blender's
+    defaults), all against Cycles at 4096 spp (adaptive off, rendered once), on the smoke with the
+    bar and the ground plane. One run of ``rounds`` rounds, each timing every TFM row AA_REPEATS
+    times (interleaved; median) and then the two Cycles 256 spp renders (their own Blender
+    process, timed around the render call), so that the load of the shared machine weighs on both
+    alike; medians over the rounds. TFM 'cold' is a frame from scratch: AUTO's scene statistics,
+    the grid upload, the maps and every sample; 'warm' reuses them (a re-render)."""
     import pickle
     import statistics
 
-    from ..engine import Renderer
+    from ..engine import Renderer, quality
     from ..engine.exr import read_exr
-    from ..engine.sampling import frame_settings, render_samples
+    from ..engine.sampling import Accumulator, frame_settings, iter_samples
     from .common import compare
     from .timing import time_side_by_side
 
@@ -345,94 +350,120 @@ def run_aa(out: Path, width: int = 160, height: int = 90, n: int = 64, log=print
     root = str(Path(__file__).resolve().parents[2])
     env["PYTHONPATH"] = root + os.pathsep + env.get("PYTHONPATH", "")
 
-    def cycles(name: str, samples: list[int], gt: int = 0) -> dict | str:
+    def cycles(name: str, samples: list[int], gt: int = 0, adaptive: list[int] = ()) -> dict | str:
         sub = folder / name
         sub.mkdir(parents=True, exist_ok=True)
         job = dict(scene=str(folder / "scene.pkl"), folder=str(sub), cycles_samples=samples,
-                   cycles_gt_samples=gt, eevee_runs=[])
+                   cycles_gt_samples=gt, cycles_adaptive_samples=list(adaptive), eevee_runs=[])
         (sub / "job.json").write_text(json.dumps(job))
         done = subprocess.run([sys.executable, "-m", "tfm_addon.bench.blender_side", str(sub / "job.json")],
                               env=env, capture_output=True, text=True, timeout=3600, cwd=root)
         if done.returncode != 0:
             return f"AA benchmark: Cycles failed: {done.stdout[-1000:]} {done.stderr[-1000:]}"
-        render = json.loads((sub / "results.json").read_text())["renders"][0]
-        ch = read_exr(sub / render["file"])
-        return dict(render, image=np.stack([ch[c] for c in "RGB"], axis=-1))
+        renders = json.loads((sub / "results.json").read_text())["renders"]
+        for render in renders:
+            ch = read_exr(sub / render["file"])
+            render["image"] = np.stack([ch[c] for c in "RGB"], axis=-1)
+        return renders
 
     renderer = Renderer()
     settings = RenderSettings(quality="AUTO")
+    rows_of = ([(k, 0.01, str(k)) for k in AA_SAMPLES]
+               + [(k, None, f"{k}, every pixel") for k in AA_UNIFORM_SAMPLES])
+    shaded = {}
 
-    def fine(k):
-        # AUTO's choice for k samples, but the TFM at the map resolution (not the footprint's) with
-        # 4 coefficients: the TFM carries the bar's shadow edge into the smoke and onto the ground
-        return dataclasses.replace(frame_settings(scene, settings, k), tfm_resolution=None, coefficients=4)
+    def render(k, threshold):
+        acc = Accumulator()
+        for _ in iter_samples(renderer, scene, settings, k, passes=False, accumulator=acc,
+                              adaptive_threshold=threshold):
+            pass
+        return acc
 
-    rows_of = [(k, settings, str(k)) for k in AA_SAMPLES] + [
-        (k, fine(k), f"{k}, TFM {fine(k).map_resolution}², 4 coeff.") for k in AA_FINE_SAMPLES]
-    images = {label: render_samples(renderer, scene, st, k, passes=False).combined[..., :3]
-              for k, st, label in rows_of}
+    images = {}
+    for k, threshold, label in rows_of:
+        before = renderer.counters["pixels_shaded"]
+        images[label] = render(k, threshold).output.combined[..., :3]
+        shaded[label] = (renderer.counters["pixels_shaded"] - before) / (k * width * height)
 
-    def cold(k, st):
+    def cold(k, threshold):
         def go():
             renderer.clear_maps()
-            render_samples(renderer, scene, st, k, passes=False)
+            quality._cache.clear()       # AUTO's scene statistics too: a new frame from scratch
+            render(k, threshold)
         return go
 
-    def warm(k, st):
-        return lambda: render_samples(renderer, scene, st, k, passes=False)
+    def warm(k, threshold):
+        return lambda: render(k, threshold)
 
-    contenders = ({("cold", label): cold(k, st) for k, st, label in rows_of}
-                  | {("warm", label): warm(k, st) for k, st, label in rows_of})
-    per_round, c256 = [], []
+    contenders = ({("cold", label): cold(k, th) for k, th, label in rows_of}
+                  | {("warm", label): warm(k, th) for k, th, label in rows_of})
+    per_round, c256, c256a, load = [], [], [], []
     for r in range(rounds):
-        per_round.append(time_side_by_side(contenders, 1))
+        per_round.append(time_side_by_side(contenders, AA_REPEATS))
+        load.append(os.getloadavg()[0])
         log(f"viewport AA: round {r + 1}/{rounds}: TFM timed; Cycles 256 spp running")
-        c = cycles(f"cycles256_{r}", [256])
+        c = cycles(f"cycles256_{r}", [256], adaptive=[256])
         if isinstance(c, str):
             return c
-        c256.append(c)
-        log(f"viewport AA: round {r + 1}/{rounds}: Cycles 256 spp {c['seconds']:.2f} s")
+        c256.append(c[0])
+        c256a.append(c[1])
+        log(f"viewport AA: round {r + 1}/{rounds}: Cycles 256 spp {c[0]['seconds']:.2f} s, "
+            f"adaptive {c[1]['seconds']:.2f} s")
     renderer.release()
     times = {key: statistics.median(t[key] for t in per_round) for key in contenders}
     log("viewport AA: Cycles 4096 spp (the reference) running")
     gt = cycles("cycles4096", [], 4096)
     if isinstance(gt, str):
         return gt
+    gt = gt[0]
     reference = gt["image"]
     m256 = compare(c256[0]["image"], reference)     # every round renders seed 1: the same image
+    m256a = compare(c256a[0]["image"], reference)
     c256_s = statistics.median(c["seconds"] for c in c256)
+    c256a_s = statistics.median(c["seconds"] for c in c256a)
     rows = []
     metrics = {label: compare(images[label], reference) for _, _, label in rows_of}
     for _, _, label in rows_of:
         m = metrics[label]
         rows.append([label, f"{m['ssim']:.5f}", f"{m['psnr']:.2f}", f"{m['brightness']:.4f}",
-                     f"{times[('cold', label)]:.3f}", f"{times[('warm', label)]:.3f}"])
-    rows.append(["Cycles 256 spp", f"{m256['ssim']:.5f}", f"{m256['psnr']:.2f}",
-                 f"{m256['brightness']:.4f}", f"{c256_s:.2f}", ""])
+                     f"{100 * shaded[label]:.0f}", f"{1000 * times[('cold', label)]:.1f}",
+                     f"{1000 * times[('warm', label)]:.1f}"])
+    for name, m, sec in (("Cycles 256 spp", m256, c256_s), ("Cycles 256 spp, adaptive", m256a, c256a_s)):
+        rows.append([name, f"{m['ssim']:.5f}", f"{m['psnr']:.2f}", f"{m['brightness']:.4f}", "",
+                     f"{1000 * sec:.0f}", ""])
+    chosen = frame_settings(scene, settings, AA_SAMPLES[-1])
     lines = [f"## Final-render antialiasing (issue 7): smoke {n}^3 with bar and ground, {width}x{height}",
-             "", f"TFM at each sample count (quality AUTO; then AUTO's settings with the TFM at the map "
-             "resolution and 4 coefficients) and Cycles at 256 spp, against Cycles at "
-             f"{gt['samples']} spp ({gt['seconds']:.1f} s, rendered once); TFM seconds per frame from "
-             "scratch (grid, maps, every sample: 'cold') and with the maps cached ('warm'). "
-             f"{rounds} rounds, each timing every TFM row once and then one Cycles 256 spp render (its "
-             "own process, timed around its render call, seed 1); medians over the rounds.", ""]
-    lines.append(markdown_table(["samples", "SSIM", "PSNR dB", "brightness", "TFM s (cold)", "TFM s (warm)"],
-                                rows))
-    lines += ["", "Per round, Cycles 256 spp s: " + ", ".join(f"{c['seconds']:.2f}" for c in c256)]
-    for name, group in (("AUTO", [str(k) for k in AA_SAMPLES]),
-                        ("the map-resolution TFM", [label for k, _, label in rows_of[len(AA_SAMPLES):]])):
-        reach = [label for label in group if metrics[label]["ssim"] >= m256["ssim"]]
+             "", "TFM at each sample count (quality AUTO: here a "
+             f"{chosen.coefficients}-coefficient TFM and {chosen.view_steps} view steps a sample from "
+             "16 samples on; adaptive sampling, then the same with every pixel taking every sample) "
+             "and Cycles at 256 spp (adaptive sampling off as in the reference, then on with Blender's "
+             f"defaults), against Cycles at {gt['samples']} spp ({gt['seconds']:.1f} s, rendered once, "
+             "adaptive sampling off). 'pixels %': the pixels the light passes shaded, per sample. TFM "
+             "ms per frame from scratch ('cold': AUTO's scene statistics, grid, maps, every sample) "
+             f"and re-rendered ('warm'). {rounds} rounds, each timing every TFM row {AA_REPEATS} times "
+             "(interleaved, median) and then the Cycles 256 spp renders (their own process, timed "
+             "around the render call, seed 1); medians over the rounds.", ""]
+    lines.append(markdown_table(["samples", "SSIM", "PSNR dB", "brightness", "pixels %", "TFM ms (cold)",
+                                 "TFM ms (warm)"], rows))
+    lines += ["", "Per round, Cycles 256 spp s: " + ", ".join(f"{c['seconds']:.2f}" for c in c256)
+              + "; adaptive: " + ", ".join(f"{c['seconds']:.2f}" for c in c256a)
+              + "; load average (1 min) after the TFM rows: " + ", ".join(f"{x:.1f}" for x in load)]
+    adaptive_rows = [str(k) for k in AA_SAMPLES]
+    for name, m, cyc, sec in (("Cycles-256", m256, c256, c256_s),
+                              ("Cycles-256 with its adaptive sampling", m256a, c256a, c256a_s)):
+        reach = [label for label in adaptive_rows if metrics[label]["ssim"] >= m["ssim"]]
         if reach:
             label = reach[0]
-            ratio = times[("cold", label)] / c256_s
-            rr = [t[("cold", label)] / c["seconds"] for t, c in zip(per_round, c256, strict=True)]
-            lines += ["", f"{name}: TFM reaches Cycles-256's SSIM ({m256['ssim']:.5f}) at {label} samples "
-                      f"in {times[('cold', label)]:.3f} s, {ratio:.4f}x Cycles' {c256_s:.2f} s "
-                      f"(1/{1 / ratio:.0f}; target 1/50); per round 1/"
-                      + ", 1/".join(f"{1 / x:.0f}" for x in rr) + "."]
+            ratio = times[("cold", label)] / sec
+            rr = [t[("cold", label)] / c["seconds"] for t, c in zip(per_round, cyc, strict=True)]
+            lines += ["", f"TFM reaches {name}'s SSIM ({m['ssim']:.5f}) at {label} samples "
+                      f"({metrics[label]['ssim']:.5f}) in {1000 * times[('cold', label)]:.1f} ms from "
+                      f"scratch, {ratio:.4f}x Cycles' {sec:.2f} s (1/{1 / ratio:.0f}; target 1/50); per "
+                      "round 1/" + ", 1/".join(f"{1 / x:.0f}" for x in rr) + "."]
         else:
-            lines += ["", f"{name}: TFM does not reach Cycles-256's SSIM ({m256['ssim']:.5f}) within "
-                      f"{group[-1]} samples (best {max(metrics[g]['ssim'] for g in group):.5f})."]
+            best = max(metrics[g]["ssim"] for g in adaptive_rows)
+            lines += ["", f"TFM does not reach {name}'s SSIM ({m['ssim']:.5f}) within "
+                      f"{adaptive_rows[-1]} samples (best {best:.5f})."]
     text = "\n".join(lines)
     (folder / "aa.md").write_text(text + "\n")
     return text
@@ -493,5 +524,7 @@ def report(rows: list[dict], cb: dict | None, size) -> str:
 if __name__ == "__main__":
     if len(sys.argv) >= 2 and sys.argv[1] == "callbacks":
         callbacks(int(sys.argv[2]), int(sys.argv[3]), int(sys.argv[4]), sys.argv[5])
+    elif len(sys.argv) >= 2 and sys.argv[1] == "aa":       # the antialiasing part alone
+        print(run_aa(Path(sys.argv[2] if len(sys.argv) > 2 else "out/bench")))
     else:
         print(run("--quick" in sys.argv, Path("out/bench"), blender="--no-blender" not in sys.argv))

@@ -128,6 +128,15 @@ class GLContext:
             vao = self._fullscreen[id(prog)] = self.ctx.vertex_array(prog, [])
         vao.render(vertices=3)
 
+    def draw_rects(self, prog, vbo, vertices: int) -> None:
+        """Run ``prog`` (fullscreen.vert with RECTS) over the triangles of ``vbo`` (2 floats a
+        vertex, window pixels)."""
+        vao = self.ctx.vertex_array(prog, [(vbo, "2f", "in_px")])
+        try:
+            vao.render(vertices=vertices)
+        finally:
+            vao.release()
+
     def release(self) -> None:
         for vao in self._fullscreen.values():
             vao.release()
@@ -141,7 +150,7 @@ class GLContext:
 def set_uniforms(prog, **values) -> None:
     """Set the uniforms the program uses; the compiler drops unused ones, so skip those."""
     for name, value in values.items():
-        if name in prog:
+        if prog.get(name, None) is not None:   # a dict look-up (`in` walks every member)
             prog[name].value = value
 
 
@@ -153,5 +162,5 @@ def mat4_bytes(m) -> bytes:
 
 
 def set_matrix(prog, name: str, m) -> None:
-    if name in prog:
+    if prog.get(name, None) is not None:
         prog[name].write(mat4_bytes(m))

@@ -11,6 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import medium_attributes
+from .adaptive import ActivePixels
 from .camera import view_plane
 from .errors import RenderCancelled
 from .gl_context import GLContext
@@ -153,7 +154,9 @@ class Renderer:
     contents drawn, one per new view; 'gbuffer_objects' counts the GL textures and framebuffers
     they were drawn into, reused across views of one size),
     'light_passes', 'renders' (maps and passes per light face), and 'faces_culled' (faces of
-    point and area lights that reach neither a medium nor a visible solid: no maps, no pass).
+    point and area lights that reach neither a medium nor a visible solid: no maps, no pass);
+    'pixels_shaded': pixels the light passes of a frame shaded (all of them, or the ``active``
+    ones), once per frame.
     A camera-only change rebuilds no light map; changing sigma_a or sigma_s of a lone medium
     rebuilds nothing on the light side (unless a fixed density weight ties the map to the
     extinction; with several media a map also depends on their relative extinction).
@@ -183,19 +186,23 @@ class Renderer:
     def render(self, scene: Scene, settings: RenderSettings | None = None,
                cancel: Callable[[], bool] | None = None,
                progress: Callable[[float], None] | None = None, passes: bool = True,
-               client: str = "final", sweep: bool = True, map_image_side: int | None = None) -> RenderOutput:
+               client: str = "final", sweep: bool = True, map_image_side: int | None = None,
+               active: ActivePixels | None = None) -> RenderOutput:
         """Render ``scene``; raises RenderCancelled when ``cancel()`` turns true between passes.
         ``passes=False`` reads back the combined image alone (the viewport's case). ``client``
         names who asks ('viewport', 'final', 'preview', ...): each client's last frame keeps its
         maps, whatever the other clients render in between. ``sweep=False`` also keeps what the
         client's previous frames kept (the viewport's coarse image must not evict the full maps).
         ``map_image_side``: the image side (pixels) a 'FOOTPRINT' TFM is capped by, default the
-        camera's larger side (the coarse image passes its full image's, to reuse the full maps)."""
+        camera's larger side (the coarse image passes its full image's, to reuse the full maps).
+        ``active``: None, or an adaptive.ActivePixels: the light passes shade only those pixels
+        (no light pass touches the others: they come out black; adaptive sampling, sampling.py)."""
         gl = self.gl
         gl.check_thread()
         settings = effective_settings(scene, settings)
         with gl.ctx:     # current for the call, whatever other context the thread made current
-            return self._render(scene, settings, cancel, progress, passes, client, sweep, map_image_side)
+            return self._render(scene, settings, cancel, progress, passes, client, sweep, map_image_side,
+                                active)
 
     def forget_client(self, client: str) -> None:
         """Release the maps that only ``client``'s last frame kept."""
@@ -205,7 +212,7 @@ class Renderer:
                     cache.forget(client)
 
     def _render(self, scene, settings, cancel, progress, want_passes, client, sweep=True,
-                map_image_side=None) -> RenderOutput:
+                map_image_side=None, active=None) -> RenderOutput:
         gl = self.gl
         t_start = time.perf_counter()
         timings: dict[str, float] = {}
@@ -261,7 +268,9 @@ class Renderer:
             ambient = scene.ambient if settings.ambient else (0.0, 0.0, 0.0)
             common = dict(camera=scene.camera, plane=plane, medium=medium,
                           medium_gpu=medium_gpu, settings=settings, ambient=ambient,
-                          attributes=attributes)
+                          attributes=attributes, active=self._active_rects(size, active))
+            self.counters["pixels_shaded"] += (size[0] * size[1] if active is None
+                                               else int(np.count_nonzero(active.mask)))
             if not plans:
                 t0 = time.perf_counter()
                 run_light_pass(gl, first=True, **common)
@@ -576,6 +585,19 @@ class Renderer:
             entry.release()
             raise
         return entry
+
+    def _active_rects(self, size, active):
+        """(vertex buffer, vertex count) of the rectangles that cover ``active``
+        (adaptive.ActivePixels), or None to shade every pixel."""
+        if active is None:
+            return None
+        if active.mask.shape != (size[1], size[0]):
+            raise ValueError(f"active pixels of shape {active.mask.shape}, the image is {size[1]}x{size[0]}")
+        vertices = active.vertices
+        if not len(vertices):
+            return None, 0
+        vbo = self._targets.get(("active", active.key), lambda: self.gl.ctx.buffer(vertices.tobytes()))[0]
+        return vbo, len(vertices)
 
     def clear_maps(self) -> None:
         """Drop every cached map and buffer (compiled programs stay): the next render is full."""

@@ -62,7 +62,7 @@ def pass_state(ctx, *, depth_test: bool = False, blend: bool = False) -> None:
 
 def bind_units(prog) -> None:
     for name, unit in UNIT.items():
-        if name in prog:
+        if prog.get(name, None) is not None:   # a dict look-up (`in` walks every member)
             prog[name].value = unit
 
 
@@ -227,7 +227,7 @@ class MediaGPU:
         slots = self.slots
         pad = n - len(slots)
         mats = [s.world_to_box for s in slots] + [np.eye(4)] * pad
-        if "u_med_to_box" in prog:
+        if prog.get("u_med_to_box", None) is not None:
             u = prog["u_med_to_box"]
             u.write(b"".join(mat4_bytes(m) for m in mats[:u.array_length]))
         weights = [1.0] * len(slots) if weights is None else list(weights)
@@ -263,7 +263,7 @@ class MediaGPU:
 def _set_arrays(prog, **values) -> None:
     """Set uniform arrays the program uses, as long as the compiler kept them."""
     for name, value in values.items():
-        if name in prog:
+        if prog.get(name, None) is not None:
             u = prog[name]
             v = value[:u.array_length]
             u.value = v if u.array_length > 1 else v[0]

@@ -79,12 +79,14 @@ def camera_uniforms(prog, camera: Camera, plane: ViewPlane) -> None:
 def run_light_pass(gl: GLContext, *, camera: Camera, plane: ViewPlane, medium: Medium | None,
                    medium_gpu: MediaGPU, settings: RenderSettings, ambient, first: bool,
                    light=None, light_t: int = LIGHT_T_NONE, tfm=None, tfm_sigma_t=None,
-                   attributes=None) -> None:
+                   attributes=None, active=None) -> None:
     """Add one pass into the bound ScatteringTargets. ``light`` is (face, intensity, ShadowMap
     or None, gobo texture or None) or None for the ambient-only first pass; ``tfm_sigma_t`` the
     extinction per unit of the TFM's weighted density (default: ``medium``'s). ``attributes``
     (emission.AttributesGPU or None): the first medium's emission, added by the first pass, and
-    colour grid."""
+    colour grid. ``active``: None (every pixel), or (vertex buffer, count) of rectangles in window
+    pixels: only the pixels they cover are shaded (adaptive sampling; the others keep the targets'
+    zeros)."""
     medium_kind = medium_gpu.kind
     if light is not None and light_t == LIGHT_T_NONE and not first:
         medium_kind = MEDIUM_NONE          # this light never reaches the medium
@@ -94,6 +96,8 @@ def run_light_pass(gl: GLContext, *, camera: Camera, plane: ViewPlane, medium: M
                "HAS_LIGHT": int(light is not None),
                "PROJECTIVE": int(settings.sampling == "PROJECTIVE"),
                "EMISSION": attributes.program_kind(medium) if emits else 0, "COLOR_GRID": int(colored)}
+    if active is not None:
+        defines["RECTS"] = 1
     if tfm is not None:
         defines.update(tfm.defines(settings.tfm_filter))
     if medium_kind == MEDIUM_GRID:
@@ -116,4 +120,8 @@ def run_light_pass(gl: GLContext, *, camera: Camera, plane: ViewPlane, medium: M
         tfm.bind(prog, medium.sigma_t if tfm_sigma_t is None else tfm_sigma_t)
     if emits or colored:
         attributes.bind(prog, medium, emits)
-    gl.draw_fullscreen(prog)
+    if active is None:
+        gl.draw_fullscreen(prog)
+    elif active[1]:
+        set_uniforms(prog, u_window=(float(plane.width_px), float(plane.height_px)))
+        gl.draw_rects(prog, *active)

@@ -43,7 +43,12 @@ void main() {
     float k_in = max(k.x, 0.0);
     float k_out = k.y;
     if (u_has_shadow == 1 && all(greaterThanEqual(suv, vec2(0.0))) && all(lessThanEqual(suv, vec2(1.0))))
-        k_out = min(k_out, texture(u_shadow, suv).r);
+    {
+        // A solid nearer the light than the medium leaves the ray to the shadow map: T stays that of
+        // the medium, so that filtering across a shadow edge does not blend in a T = 1 texel.
+        float solid = texture(u_shadow, suv).r;
+        if (solid > k_in) k_out = min(k_out, solid);
+    }
 
 #ifndef OPTICAL_DEPTH_ONLY
     // Tighten [K_in, K_out] to the part of the ray where the density is not zero, so that the
