@@ -106,6 +106,30 @@ vec3 extinction_at(vec3 p) {
     return s;
 }
 
+// A ray's density where it crosses one grid medium alone (N_MEDIA 1, a grid in slot 0): texture
+// coordinates linear in the ray parameter, set once per ray, so that a sample costs one fetch, not
+// a matrix product and a box test (outside its non-zero bounds the grid's trilinear density is 0
+// anyway, and the texture clamps to its zero padding). Otherwise the media's weighted density.
+struct GridRay {
+    vec3 o;
+    vec3 d;
+    vec3 tc0;      // texture coordinates at t = 0, and per unit t
+    vec3 tcd;
+    float scale;   // the texture's density scale times the weight
+};
+GridRay grid_ray(vec3 o, vec3 d, float weight) {
+    return GridRay(o, d, ((u_med_to_box[0] * vec4(o, 1.0)).xyz + 1.5) / u_grid_sizes[0],
+                   (mat3(u_med_to_box[0]) * d) / u_grid_sizes[0], u_grid_scales[0] * weight);
+}
+// The lone grid's density at o + d t times the weight given to grid_ray, or (several media, or a
+// box) the media's weighted density there.
+float ray_density(GridRay g, float t) {
+#if N_MEDIA == 1
+    if (MEDIA_SLOT[0] >= 0) return texture(u_density, g.tc0 + g.tcd * t).r * g.scale;
+#endif
+    return weighted_density(g.o + g.d * t);
+}
+
 // The ray (o, d) against every medium's box: the union's (t_in, t_out); t_in >= t_out: missed.
 vec2 media_interval(vec3 o, vec3 d) {
     vec2 r = vec2(1e30, -1e30);

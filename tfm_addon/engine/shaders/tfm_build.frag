@@ -40,6 +40,7 @@ void main() {
     }
 
     vec2 k = media_interval(origin, dir);
+    GridRay ray = grid_ray(origin, dir, u_med_weight[0]);
     float k_in = max(k.x, 0.0);
     float k_out = k.y;
     if (u_has_shadow == 1 && all(greaterThanEqual(suv, vec2(0.0))) && all(lessThanEqual(suv, vec2(1.0))))
@@ -48,15 +49,34 @@ void main() {
 #ifndef OPTICAL_DEPTH_ONLY
     // Tighten [K_in, K_out] to the part of the ray where the density is not zero, so that the
     // cosines spend their resolution where the transmittance changes.
+    // The first and last samples with density are searched for from either end; samples in
+    // empty occupancy cells are skipped (a lone grid), so an empty stretch costs a fetch per cell.
     if (k_out > k_in) {
         float dt = (k_out - k_in) / float(u_light_steps);
+#if N_MEDIA == 1
+        bool skip = MEDIA_SLOT[0] >= 0;
+#else
+        bool skip = false;
+#endif
+        vec3 ob = (u_world_to_box * vec4(origin, 1.0)).xyz;
+        vec3 db = (u_world_to_box * vec4(dir, 0.0)).xyz;
         int first = u_light_steps;
-        int last = -1;
         for (int m = 0; m < u_light_steps; ++m) {
-            if (weighted_density(origin + dir * (k_in + (float(m) + 0.5) * dt)) > 0.0) {
-                first = min(first, m);
-                last = m;
+            float t = k_in + (float(m) + 0.5) * dt;
+            if (ray_density(ray, t) > 0.0) {
+                first = m;
+                break;
             }
+            if (skip) m = max(m, int(ceil((skip_empty(ob, db, t) - k_in) / dt - 0.501)) - 1);
+        }
+        int last = -1;
+        for (int m = u_light_steps - 1; m >= first; --m) {
+            float t = k_in + (float(m) + 0.5) * dt;
+            if (ray_density(ray, t) > 0.0) {
+                last = m;
+                break;
+            }
+            if (skip) m = min(m, int(floor((-skip_empty(ob, -db, -t) - k_in) / dt - 0.499)) + 1);
         }
         if (last < 0) {
             k_out = k_in;
@@ -72,12 +92,15 @@ void main() {
     if (k_out > k_in) {
         float dt = (k_out - k_in) / float(u_light_steps);
         float dx = 1.0 / float(u_light_steps);
+        vec2 turn = vec2(cos(PI * dx), sin(PI * dx));         // cos, sin of pi x by rotation
+        vec2 cs = vec2(cos(0.5 * PI * dx), sin(0.5 * PI * dx));
         for (int m = 0; m < u_light_steps; ++m) {
             float x = (float(m) + 0.5) * dx;
-            float d = weighted_density(origin + dir * (k_in + x * (k_out - k_in)));
+            float d = ray_density(ray, k_in + x * (k_out - k_in));
 #ifndef OPTICAL_DEPTH_ONLY
             float f = exp(-(tau + 0.5 * d * dt) * u_inv_alpha);
-            float c1 = cos(PI * x);
+            float c1 = cs.x;
+            cs = vec2(cs.x * turn.x - cs.y * turn.y, cs.y * turn.x + cs.x * turn.y);
             float b_prev = 1.0;     // cos(0 pi x)
             float b = c1;           // cos(1 pi x)
             c[0] += f;

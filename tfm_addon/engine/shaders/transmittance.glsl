@@ -135,6 +135,14 @@ vec3 light_transmittance(vec3 p, vec3 q, float r) {
     float b = min(k.y, r);
     if (b <= a) return vec3(1.0);
     float dt = (b - a) / float(u_light_steps);
+#if N_MEDIA == 1
+    if (MEDIA_SLOT[0] >= 0) {      // a lone grid: the TFM build's density path (common.glsl)
+        GridRay ray = grid_ray(p, dir, 1.0);
+        float s = 0.0;
+        for (int i = 0; i < u_light_steps; ++i) s += ray_density(ray, a + (float(i) + 0.5) * dt);
+        return exp(-u_med_sigma_t[0] * (s * dt));
+    }
+#endif
     vec3 tau = vec3(0.0);
     for (int i = 0; i < u_light_steps; ++i) tau += extinction_at(p + dir * (a + (float(i) + 0.5) * dt));
     return exp(-tau * dt);
