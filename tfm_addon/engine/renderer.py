@@ -45,7 +45,13 @@ from .passes.scattering import (
 )
 from .passes.shadow_map import ShadowMap
 from .passes.solids import SolidsBuffer
-from .passes.tfm import MIN_FOOTPRINT_RESOLUTION, TransmittanceMap, largest_density_integral, tfm_resolution
+from .passes.tfm import (
+    MIN_FOOTPRINT_RESOLUTION,
+    TransmittanceMap,
+    coefficient_textures,
+    largest_density_integral,
+    tfm_resolution,
+)
 from .quality import auto_settings, footprint_texels_per_voxel, light_density_integral
 from .scene import Light, RenderSettings, Scene
 
@@ -526,10 +532,10 @@ class Renderer:
         media_key = tuple((_slot_key(slots[i]), round(weights[i], 9)) for i in reached)
         base = (light.key, frame.key, scene.solids_key, media_key, res, settings.light_steps)
         key = base + (n, weight_key)
-        if (n % 4 == 0 or n <= 2) and key not in self._tfms.items:
+        if key not in self._tfms.items:
             wider = [k for k in self._tfms.items
                      if k[:len(base)] == base and len(k) == len(key) and k[-1] == weight_key
-                     and k[-2] > n and k[-2] % 4 == 0]
+                     and k[-2] > n]
             if wider:
                 if base + ("alpha",) in self._tfms.items:
                     self._tfms.used.add(base + ("alpha",))    # the wider map's alpha: kept with it
@@ -597,15 +603,15 @@ class Renderer:
 
 
 class _FewerCoefficients:
-    """A TFM read with its first ``n`` coefficients (n a multiple of 4, or n <= 2: the shader
-    then ignores the rest of the first target)."""
+    """A TFM read with its first ``n`` coefficients (the shader masks the rest of the last
+    texture it reads)."""
 
     def __init__(self, tfm: TransmittanceMap, n: int):
         self.tfm, self.coefficients = tfm, n
 
     def defines(self, tfm_filter: str) -> dict[str, int]:
         return {**self.tfm.defines(tfm_filter), "N_COEFF": self.coefficients,
-                "N_TARGETS": max(1, self.coefficients // 4)}
+                "N_TARGETS": coefficient_textures(self.coefficients)}
 
     def bind(self, prog, sigma_t) -> None:
         self.tfm.bind(prog, sigma_t)

@@ -9,7 +9,7 @@ uniform float u_inv_alpha;          // 1 / alpha_D, per unit density integral (m
 #ifdef OPTICAL_DEPTH_ONLY
 out vec4 o_tau;
 #else
-layout(location = 0) out vec4 o_krange;   // N_TARGETS 0 (two coefficients): K range and c0, c1
+layout(location = 0) out vec4 o_krange;   // K range and c0, c1; then c2..c5, c6..c9, ... (N_TARGETS)
 #if N_TARGETS > 0
 layout(location = 1) out vec4 o_coef0;
 #endif
@@ -86,8 +86,8 @@ void main() {
         }
     }
 #endif
-    float c[16];
-    for (int j = 0; j < 16; ++j) c[j] = 0.0;
+    float c[18];
+    for (int j = 0; j < 18; ++j) c[j] = 0.0;
     float tau = 0.0;
     if (k_out > k_in) {
         float dt = (k_out - k_in) / float(u_light_steps);
@@ -113,7 +113,7 @@ void main() {
 #endif
             tau += d * dt;
         }
-        for (int j = 0; j < 16; ++j) c[j] *= (j == 0 ? 1.0 : 2.0) * dx;
+        for (int j = 0; j < 18; ++j) c[j] *= (j == 0 ? 1.0 : 2.0) * dx;
     } else {
         c[0] = 1.0;                 // a ray that misses the medium: F = 1
         k_in = 0.0;
@@ -122,20 +122,18 @@ void main() {
 #ifdef OPTICAL_DEPTH_ONLY
     o_tau = vec4(tau, 0.0, 0.0, 1.0);
 #else
-#if N_TARGETS == 0
     o_krange = vec4(k_in, k_out, c[0], c[1]);
-#else
-    o_krange = vec4(k_in, k_out, 0.0, 1.0);
-    o_coef0 = vec4(c[0], c[1], c[2], c[3]);
+#if N_TARGETS > 0
+    o_coef0 = vec4(c[2], c[3], c[4], c[5]);
 #endif
 #if N_TARGETS > 1
-    o_coef1 = vec4(c[4], c[5], c[6], c[7]);
+    o_coef1 = vec4(c[6], c[7], c[8], c[9]);
 #endif
 #if N_TARGETS > 2
-    o_coef2 = vec4(c[8], c[9], c[10], c[11]);
+    o_coef2 = vec4(c[10], c[11], c[12], c[13]);
 #endif
 #if N_TARGETS > 3
-    o_coef3 = vec4(c[12], c[13], c[14], c[15]);
+    o_coef3 = vec4(c[14], c[15], c[16], c[17]);
 #endif
 #endif
 }
