@@ -154,3 +154,37 @@ def test_every_coefficient_count_reads_its_cosines_from_the_packed_map(fresh):
     counts = sorted(errors)                            # seen: 5.7e-3 at 2 cosines ... 1.9e-4 at 16
     assert all(errors[b] <= 1.01 * errors[a] for a, b in zip(counts, counts[1:], strict=False)), errors
     assert errors[16] <= 1e-3 and errors[6] <= 0.2 * errors[2] and errors[10] <= 0.6 * errors[5], errors
+
+
+def test_a_grids_coarser_level_is_made_once_for_the_light_marches_that_read_it(fresh, monkeypatch):
+    """The TFM build reads the grid's level 1 (2x2x2 means) where its steps and texels span two
+    voxels (common.glsl grid_ray_lod): made by the first such build, not by the upload, nor again
+    for a light move; a fine map (texels under two voxels) never asks for it; and the coarse
+    build keeps the image against the numpy reference."""
+    scene = smoke_scene(width=64, height=40, n=64, with_bar=False)
+    ref = render_reference(scene, view_steps=64, light_steps=128)
+    fine = RenderSettings(map_resolution=256, coefficients=6, view_steps=64, light_steps=16)
+    coarse = dataclasses.replace(fine, map_resolution=24)       # ~2.4 voxels a texel, 7 a step
+    img_fine = fresh.render(scene, fine).rgb
+    assert fresh.counters["grid_uploads"] == 1 and fresh.counters["grid_levels"] == 0
+    img = fresh.render(scene, coarse).rgb
+    assert fresh.counters["grid_levels"] == 1
+    m = np.array(scene.lights[0].matrix_world)
+    m[0, 3] += 0.01
+    fresh.render(dataclasses.replace(scene, lights=(dataclasses.replace(scene.lights[0], matrix_world=m),)),
+                 coarse)
+    assert fresh.counters["tfms"] == 3 and fresh.counters["grid_levels"] == 1
+    assert ssim(img, ref.rgb) >= 0.995 and abs(brightness_ratio(img, ref.rgb) - 1.0) <= 0.01
+    assert ssim(img_fine, ref.rgb) >= 0.995
+    # Without the level the same build reads level 0: another image (the level is read), as close.
+    from tfm_addon.engine import Renderer
+    from tfm_addon.engine.passes.bindings import MediumGPU
+
+    monkeypatch.setattr(MediumGPU, "ensure_level1", lambda self: False)
+    other = Renderer()
+    try:
+        level0 = other.render(scene, coarse).rgb
+    finally:
+        other.release()
+    assert float(np.abs(level0 - img).max()) > 1e-4 * float(img.max())
+    assert abs(ssim(level0, ref.rgb) - ssim(img, ref.rgb)) <= 0.002

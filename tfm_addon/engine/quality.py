@@ -50,7 +50,7 @@ STEPS_PER_VOXEL = (0.1, 0.5)        # the range the sharpness may ask for
 MIN_STEPS = 32
 LIGHT_STEPS_PER_VOXEL = (0.1, 0.25)  # the TFM build: its cosines smooth the transmittance along the ray
 LIGHT_MIN_STEPS = 32
-SMOOTH_LIGHT_STEPS_PER_COEFFICIENT = 8   # a smooth density's TFM build: at most this many steps per cosine
+SMOOTH_LIGHT_STEPS_PER_COEFFICIENT = 5   # a smooth density's TFM build: at most this many steps per cosine
 MAX_STEPS = 256
 HOMOGENEOUS_VIEW_STEPS = 32
 

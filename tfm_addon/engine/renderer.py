@@ -155,7 +155,9 @@ class Renderer:
     """Renders scenes with one OpenGL context, created on first use on the calling thread;
     every call must come from that thread (see worker.RenderWorker).
 
-    ``counters`` counts what was built: 'grid_uploads', 'shadow_maps', 'tfms', 'gbuffers' (G-buffer
+    ``counters`` counts what was built: 'grid_uploads', 'grid_levels' (a grid's coarser level
+    for the light marches, made once per upload when a light first asks for it), 'shadow_maps',
+    'tfms', 'gbuffers' (G-buffer
     contents drawn, one per new view; 'gbuffer_objects' counts the GL textures and framebuffers
     they were drawn into, reused across views of one size),
     'light_passes', 'renders' (maps and passes per light face), and 'faces_culled' (faces of
@@ -495,6 +497,7 @@ class Renderer:
                 elif reached and light.use_tfm:
                     if settings.method == "BRUTE_FORCE":
                         light_t = LIGHT_T_MARCH
+                        self.counters["grid_levels"] += medium_gpu.ensure_level1(frame, settings.light_steps)
                     else:
                         side = _face_side(settings, frame, medium_gpu.slots, reached, res,
                                           image_side or max(scene.camera.width_px, scene.camera.height_px))
@@ -560,6 +563,7 @@ class Renderer:
 
         def build():
             self.counters["tfms"] += 1
+            self.counters["grid_levels"] += medium_gpu.ensure_level1(frame, settings.light_steps, res)
             return TransmittanceMap(self.gl, frame, medium_gpu, shadow,
                                     res, settings.light_steps, n, alpha_d, weights)
 

@@ -60,6 +60,10 @@ void main() {
 #endif
         vec3 ob = (u_world_to_box * vec4(origin, 1.0)).xyz;
         vec3 db = (u_world_to_box * vec4(dir, 0.0)).xyz;
+        // The grid's level for this ray (common.glsl): the texel's width where the ray enters the
+        // medium (a sun: its own width) and the step; level 1 when both span two voxels.
+        float width = 2.0 * min(u_tan_half.x, u_tan_half.y) * (u_face_ortho == 1 ? 1.0 : k_in) / u_map_res;
+        ray.lod = grid_ray_lod(ray, dt, width);
         int first = u_light_steps;
         for (int m = 0; m < u_light_steps; ++m) {
             float t = k_in + (float(m) + 0.5) * dt;
@@ -92,6 +96,8 @@ void main() {
     if (k_out > k_in) {
         float dt = (k_out - k_in) / float(u_light_steps);
         float dx = 1.0 / float(u_light_steps);
+        float width = 2.0 * min(u_tan_half.x, u_tan_half.y) * (u_face_ortho == 1 ? 1.0 : k_in) / u_map_res;
+        ray.lod = grid_ray_lod(ray, dt, width);     // the tightened steps may ask for level 0
         vec2 turn = vec2(cos(PI * dx), sin(PI * dx));         // cos, sin of pi x by rotation
         vec2 cs = vec2(cos(0.5 * PI * dx), sin(0.5 * PI * dx));
         for (int m = 0; m < u_light_steps; ++m) {

@@ -148,6 +148,7 @@ vec3 light_transmittance(vec3 p, vec3 q, float r) {
 #if N_MEDIA == 1
     if (MEDIA_SLOT[0] >= 0) {      // a lone grid: the TFM build's density path (common.glsl)
         GridRay ray = grid_ray(p, dir, 1.0);
+        ray.lod = grid_ray_lod(ray, dt, dt);    // level 1 where the steps span two voxels
         float s = 0.0;
         for (int i = 0; i < u_light_steps; ++i) s += ray_density(ray, a + (float(i) + 0.5) * dt);
         return exp(-u_med_sigma_t[0] * (s * dt));
