@@ -192,7 +192,7 @@ def test_auto_rule_follows_optical_depth_sharpness_and_medium_kind():
     stats = medium_stats(block)
     assert stats.sharpness == pytest.approx(1.0)
     assert auto_settings(block, base).view_steps == max(32, math.ceil(0.5 * stats.view_voxels))
-    assert auto_settings(block, base).light_steps == max(32, math.ceil(0.25 * stats.light_voxels))
+    assert auto_settings(block, base).light_steps == max(32, math.ceil(0.2 * stats.light_voxels))
     sharp = dataclasses.replace(block, medium=dataclasses.replace(block.medium, sigma_s=(3.0, 3.0, 3.0)))
     assert medium_stats(sharp).optical_depth > 2.0
     assert auto_settings(sharp, base).coefficients == auto_coefficients(medium_stats(sharp).optical_depth) > 2
