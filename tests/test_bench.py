@@ -181,7 +181,7 @@ def test_auto_rule_follows_optical_depth_sharpness_and_medium_kind():
     assert medium_stats(dense).optical_depth == pytest.approx(30 * medium_stats(thin).optical_depth, rel=1e-6)
     base = RenderSettings(map_resolution=64, quality="AUTO")
     a_thin, a_dense = auto_settings(thin, base), auto_settings(dense, base)
-    assert (a_thin.coefficients, a_dense.coefficients) == (2, 8)     # tau 1.2 and 37, smooth: read at / 4
+    assert (a_thin.coefficients, a_dense.coefficients) == (2, 10)    # tau 1.2 and 37, smooth: read at / 4
     assert a_thin.density_weight is None and a_dense.density_weight is None
     assert a_thin.map_resolution == 64 and a_thin == auto_settings(thin, base)      # pure, repeatable
 
@@ -192,7 +192,7 @@ def test_auto_rule_follows_optical_depth_sharpness_and_medium_kind():
     stats = medium_stats(block)
     assert stats.sharpness == pytest.approx(1.0)
     assert auto_settings(block, base).view_steps == max(32, math.ceil(0.5 * stats.view_voxels))
-    assert auto_settings(block, base).light_steps == max(32, math.ceil(0.25 * stats.light_voxels))
+    assert auto_settings(block, base).light_steps == max(32, math.ceil(0.2 * stats.light_voxels))
     sharp = dataclasses.replace(block, medium=dataclasses.replace(block.medium, sigma_s=(3.0, 3.0, 3.0)))
     assert medium_stats(sharp).optical_depth > 2.0
     assert auto_settings(sharp, base).coefficients == auto_coefficients(medium_stats(sharp).optical_depth) > 2

@@ -104,3 +104,87 @@ def test_footprint_side_follows_the_light_distance(renderer, sparse_scene):
         capped = tfm_resolution(settings, far, medium_gpu, 512, image_side=80)
     assert 64 <= n_near < n_far <= 4096      # farther light: smaller texels needed, more of them
     assert capped == min(n_far, 80)
+
+
+def _numpy_light_transmittance(scene, points: np.ndarray, steps: int = 512) -> np.ndarray:
+    """exp(-sigma_t * the trilinear density integrated from the spot to each point), midpoints,
+    scipy's interpolation of the zero-padded grid (voxel centres at integer indices)."""
+    m = scene.medium
+    light = np.asarray(scene.lights[0].matrix_world, np.float64)[:3, 3]
+    to_index = np.linalg.inv(np.asarray(m.index_to_world, np.float64))
+    s = (np.arange(steps) + 0.5) / steps
+    p = light + s[None, :, None] * (points - light)[:, None, :]
+    idx = p @ to_index[:3, :3].T + to_index[:3, 3]
+    d = ndimage.map_coordinates(np.pad(np.asarray(m.density, np.float64), 1), (idx + 1.0).reshape(-1, 3).T,
+                                order=1, mode="constant").reshape(idx.shape[:2])
+    length = np.linalg.norm(points - light, axis=1)
+    return np.exp(-np.outer(d.mean(axis=1) * length, m.sigma_t))
+
+
+def test_every_coefficient_count_reads_its_cosines_from_the_packed_map(fresh):
+    """c0, c1 ride beside the K range and the rest four per texture (passes/tfm.coefficient_textures):
+    each count from 2 to 16 reconstructs the transmittance the numpy march gives, more closely
+    with more cosines, and a map built with 16 read with fewer gives what a map of that count gives."""
+    from tfm_addon.engine import Renderer
+    from tfm_addon.engine.passes.tfm import coefficient_textures
+
+    assert [coefficient_textures(n) for n in (1, 2, 3, 6, 7, 10, 11, 14, 16)] == [0, 0, 1, 1, 2, 2, 3, 3, 4]
+    scene = smoke_scene(width=40, height=24, n=32, sigma_s=(4.0, 4.0, 4.0), sigma_a=(0.4, 0.4, 0.4),
+                        with_bar=False)
+    rng = np.random.default_rng(1)
+    idx = rng.uniform(2, 29, (3000, 3))
+    points = (np.c_[idx, np.ones(len(idx))] @ np.asarray(scene.medium.index_to_world).T)[:, :3]
+    want = _numpy_light_transmittance(scene, points)
+    base = RenderSettings(map_resolution=128, light_steps=128, density_weight=None)
+    wide = Renderer()
+    try:
+        wide.light_transmittance_at(scene, dataclasses.replace(base, coefficients=16), 0, points)
+        built = wide.counters["tfms"]
+        errors = {}
+        for n in (2, 3, 5, 6, 7, 10, 13, 16):
+            settings = dataclasses.replace(base, coefficients=n)
+            own = fresh.light_transmittance_at(scene, settings, 0, points)
+            fresh.clear_maps()
+            read = wide.light_transmittance_at(scene, settings, 0, points)
+            assert float(np.abs(read - own).max()) <= 1e-5, n
+            errors[n] = float(np.abs(own - want).mean())
+        assert wide.counters["tfms"] == built          # every narrower count read the 16-cosine map
+    finally:
+        wide.release()
+    counts = sorted(errors)                            # seen: 5.7e-3 at 2 cosines ... 1.9e-4 at 16
+    assert all(errors[b] <= 1.01 * errors[a] for a, b in zip(counts, counts[1:], strict=False)), errors
+    assert errors[16] <= 1e-3 and errors[6] <= 0.2 * errors[2] and errors[10] <= 0.6 * errors[5], errors
+
+
+def test_a_grids_coarser_level_is_made_once_for_the_light_marches_that_read_it(fresh, monkeypatch):
+    """The TFM build reads the grid's level 1 (2x2x2 means) where its steps and texels span two
+    voxels (common.glsl grid_ray_lod): made by the first such build, not by the upload, nor again
+    for a light move; a fine map (texels under two voxels) never asks for it; and the coarse
+    build keeps the image against the numpy reference."""
+    scene = smoke_scene(width=64, height=40, n=64, with_bar=False)
+    ref = render_reference(scene, view_steps=64, light_steps=128)
+    fine = RenderSettings(map_resolution=256, coefficients=6, view_steps=64, light_steps=16)
+    coarse = dataclasses.replace(fine, map_resolution=24)       # ~2.4 voxels a texel, 7 a step
+    img_fine = fresh.render(scene, fine).rgb
+    assert fresh.counters["grid_uploads"] == 1 and fresh.counters["grid_levels"] == 0
+    img = fresh.render(scene, coarse).rgb
+    assert fresh.counters["grid_levels"] == 1
+    m = np.array(scene.lights[0].matrix_world)
+    m[0, 3] += 0.01
+    fresh.render(dataclasses.replace(scene, lights=(dataclasses.replace(scene.lights[0], matrix_world=m),)),
+                 coarse)
+    assert fresh.counters["tfms"] == 3 and fresh.counters["grid_levels"] == 1
+    assert ssim(img, ref.rgb) >= 0.995 and abs(brightness_ratio(img, ref.rgb) - 1.0) <= 0.01
+    assert ssim(img_fine, ref.rgb) >= 0.995
+    # Without the level the same build reads level 0: another image (the level is read), as close.
+    from tfm_addon.engine import Renderer
+    from tfm_addon.engine.passes.bindings import MediumGPU
+
+    monkeypatch.setattr(MediumGPU, "ensure_level1", lambda self: False)
+    other = Renderer()
+    try:
+        level0 = other.render(scene, coarse).rgb
+    finally:
+        other.release()
+    assert float(np.abs(level0 - img).max()) > 1e-4 * float(img.max())
+    assert abs(ssim(level0, ref.rgb) - ssim(img, ref.rgb)) <= 0.002

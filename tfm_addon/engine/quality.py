@@ -5,9 +5,10 @@ The rule and the sweeps it comes from are written down in ``docs/benchmark.md``:
 
 - heterogeneous medium: density weighting on (automatic alpha, for a spot reaching one medium
   the probe's largest density integral below: no GPU pass, no read-back); the coefficient count
-  from the largest optical depth tau along the lights' rays (``AUTO_COEFFICIENTS``; 2
-  coefficients, packed beside the K range in one texture, where tau <= 2; a smooth density reads
-  the table at ``SMOOTH_DEPTH_SCALE`` tau); view and light steps from the number of voxels the
+  from the largest optical depth tau along the lights' rays (``AUTO_COEFFICIENTS``: 2
+  coefficients, beside the K range in one texture, where tau <= 2, 6 in two textures where
+  tau <= 8, 10 in three where tau <= 16; a smooth density reads the table at
+  ``SMOOTH_DEPTH_SCALE`` tau); view and light steps from the number of voxels the
   longest view / light ray crosses through the non-zero density, times the steps per voxel the
   density's sharpness asks for (``sharpness``: one step per "feature", the distance over which
   the density changes by its maximum, clamped to ``STEPS_PER_VOXEL`` for the view,
@@ -40,14 +41,16 @@ from .passes.bindings import nonzero_bounds
 from .scene import RenderSettings, Scene
 
 # (largest optical depth, coefficients): the first row whose depth is >= tau applies.
-AUTO_COEFFICIENTS: tuple[tuple[float, int], ...] = ((2.0, 2), (4.0, 4), (16.0, 8), (math.inf, 16))
+# The counts are those that fill the textures a lookup fetches (passes/tfm.coefficient_textures:
+# 2 in one texture, 6 in two, 10 in three), so each row reads the most for its fetches.
+AUTO_COEFFICIENTS: tuple[tuple[float, int], ...] = ((2.0, 2), (8.0, 6), (16.0, 10), (math.inf, 16))
 SHARP_FOOTPRINT = 0.5               # sharpness from which the TFM keeps one texel per voxel
 SMOOTH_DEPTH_SCALE = 0.25           # a smooth density's optical depth, as the coefficient table reads it
 STEPS_PER_VOXEL = (0.1, 0.5)        # the range the sharpness may ask for
 MIN_STEPS = 32
-LIGHT_STEPS_PER_VOXEL = (0.1, 0.25)  # the TFM build: its cosines smooth the transmittance along the ray
+LIGHT_STEPS_PER_VOXEL = (0.1, 0.2)  # the TFM build: its cosines smooth the transmittance along the ray
 LIGHT_MIN_STEPS = 32
-SMOOTH_LIGHT_STEPS_PER_COEFFICIENT = 8   # a smooth density's TFM build: at most this many steps per cosine
+SMOOTH_LIGHT_STEPS_PER_COEFFICIENT = 5   # a smooth density's TFM build: at most this many steps per cosine
 MAX_STEPS = 256
 HOMOGENEOUS_VIEW_STEPS = 32
 

@@ -46,7 +46,13 @@ from .passes.scattering import (
 )
 from .passes.shadow_map import ShadowMap
 from .passes.solids import SolidsBuffer
-from .passes.tfm import MIN_FOOTPRINT_RESOLUTION, TransmittanceMap, largest_density_integral, tfm_resolution
+from .passes.tfm import (
+    MIN_FOOTPRINT_RESOLUTION,
+    TransmittanceMap,
+    coefficient_textures,
+    largest_density_integral,
+    tfm_resolution,
+)
 from .quality import auto_settings, footprint_texels_per_voxel, light_density_integral
 from .scene import Light, RenderSettings, Scene
 
@@ -150,7 +156,9 @@ class Renderer:
     """Renders scenes with one OpenGL context, created on first use on the calling thread;
     every call must come from that thread (see worker.RenderWorker).
 
-    ``counters`` counts what was built: 'grid_uploads', 'shadow_maps', 'tfms', 'gbuffers' (G-buffer
+    ``counters`` counts what was built: 'grid_uploads', 'grid_levels' (a grid's coarser level
+    for the light marches, made once per upload when a light first asks for it), 'shadow_maps',
+    'tfms', 'gbuffers' (G-buffer
     contents drawn, one per new view; 'gbuffer_objects' counts the GL textures and framebuffers
     they were drawn into, reused across views of one size),
     'light_passes', 'renders' (maps and passes per light face), and 'faces_culled' (faces of
@@ -498,6 +506,7 @@ class Renderer:
                 elif reached and light.use_tfm:
                     if settings.method == "BRUTE_FORCE":
                         light_t = LIGHT_T_MARCH
+                        self.counters["grid_levels"] += medium_gpu.ensure_level1(frame, settings.light_steps)
                     else:
                         side = _face_side(settings, frame, medium_gpu.slots, reached, res,
                                           image_side or max(scene.camera.width_px, scene.camera.height_px))
@@ -535,10 +544,10 @@ class Renderer:
         media_key = tuple((_slot_key(slots[i]), round(weights[i], 9)) for i in reached)
         base = (light.key, frame.key, scene.solids_key, media_key, res, settings.light_steps)
         key = base + (n, weight_key)
-        if (n % 4 == 0 or n <= 2) and key not in self._tfms.items:
+        if key not in self._tfms.items:
             wider = [k for k in self._tfms.items
                      if k[:len(base)] == base and len(k) == len(key) and k[-1] == weight_key
-                     and k[-2] > n and k[-2] % 4 == 0]
+                     and k[-2] > n]
             if wider:
                 if base + ("alpha",) in self._tfms.items:
                     self._tfms.used.add(base + ("alpha",))    # the wider map's alpha: kept with it
@@ -563,6 +572,7 @@ class Renderer:
 
         def build():
             self.counters["tfms"] += 1
+            self.counters["grid_levels"] += medium_gpu.ensure_level1(frame, settings.light_steps, res)
             return TransmittanceMap(self.gl, frame, medium_gpu, shadow,
                                     res, settings.light_steps, n, alpha_d, weights)
 
@@ -619,15 +629,15 @@ class Renderer:
 
 
 class _FewerCoefficients:
-    """A TFM read with its first ``n`` coefficients (n a multiple of 4, or n <= 2: the shader
-    then ignores the rest of the first target)."""
+    """A TFM read with its first ``n`` coefficients (the shader masks the rest of the last
+    texture it reads)."""
 
     def __init__(self, tfm: TransmittanceMap, n: int):
         self.tfm, self.coefficients = tfm, n
 
     def defines(self, tfm_filter: str) -> dict[str, int]:
         return {**self.tfm.defines(tfm_filter), "N_COEFF": self.coefficients,
-                "N_TARGETS": max(1, self.coefficients // 4)}
+                "N_TARGETS": coefficient_textures(self.coefficients)}
 
     def bind(self, prog, sigma_t) -> None:
         self.tfm.bind(prog, sigma_t)

@@ -88,21 +88,16 @@ class MediumGPU:
             self.index_scale = np.asarray(grid.index_to_world, np.float64)
             world_to_box = np.linalg.inv(np.asarray(medium.index_to_world) @ self.index_scale)
             lo, hi = nonzero_bounds(grid.density)
-            data = grid.padded_xyz_fastest()
             self.grid_size = (n[0] + 2, n[1] + 2, n[2] + 2)
             self.grid_format = grid_format
             dtype, numpy_type = GRID_FORMATS[grid_format]
             self.density_scale = max(grid.max_value, 1e-30)      # stored: density / scale
-            if np.issubdtype(numpy_type, np.integer):     # normalised: round to the nearest step
-                top = np.float32(np.iinfo(numpy_type).max / self.density_scale)
-                stored = data * top + np.float32(0.5)
-            else:
-                stored = data * np.float32(1.0 / self.density_scale)
-            self.texture = gl.ctx.texture3d(self.grid_size, 1, stored.astype(numpy_type).tobytes(),
-                                            dtype=dtype)
-            self.texture.filter = (gl.ctx.LINEAR, gl.ctx.LINEAR)
+            stored = stored_grid(grid.density, numpy_type, self.density_scale)
+            self.texture = gl.ctx.texture3d(self.grid_size, 1, stored, dtype=dtype)
             self.texture.repeat_x = self.texture.repeat_y = self.texture.repeat_z = False
-            occ = self.occupancy_cells = occupancy(data)
+            self.texture.filter = (gl.ctx.LINEAR, gl.ctx.LINEAR)     # level 1: see ensure_level1
+            self._gl = gl
+            occ = self.occupancy_cells = occupancy(stored)     # a voxel stored as 0 is empty
             self.occupancy_size = occ.shape[::-1]
             self.occupancy = gl.ctx.texture3d(self.occupancy_size, 1, occ.tobytes(), dtype="f1")
             self.occupancy.filter = (gl.ctx.NEAREST, gl.ctx.NEAREST)
@@ -116,6 +111,20 @@ class MediumGPU:
         self.world_to_box = world_to_box
         self.box_to_world = np.linalg.inv(world_to_box)
         self.lo, self.hi = tuple(float(x) for x in lo), tuple(float(x) for x in hi)
+
+    has_level1 = False
+
+    def ensure_level1(self) -> bool:
+        """Give the grid's texture its level 1 (the means of 2x2x2 voxels, made by the GL) for
+        the light marches whose steps and map texels span two voxels (common.glsl grid_ray_lod;
+        every other read asks for level 0). Made once, when a light first asks for it, not with
+        every upload. Until then a read of level 1 reads level 0. True when made now."""
+        if self.texture is None or self.has_level1:
+            return False
+        self.texture.build_mipmaps(0, 1)
+        self.texture.filter = (self._gl.ctx.LINEAR_MIPMAP_NEAREST, self._gl.ctx.LINEAR)
+        self.has_level1 = True
+        return True
 
     def bind(self, prog) -> None:
         set_matrix(prog, "u_world_to_box", self.world_to_box)
@@ -145,16 +154,35 @@ def nonzero_bounds(density: np.ndarray) -> tuple[tuple[float, ...], tuple[float,
     return tuple(lo), tuple(hi)
 
 
+def stored_grid(density: np.ndarray, numpy_type, scale: float) -> np.ndarray:
+    """The (nx, ny, nz) grid as its texture holds it: padded by a zero voxel on every side, x
+    fastest, divided by ``scale`` (a normalised integer type: rounded to the nearest step): scaled
+    and converted in the grid's own order, then transposed in the stored type."""
+    nx, ny, nz = density.shape
+    if np.issubdtype(numpy_type, np.integer):
+        values = density * np.float32(np.iinfo(numpy_type).max / scale)
+        values += np.float32(0.5)
+    else:
+        values = density * np.float32(1.0 / scale)
+    out = np.zeros((nx + 2, ny + 2, nz + 2), numpy_type)
+    out[1:-1, 1:-1, 1:-1] = values
+    return np.ascontiguousarray(out.transpose(2, 1, 0))
+
+
 def occupancy(padded_zyx: np.ndarray, block: int = OCCUPANCY_BLOCK) -> np.ndarray:
     """255 where a cell of block^3 padded voxels may hold non-zero trilinear density, else 0, in
     the layout of ``padded_zyx`` (x fastest). Cell c covers padded positions [c b, (c + 1) b) on
-    each axis, whose trilinear value reads voxels c b .. (c + 1) b: the max is over those."""
+    each axis, whose trilinear value reads voxels c b .. (c + 1) b: the OR is over those, one
+    axis at a time on the already reduced array (a box filter is separable)."""
     d = padded_zyx > 0
-    d[:, :, :-1] |= d[:, :, 1:]   # voxel j may touch positions in the cell of j and of j - 1
-    d[:, :-1, :] |= d[:, 1:, :]
-    d[:-1, :, :] |= d[1:, :, :]
     for axis in range(3):
-        d = np.logical_or.reduceat(d, np.arange(0, d.shape[axis], block), axis=axis)
+        starts = np.arange(0, d.shape[axis], block)
+        cells = np.logical_or.reduceat(d, starts, axis=axis)
+        if len(starts) > 1:                      # and the first voxel of the next cell
+            head = [slice(None)] * 3
+            head[axis] = slice(0, len(starts) - 1)
+            cells[tuple(head)] |= np.take(d, starts[1:], axis=axis)
+        d = cells
     return np.ascontiguousarray(d.astype(np.uint8) * 255)
 
 
@@ -204,6 +232,27 @@ class MediaGPU:
         if self.kind == MEDIUM_BOX:
             return [(self.box_to_world, self.lo, self.hi)]
         return []
+
+    def ensure_level1(self, frame: LightFrame, light_steps: int, resolution: int | None = None) -> bool:
+        """Make the lone grid's level 1 (``MediumGPU.ensure_level1``) when a light march of the
+        face ``frame`` with ``light_steps`` steps may read it: its longest step through the
+        grid's non-zero box and (a TFM of side ``resolution``; None: the brute force's march, no
+        texels) the map's texel where the box comes nearest to the light both span two voxels.
+        The shader decides per ray; this only spares the level where no ray wants it."""
+        if self.kind != MEDIUM_GRID or len(self.slots) != 1 or self.slots[0].grid is None:
+            return False
+        slot = self.slots[0]
+        lo, hi = np.asarray(slot.lo), np.asarray(slot.hi)
+        step = float(np.linalg.norm(hi - lo)) / max(int(light_steps), 1)      # voxels
+        texel = np.inf
+        if resolution is not None:
+            w2b = slot.world_to_box
+            p = w2b[:3, :3] @ np.asarray(frame.position, float) + w2b[:3, 3]
+            distance = float(np.linalg.norm(slot.box_to_world[:3, :3] @ (np.clip(p, lo, hi) - p)))
+            voxel = float(np.linalg.norm(slot.box_to_world[:3, :3], axis=0).min())
+            reach = 1.0 if frame.ortho else distance
+            texel = 2.0 * min(frame.tan_xy) * reach / max(int(resolution), 1) / max(voxel, 1e-30)
+        return min(step, texel) >= 2.0 and slot.grid.ensure_level1()
 
     def defines(self) -> dict:
         """The media's count, grid count and grid slot per medium, compiled into the program

@@ -49,6 +49,13 @@ def tfm_resolution(settings, frame: LightFrame, medium, map_res: int,
     return int(min(max(int(r), 1), map_res))
 
 
+def coefficient_textures(coefficients: int) -> int:
+    """Textures of coefficients beside the K range texture for ``coefficients`` cosines: c0, c1 sit
+    in the K range's z, w, then four per texture (2: none, 3-6: one, 7-10: two, ...), so that a
+    lookup fetches 1 + this many texels."""
+    return max(0, math.ceil((int(coefficients) - 2) / 4))
+
+
 def largest_density_integral(gl: GLContext, frame: LightFrame, medium: MediaGPU, resolution: int,
                              light_steps: int, weights=None) -> float:
     """The largest integral of the weighted density (metres at unit density) along the face's
@@ -74,9 +81,9 @@ def largest_density_integral(gl: GLContext, frame: LightFrame, medium: MediaGPU,
 
 
 class TransmittanceMap:
-    """K_in/K_out (metres from the light) and ceil(n / 4) RGBA32F textures of DCT coefficients of
-    F(x) = exp(-tau_D(x) / alpha_D), so that T = F ** (alpha_D * sigma_t) per channel; with
-    n <= 2 the coefficients sit in the K range texture's z, w (one fetch per lookup)."""
+    """An RGBA32F texture of K_in, K_out (metres from the light) and the first two DCT coefficients
+    of F(x) = exp(-tau_D(x) / alpha_D), so that T = F ** (alpha_D * sigma_t) per channel, and
+    ``coefficient_textures(n)`` RGBA32F textures of the others, four each."""
 
     def __init__(self, gl: GLContext, frame: LightFrame, medium: MediaGPU, shadow, resolution: int,
                  light_steps: int, coefficients: int, alpha_d: float, weights=None):
@@ -84,7 +91,7 @@ class TransmittanceMap:
         n = int(min(max(coefficients, 1), MAX_COEFFICIENTS))
         self.coefficients = n
         self.alpha_d = float(alpha_d)
-        targets = 0 if n <= 2 else math.ceil(n / 4)      # two coefficients ride in the K range texture
+        targets = coefficient_textures(n)
         size = (resolution, resolution)
         self.krange = ctx.texture(size, 4, dtype="f4")
         self.coef = [ctx.texture(size, 4, dtype=COEF_DTYPE) for _ in range(targets)]

@@ -24,7 +24,7 @@ vec2 box_interval(vec3 o, vec3 d) {
 
 // Density at a point given in box (grid index) space: trilinear between voxel centres.
 float density_at_index(vec3 idx) {
-    return texture(u_density, (idx + 1.5) / u_grid_size).r * u_density_scale;
+    return textureLod(u_density, (idx + 1.5) / u_grid_size, 0.0).r * u_density_scale;
 }
 
 // Empty-space skipping: u_occupancy's R is 1 where a cell of u_occupancy_block^3 padded voxels may
@@ -71,15 +71,15 @@ uniform sampler3D u_density3;
 
 float grid_fetch(int slot, vec3 idx) {
 #if N_GRIDS > 1
-    if (slot == 1) return texture(u_density1, (idx + 1.5) / u_grid_sizes[1]).r * u_grid_scales[1];
+    if (slot == 1) return textureLod(u_density1, (idx + 1.5) / u_grid_sizes[1], 0.0).r * u_grid_scales[1];
 #endif
 #if N_GRIDS > 2
-    if (slot == 2) return texture(u_density2, (idx + 1.5) / u_grid_sizes[2]).r * u_grid_scales[2];
+    if (slot == 2) return textureLod(u_density2, (idx + 1.5) / u_grid_sizes[2], 0.0).r * u_grid_scales[2];
 #endif
 #if N_GRIDS > 3
-    if (slot == 3) return texture(u_density3, (idx + 1.5) / u_grid_sizes[3]).r * u_grid_scales[3];
+    if (slot == 3) return textureLod(u_density3, (idx + 1.5) / u_grid_sizes[3], 0.0).r * u_grid_scales[3];
 #endif
-    return texture(u_density, (idx + 1.5) / u_grid_sizes[0]).r * u_grid_scales[0];
+    return textureLod(u_density, (idx + 1.5) / u_grid_sizes[0], 0.0).r * u_grid_scales[0];
 }
 
 // Each medium's grid slot (-1: a box of density 1), fixed when the program is compiled, so that
@@ -105,6 +105,38 @@ vec3 extinction_at(vec3 p) {
     vec3 s = vec3(0.0);
     for (int m = 0; m < N_MEDIA; ++m) s += u_med_sigma_t[m] * medium_density(m, p);
     return s;
+}
+
+// A ray's density where it crosses one grid medium alone (N_MEDIA 1, a grid in slot 0): texture
+// coordinates linear in the ray parameter, set once per ray, so that a sample costs one fetch, not
+// a matrix product and a box test (outside its non-zero bounds the grid's trilinear density is 0
+// anyway, and the texture clamps to its zero padding). Otherwise the media's weighted density.
+struct GridRay {
+    vec3 o;
+    vec3 d;
+    vec3 tc0;      // texture coordinates at t = 0, and per unit t
+    vec3 tcd;
+    float scale;   // the texture's density scale times the weight
+    float lod;     // the grid's level read: 0, or 1 (the 2x2x2 means) for a march whose steps
+                   // and light-map texels are at least two voxels wide (grid_ray_lod)
+};
+GridRay grid_ray(vec3 o, vec3 d, float weight) {
+    return GridRay(o, d, ((u_med_to_box[0] * vec4(o, 1.0)).xyz + 1.5) / u_grid_sizes[0],
+                   (mat3(u_med_to_box[0]) * d) / u_grid_sizes[0], u_grid_scales[0] * weight, 0.0);
+}
+// The level for samples spaced ``spacing`` metres along the ray, each standing for a patch
+// ``width`` metres wide across it: 1 where both span two voxels of the lone grid, else 0.
+float grid_ray_lod(GridRay g, float spacing, float width) {
+    float voxels = min(spacing, width) * length(g.tcd * u_grid_sizes[0]);
+    return voxels >= 2.0 ? 1.0 : 0.0;
+}
+// The lone grid's density at o + d t times the weight given to grid_ray, or (several media, or a
+// box) the media's weighted density there.
+float ray_density(GridRay g, float t) {
+#if N_MEDIA == 1
+    if (MEDIA_SLOT[0] >= 0) return textureLod(u_density, g.tc0 + g.tcd * t, g.lod).r * g.scale;
+#endif
+    return weighted_density(g.o + g.d * t);
 }
 
 // The ray (o, d) against every medium's box: the union's (t_in, t_out); t_in >= t_out: missed.

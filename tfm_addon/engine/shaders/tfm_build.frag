@@ -9,7 +9,7 @@ uniform float u_inv_alpha;          // 1 / alpha_D, per unit density integral (m
 #ifdef OPTICAL_DEPTH_ONLY
 out vec4 o_tau;
 #else
-layout(location = 0) out vec4 o_krange;   // N_TARGETS 0 (two coefficients): K range and c0, c1
+layout(location = 0) out vec4 o_krange;   // K range and c0, c1; then c2..c5, c6..c9, ... (N_TARGETS)
 #if N_TARGETS > 0
 layout(location = 1) out vec4 o_coef0;
 #endif
@@ -40,6 +40,7 @@ void main() {
     }
 
     vec2 k = media_interval(origin, dir);
+    GridRay ray = grid_ray(origin, dir, u_med_weight[0]);
     float k_in = max(k.x, 0.0);
     float k_out = k.y;
     if (u_has_shadow == 1 && all(greaterThanEqual(suv, vec2(0.0))) && all(lessThanEqual(suv, vec2(1.0))))
@@ -53,15 +54,38 @@ void main() {
 #ifndef OPTICAL_DEPTH_ONLY
     // Tighten [K_in, K_out] to the part of the ray where the density is not zero, so that the
     // cosines spend their resolution where the transmittance changes.
+    // The first and last samples with density are searched for from either end; samples in
+    // empty occupancy cells are skipped (a lone grid), so an empty stretch costs a fetch per cell.
     if (k_out > k_in) {
         float dt = (k_out - k_in) / float(u_light_steps);
+#if N_MEDIA == 1
+        bool skip = MEDIA_SLOT[0] >= 0;
+#else
+        bool skip = false;
+#endif
+        vec3 ob = (u_world_to_box * vec4(origin, 1.0)).xyz;
+        vec3 db = (u_world_to_box * vec4(dir, 0.0)).xyz;
+        // The grid's level for this ray (common.glsl): the texel's width where the ray enters the
+        // medium (a sun: its own width) and the step; level 1 when both span two voxels.
+        float width = 2.0 * min(u_tan_half.x, u_tan_half.y) * (u_face_ortho == 1 ? 1.0 : k_in) / u_map_res;
+        ray.lod = grid_ray_lod(ray, dt, width);
         int first = u_light_steps;
-        int last = -1;
         for (int m = 0; m < u_light_steps; ++m) {
-            if (weighted_density(origin + dir * (k_in + (float(m) + 0.5) * dt)) > 0.0) {
-                first = min(first, m);
-                last = m;
+            float t = k_in + (float(m) + 0.5) * dt;
+            if (ray_density(ray, t) > 0.0) {
+                first = m;
+                break;
             }
+            if (skip) m = max(m, int(ceil((skip_empty(ob, db, t) - k_in) / dt - 0.501)) - 1);
+        }
+        int last = -1;
+        for (int m = u_light_steps - 1; m >= first; --m) {
+            float t = k_in + (float(m) + 0.5) * dt;
+            if (ray_density(ray, t) > 0.0) {
+                last = m;
+                break;
+            }
+            if (skip) m = min(m, int(floor((-skip_empty(ob, -db, -t) - k_in) / dt - 0.499)) + 1);
         }
         if (last < 0) {
             k_out = k_in;
@@ -71,18 +95,23 @@ void main() {
         }
     }
 #endif
-    float c[16];
-    for (int j = 0; j < 16; ++j) c[j] = 0.0;
+    float c[18];
+    for (int j = 0; j < 18; ++j) c[j] = 0.0;
     float tau = 0.0;
     if (k_out > k_in) {
         float dt = (k_out - k_in) / float(u_light_steps);
         float dx = 1.0 / float(u_light_steps);
+        float width = 2.0 * min(u_tan_half.x, u_tan_half.y) * (u_face_ortho == 1 ? 1.0 : k_in) / u_map_res;
+        ray.lod = grid_ray_lod(ray, dt, width);     // the tightened steps may ask for level 0
+        vec2 turn = vec2(cos(PI * dx), sin(PI * dx));         // cos, sin of pi x by rotation
+        vec2 cs = vec2(cos(0.5 * PI * dx), sin(0.5 * PI * dx));
         for (int m = 0; m < u_light_steps; ++m) {
             float x = (float(m) + 0.5) * dx;
-            float d = weighted_density(origin + dir * (k_in + x * (k_out - k_in)));
+            float d = ray_density(ray, k_in + x * (k_out - k_in));
 #ifndef OPTICAL_DEPTH_ONLY
             float f = exp(-(tau + 0.5 * d * dt) * u_inv_alpha);
-            float c1 = cos(PI * x);
+            float c1 = cs.x;
+            cs = vec2(cs.x * turn.x - cs.y * turn.y, cs.y * turn.x + cs.x * turn.y);
             float b_prev = 1.0;     // cos(0 pi x)
             float b = c1;           // cos(1 pi x)
             c[0] += f;
@@ -95,7 +124,7 @@ void main() {
 #endif
             tau += d * dt;
         }
-        for (int j = 0; j < 16; ++j) c[j] *= (j == 0 ? 1.0 : 2.0) * dx;
+        for (int j = 0; j < 18; ++j) c[j] *= (j == 0 ? 1.0 : 2.0) * dx;
     } else {
         c[0] = 1.0;                 // a ray that misses the medium: F = 1
         k_in = 0.0;
@@ -104,20 +133,18 @@ void main() {
 #ifdef OPTICAL_DEPTH_ONLY
     o_tau = vec4(tau, 0.0, 0.0, 1.0);
 #else
-#if N_TARGETS == 0
     o_krange = vec4(k_in, k_out, c[0], c[1]);
-#else
-    o_krange = vec4(k_in, k_out, 0.0, 1.0);
-    o_coef0 = vec4(c[0], c[1], c[2], c[3]);
+#if N_TARGETS > 0
+    o_coef0 = vec4(c[2], c[3], c[4], c[5]);
 #endif
 #if N_TARGETS > 1
-    o_coef1 = vec4(c[4], c[5], c[6], c[7]);
+    o_coef1 = vec4(c[6], c[7], c[8], c[9]);
 #endif
 #if N_TARGETS > 2
-    o_coef2 = vec4(c[8], c[9], c[10], c[11]);
+    o_coef2 = vec4(c[10], c[11], c[12], c[13]);
 #endif
 #if N_TARGETS > 3
-    o_coef3 = vec4(c[12], c[13], c[14], c[15]);
+    o_coef3 = vec4(c[14], c[15], c[16], c[17]);
 #endif
 #endif
 }

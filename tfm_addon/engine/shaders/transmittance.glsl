@@ -11,37 +11,45 @@ uniform sampler2D u_coef2;
 uniform sampler2D u_coef3;
 
 #if LIGHT_T == 0
-// F(x) from the cosine coefficients c0..c3 (four each) over the domain k = (K_in, K_out), at
-// distance r from the light, clamped to [0, 1]. The cosines cos(j pi x) come four at a time
-// from cos((j + 4) t) = 2 cos(4 t) cos(j t) - cos((j - 4) t); coefficients past N_COEFF are 0.
-float tfm_series(vec2 k, vec4 c0, vec4 c1, vec4 c2, vec4 c3, float r) {
-#if N_TARGETS == 1 && N_COEFF < 4
-    c0 *= vec4(1.0, float(N_COEFF > 1), float(N_COEFF > 2), 0.0);   // a wider map read with fewer
-#endif
-    float x = (r - k.x) / max(k.y - k.x, 1e-6);
+// Coefficient j of a map's texel: j = 0, 1 in the K range texture's z, w, then four per texture
+// (u_coef0: 2..5, u_coef1: 6..9, ...). A map may hold more coefficients than the N_COEFF read
+// (a wider map serves a narrower request): the mask zeroes those past N_COEFF.
+vec4 coef_mask(int group) {
+    return vec4(lessThan(vec4(float(2 + 4 * group)) + vec4(0.0, 1.0, 2.0, 3.0), vec4(float(N_COEFF))));
+}
+
+// F(x) from the K range and c0, c1 (kc) and the coefficients c2.. (four per vec4) at distance r
+// from the light, clamped to [0, 1]. The cosines cos(j pi x) come four at a time from
+// cos((j + 4) t) = 2 cos(4 t) cos(j t) - cos((j - 4) t), after one cos.
+float tfm_series(vec4 kc, vec4 c0, vec4 c1, vec4 c2, vec4 c3, float r) {
+    float x = (r - kc.x) / max(kc.y - kc.x, 1e-6);
     if (x <= 0.0) return 1.0;
     float t1 = cos(PI * min(x, 1.0));
+    float f = kc.z + kc.w * t1 * float(N_COEFF > 1);
+#if N_TARGETS > 0
     float t2 = 2.0 * t1 * t1 - 1.0;
     float t3 = 2.0 * t1 * t2 - t1;
     float t4 = 2.0 * t2 * t2 - 1.0;
-    vec4 b = vec4(1.0, t1, t2, t3);
-    float f = dot(c0, b);
+    float t5 = 2.0 * t1 * t4 - t3;
+    vec4 b_prev = vec4(t2, t1, 1.0, t1);          // cos(j t) for j = -2 .. 1
+    vec4 b = vec4(t2, t3, t4, t5);
+    f += dot(c0 * coef_mask(0), b);
+#endif
 #if N_TARGETS > 1
-    vec4 b_prev = vec4(t4, t3, t2, t1);
     vec4 b_next = 2.0 * t4 * b - b_prev;
-    f += dot(c1, b_next);
+    b_prev = b;
+    b = b_next;
+    f += dot(c1 * coef_mask(1), b);
 #endif
 #if N_TARGETS > 2
+    b_next = 2.0 * t4 * b - b_prev;
     b_prev = b;
     b = b_next;
-    b_next = 2.0 * t4 * b - b_prev;
-    f += dot(c2, b_next);
+    f += dot(c2 * coef_mask(2), b);
 #endif
 #if N_TARGETS > 3
-    b_prev = b;
-    b = b_next;
     b_next = 2.0 * t4 * b - b_prev;
-    f += dot(c3, b_next);
+    f += dot(c3 * coef_mask(3), b_next);
 #endif
     return clamp(f, 0.0, 1.0);
 }
@@ -49,11 +57,12 @@ float tfm_series(vec2 k, vec4 c0, vec4 c1, vec4 c2, vec4 c3, float r) {
 // F in one texel's own domain.
 float tfm_texel(ivec2 c, float r) {
     vec4 zero = vec4(0.0);
-#if N_TARGETS == 0
-    vec4 kc = texelFetch(u_krange, c, 0);       // two coefficients beside the K range
-    return tfm_series(kc.xy, vec4(kc.zw, 0.0, 0.0), zero, zero, zero, r);
+    return tfm_series(texelFetch(u_krange, c, 0),
+#if N_TARGETS > 0
+                      texelFetch(u_coef0, c, 0),
+#else
+                      zero,
 #endif
-    return tfm_series(texelFetch(u_krange, c, 0).xy, texelFetch(u_coef0, c, 0),
 #if N_TARGETS > 1
                       texelFetch(u_coef1, c, 0),
 #else
@@ -78,11 +87,12 @@ float tfm_texel(ivec2 c, float r) {
 float tfm_lookup(vec2 uv, float r) {
 #if TFM_FILTER == 1
     vec4 zero = vec4(0.0);
-#if N_TARGETS == 0
-    vec4 kc = texture(u_krange, uv);            // one fetch: K range and c0, c1
-    return tfm_series(kc.xy, vec4(kc.zw, 0.0, 0.0), zero, zero, zero, r);
+    return tfm_series(texture(u_krange, uv),
+#if N_TARGETS > 0
+                      texture(u_coef0, uv),
+#else
+                      zero,
 #endif
-    return tfm_series(texture(u_krange, uv).xy, texture(u_coef0, uv),
 #if N_TARGETS > 1
                       texture(u_coef1, uv),
 #else
@@ -135,6 +145,15 @@ vec3 light_transmittance(vec3 p, vec3 q, float r) {
     float b = min(k.y, r);
     if (b <= a) return vec3(1.0);
     float dt = (b - a) / float(u_light_steps);
+#if N_MEDIA == 1
+    if (MEDIA_SLOT[0] >= 0) {      // a lone grid: the TFM build's density path (common.glsl)
+        GridRay ray = grid_ray(p, dir, 1.0);
+        ray.lod = grid_ray_lod(ray, dt, dt);    // level 1 where the steps span two voxels
+        float s = 0.0;
+        for (int i = 0; i < u_light_steps; ++i) s += ray_density(ray, a + (float(i) + 0.5) * dt);
+        return exp(-u_med_sigma_t[0] * (s * dt));
+    }
+#endif
     vec3 tau = vec3(0.0);
     for (int i = 0; i < u_light_steps; ++i) tau += extinction_at(p + dir * (a + (float(i) + 0.5) * dt));
     return exp(-tau * dt);
