@@ -18,6 +18,7 @@ from .gl_context import GLContext
 from .light import LightFrame, cone_meets_box, cone_warning, face_meets_box, is_dark, light_faces
 from .medium_grid import grid_allowances, prepare_grid
 from .output import RenderOutput
+from .passes.accumulate import SampleSums
 from .passes.bindings import (
     MAX_GRIDS,
     MAX_MEDIA,
@@ -187,7 +188,7 @@ class Renderer:
                cancel: Callable[[], bool] | None = None,
                progress: Callable[[float], None] | None = None, passes: bool = True,
                client: str = "final", sweep: bool = True, map_image_side: int | None = None,
-               active: ActivePixels | None = None) -> RenderOutput:
+               active: ActivePixels | None = None, accumulate=None) -> RenderOutput:
         """Render ``scene``; raises RenderCancelled when ``cancel()`` turns true between passes.
         ``passes=False`` reads back the combined image alone (the viewport's case). ``client``
         names who asks ('viewport', 'final', 'preview', ...): each client's last frame keeps its
@@ -196,13 +197,20 @@ class Renderer:
         ``map_image_side``: the image side (pixels) a 'FOOTPRINT' TFM is capped by, default the
         camera's larger side (the coarse image passes its full image's, to reuse the full maps).
         ``active``: None, or an adaptive.ActivePixels: the light passes shade only those pixels
-        (no light pass touches the others: they come out black; adaptive sampling, sampling.py)."""
+        (no light pass touches the others: they come out black; adaptive sampling, sampling.py).
+        ``accumulate``: None, or a key naming a frame's sample sums (passes/accumulate.SampleSums,
+        ``sample_sums``): the image is added into them on the GPU and nothing is read back (the
+        output's ``combined`` is None, its ``passes`` empty)."""
         gl = self.gl
         gl.check_thread()
         settings = effective_settings(scene, settings)
         with gl.ctx:     # current for the call, whatever other context the thread made current
             return self._render(scene, settings, cancel, progress, passes, client, sweep, map_image_side,
-                                active)
+                                active, accumulate)
+
+    def sample_sums(self, key) -> SampleSums | None:
+        """The sample sums that renders with ``accumulate=key`` added into, or None."""
+        return self._targets.items.get(("sums", key))
 
     def forget_client(self, client: str) -> None:
         """Release the maps that only ``client``'s last frame kept."""
@@ -212,7 +220,7 @@ class Renderer:
                     cache.forget(client)
 
     def _render(self, scene, settings, cancel, progress, want_passes, client, sweep=True,
-                map_image_side=None, active=None) -> RenderOutput:
+                map_image_side=None, active=None, accumulate=None) -> RenderOutput:
         gl = self.gl
         t_start = time.perf_counter()
         timings: dict[str, float] = {}
@@ -285,11 +293,20 @@ class Renderer:
                 self.counters["light_passes"] += 1
                 step("scattering", t0)
             t0 = time.perf_counter()
-            targets.compose(gl, settings.film_transparent, scene.background)
-            gl.finish()   # the read below then copies without waiting on the GPU
-            combined = targets.read_combined()
-            passes = targets.read_passes() if want_passes else {}
-            timings["readback"] = time.perf_counter() - t0
+            if accumulate is not None:
+                sums = self._targets.get(("sums", accumulate),
+                                         lambda: SampleSums(gl, size, want_passes))[0]
+                if (sums.size, sums.passes) != (size, want_passes):
+                    raise ValueError(f"sample sums {accumulate!r} are of another image or passes")
+                sums.add(gl, targets, settings.film_transparent, scene.background, common["active"])
+                combined, passes = None, {}
+                timings["accumulate"] = time.perf_counter() - t0
+            else:
+                targets.compose(gl, settings.film_transparent, scene.background)
+                gl.finish()   # the read below then copies without waiting on the GPU
+                combined = targets.read_combined()
+                passes = targets.read_passes() if want_passes else {}
+                timings["readback"] = time.perf_counter() - t0
         except RenderCancelled:
             # Every pass finished (ctx.finish) before the check that cancelled: what the frame
             # cached is complete, and kept for this client's next frame (which, under latest-wins
