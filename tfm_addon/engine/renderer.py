@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from collections import Counter
@@ -157,7 +158,8 @@ class Renderer:
     'light_passes', 'renders' (maps and passes per light face), and 'faces_culled' (faces of
     point and area lights that reach neither a medium nor a visible solid: no maps, no pass);
     'pixels_shaded': pixels the light passes of a frame shaded (all of them, or the ``active``
-    ones), once per frame.
+    ones), once per frame; 'samples_reusing_plans': samples of an accumulated frame (``accumulate``)
+    that used the media, solids and light plans the frame's first sample prepared.
     A camera-only change rebuilds no light map; changing sigma_a or sigma_s of a lone medium
     rebuilds nothing on the light side (unless a fixed density weight ties the map to the
     extinction; with several media a map also depends on their relative extinction).
@@ -177,6 +179,7 @@ class Renderer:
         self._attributes = _Cache()
         self._caches = [self._media, self._solids, self._shadows, self._tfms, self._gobos,
                         self._gbuffers, self._targets, self._attributes]
+        self._frame_memo: _FrameMemo | None = None   # what the samples of a frame share
 
     @property
     def gl(self) -> GLContext:
@@ -214,6 +217,7 @@ class Renderer:
 
     def forget_client(self, client: str) -> None:
         """Release the maps that only ``client``'s last frame kept."""
+        self._frame_memo = None
         if self._gl is not None:
             with self._gl.ctx:
                 for cache in self._caches:
@@ -240,26 +244,47 @@ class Renderer:
                 raise RenderCancelled("The render was cancelled.")
 
         try:
-            t0 = time.perf_counter()
-            medium_gpu, medium_warnings = self._medium(scene, settings)
-            warnings += medium_warnings
-            # The medium that emits and reads its colour grid: the first one marched (the scene's
-            # first may have been skipped: unbounded fog beside other media, an empty grid).
-            medium = medium_gpu.slots[0].medium if medium_gpu.kind == MEDIUM_GRID else scene.medium
-            attributes = self._medium_attributes(medium, medium_gpu)
-            warnings += attributes.warnings if attributes is not None else []
-            casters = self._solid_set(scene.shadow_casters)
-            seen = self._solid_set(scene.camera_meshes)
-            step("scene", t0)
-
-            plans = []
-            for light in lights:
+            memo = self._frame_memo
+            same = (memo is not None and accumulate is not None
+                    and memo.frame == _frame_of(scene, settings, accumulate, client, map_image_side))
+            if same:     # a later sample of a frame: what the first sample prepared, used again
                 t0 = time.perf_counter()
-                faces = self._plan_light(scene, settings, light, medium_gpu, casters, seen.bounds,
-                                         warnings, map_image_side)
-                plans += faces
-                step("light_maps", t0)
-            steps[0] = 2 + len(lights) + max(len(plans), 1)      # a pass per face not culled
+                medium_gpu, medium, attributes, seen, plans = memo.state
+                warnings += memo.warnings
+                for cache, keys in zip(self._caches, memo.used, strict=True):
+                    cache.used.update(keys)
+                self.counters["faces_culled"] += memo.culled
+                self.counters["samples_reusing_plans"] += 1
+                step("scene", t0)
+            else:
+                self._frame_memo = None
+                culled = self.counters["faces_culled"]
+                t0 = time.perf_counter()
+                medium_gpu, medium_warnings = self._medium(scene, settings)
+                warnings += medium_warnings
+                # The medium that emits and reads its colour grid: the first one marched (the scene's
+                # first may have been skipped: unbounded fog beside other media, an empty grid).
+                medium = medium_gpu.slots[0].medium if medium_gpu.kind == MEDIUM_GRID else scene.medium
+                attributes = self._medium_attributes(medium, medium_gpu)
+                warnings += attributes.warnings if attributes is not None else []
+                casters = self._solid_set(scene.shadow_casters)
+                seen = self._solid_set(scene.camera_meshes)
+                step("scene", t0)
+
+                plans = []
+                for light in lights:
+                    t0 = time.perf_counter()
+                    faces = self._plan_light(scene, settings, light, medium_gpu, casters, seen.bounds,
+                                             warnings, map_image_side)
+                    plans += faces
+                    step("light_maps", t0)
+                if accumulate is not None:
+                    self._frame_memo = _FrameMemo(
+                        _frame_of(scene, settings, accumulate, client, map_image_side),
+                        (medium_gpu, medium, attributes, seen, plans), list(warnings),
+                        [set(cache.used) for cache in self._caches],
+                        self.counters["faces_culled"] - culled, (scene.media, scene.lights, scene.meshes))
+            steps[0] = 2 + (0 if same else len(lights)) + max(len(plans), 1)   # a pass per face not culled
 
             t0 = time.perf_counter()
             plane = view_plane(scene.camera)
@@ -308,6 +333,7 @@ class Renderer:
                 passes = targets.read_passes() if want_passes else {}
                 timings["readback"] = time.perf_counter() - t0
         except RenderCancelled:
+            self._frame_memo = None
             # Every pass finished (ctx.finish) before the check that cancelled: what the frame
             # cached is complete, and kept for this client's next frame (which, under latest-wins
             # cancellation, likely reuses it) along with what its last completed frame used; what
@@ -316,6 +342,7 @@ class Renderer:
                 cache.cancelled(client)
             raise
         except BaseException:
+            self._frame_memo = None
             # A pass failed midway: drop whatever this frame built, it may be partial.
             for cache in self._caches:
                 cache.drop_fresh()
@@ -618,6 +645,7 @@ class Renderer:
 
     def clear_maps(self) -> None:
         """Drop every cached map and buffer (compiled programs stay): the next render is full."""
+        self._frame_memo = None
         if self._gl is not None:
             with self._gl.ctx:
                 for cache in self._caches:
@@ -633,6 +661,30 @@ class Renderer:
             self.clear_maps()
             self._gl.release()
             self._gl = None
+
+
+@dataclass
+class _FrameMemo:
+    """What the first sample of an accumulated frame prepared (media, attributes, solids, light
+    plans with their maps), its warnings, the cache keys it used (each later sample marks them
+    used again) and the faces it culled; ``frame`` (_frame_of) says which frame."""
+
+    frame: tuple
+    state: tuple
+    warnings: list
+    used: list
+    culled: int
+    held: tuple
+
+
+def _frame_of(scene: Scene, settings: RenderSettings, accumulate, client: str, map_image_side) -> tuple:
+    """What the samples of one frame (``accumulate``, sampling.iter_samples) share: the scene's
+    media, lights and meshes by identity (a sample replaces only the camera, whose jitter no map
+    depends on; _FrameMemo.held keeps the ids theirs), the image size and the settings but for the
+    view-march jitter."""
+    return (accumulate, client, map_image_side, tuple(map(id, scene.media)), tuple(map(id, scene.lights)),
+            tuple(map(id, scene.meshes)), scene.camera.width_px, scene.camera.height_px,
+            dataclasses.replace(settings, view_jitter=None))
 
 
 class _FewerCoefficients:
