@@ -181,6 +181,7 @@ class Accumulator:
         if sums is None or sums.count != self.count:
             raise RuntimeError("the frame's sample sums were released before they were read")
         with renderer.gl.ctx:
+            renderer.gl.finish()      # the GIL-free wait: the read then only copies
             total, square, passes = sums.read()
         n = self.pixel_samples[..., None].astype(np.float32)
         self._output.combined = total / n
