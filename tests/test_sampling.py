@@ -128,6 +128,10 @@ def test_gpu_sums_equal_the_mean_of_the_samples_read_back_one_by_one(fresh):
         for name in ("scattering", "surfaces", "transmittance"):
             assert float(np.abs(summed.passes[name] - acc.output.passes[name]).max()) < 1e-6
         assert float(np.abs(acc.output.combined[..., :3]).max()) > 0.05       # not black
+    acc = sampling.Accumulator()
+    for _ in sampling.iter_samples(fresh, scene, SETTINGS, 3, accumulator=acc):
+        assert fresh.sample_sums(acc.key).count == acc.count       # summed on the GPU
+    assert fresh.sample_sums(acc.key) is None and acc.output.combined.shape == (24, 40, 4)
 
 
 def test_later_samples_reuse_the_first_samples_plans_only_within_the_frame(fresh):

@@ -215,6 +215,13 @@ class Renderer:
         """The sample sums that renders with ``accumulate=key`` added into, or None."""
         return self._targets.items.get(("sums", key))
 
+    def release_sums(self, key) -> None:
+        """Release the sample sums of ``key`` (the frame is done), if any."""
+        sums = self._targets.items.pop(("sums", key), None)
+        if sums is not None:
+            with self.gl.ctx:
+                sums.release()
+
     def forget_client(self, client: str) -> None:
         """Release the maps that only ``client``'s last frame kept."""
         self._frame_memo = None

@@ -110,6 +110,10 @@ class Accumulator:
     @property
     def output(self) -> RenderOutput | None:
         """The mean so far (None before the first sample)."""
+        return self.fetch()
+
+    def fetch(self) -> RenderOutput | None:
+        """``output``, read back from the GPU sums if they are newer (on the renderer's thread)."""
         if self._stale:
             self._read()
         return self._output
@@ -235,7 +239,8 @@ def iter_samples(renderer: Renderer, scene: Scene, settings: RenderSettings | No
     when ``samples`` is at least twice ADAPTIVE_MIN_SAMPLES, adaptive sampling (engine/adaptive.py:
     after ADAPTIVE_FIRST_SAMPLES and after ADAPTIVE_MIN_SAMPLES samples, only the pixels whose
     samples still vary take more; this is the second decision's threshold); None: every pixel takes
-    every sample."""
+    every sample. The frame's GPU sums are released once the last sample is yielded: a frame
+    continued later (``first``) with the same ``accumulator`` is refused."""
     n = max(int(samples), 1)
     settings = frame_settings(scene, settings, n)
     acc = accumulator or Accumulator()
@@ -257,6 +262,9 @@ def iter_samples(renderer: Renderer, scene: Scene, settings: RenderSettings | No
                                 accumulate=acc.key),
                 None if active is None else active.mask, spread=acc.decisions < 2, renderer=renderer)
         yield acc
+    if acc.count:
+        acc.fetch()           # the mean, read before the sums are released
+    renderer.release_sums(acc.key)
 
 
 def render_samples(renderer: Renderer, scene: Scene, settings: RenderSettings | None, samples: int,
