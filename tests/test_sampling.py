@@ -152,3 +152,24 @@ def test_later_samples_reuse_the_first_samples_plans_only_within_the_frame(fresh
     assert float(np.abs(again - alone).max()) < 1e-6
     full = render_samples(fresh, scene, SETTINGS, 5).combined
     assert float(np.abs(full[..., :3] - again[..., :3]).max()) > 0.01     # the edit shows
+
+
+def test_two_clients_interleaving_their_samples_each_reuse_their_frame(fresh):
+    """Two clients stepping their frames in turn (two viewports on one worker) each reuse their
+    own first sample's plans, and get the images they get alone."""
+    a_scene = smoke_scene(width=40, height=24, n=32)
+    light = a_scene.lights[0]
+    b_scene = dataclasses.replace(a_scene, lights=(dataclasses.replace(light, power_w=0.5 * light.power_w),))
+    alone = {name: render_samples(fresh, scene, SETTINGS, 4, client=name).combined
+             for name, scene in (("a", a_scene), ("b", b_scene))}
+    before = fresh.counters["samples_reusing_plans"]
+    accs = {"a": sampling.Accumulator(), "b": sampling.Accumulator()}
+    steps = {name: sampling.iter_samples(fresh, scene, SETTINGS, 4, accumulator=accs[name], client=name)
+             for name, scene in (("a", a_scene), ("b", b_scene))}
+    for _ in range(5):                     # 4 samples each, then the generators' ends
+        for step in steps.values():
+            next(step, None)
+    assert fresh.counters["samples_reusing_plans"] - before == 6
+    for name in ("a", "b"):
+        assert float(np.abs(accs[name].output.combined - alone[name]).max()) < 1e-6
+    assert float(np.abs(alone["a"][..., :3] - alone["b"][..., :3]).max()) > 0.01

@@ -179,7 +179,7 @@ class Renderer:
         self._attributes = _Cache()
         self._caches = [self._media, self._solids, self._shadows, self._tfms, self._gobos,
                         self._gbuffers, self._targets, self._attributes]
-        self._frame_memo: _FrameMemo | None = None   # what the samples of a frame share
+        self._frame_memos: dict[str, _FrameMemo] = {}   # per client: what the samples of its frame share
 
     @property
     def gl(self) -> GLContext:
@@ -224,7 +224,7 @@ class Renderer:
 
     def forget_client(self, client: str) -> None:
         """Release the maps that only ``client``'s last frame kept."""
-        self._frame_memo = None
+        self._frame_memos.pop(client, None)
         if self._gl is not None:
             with self._gl.ctx:
                 for cache in self._caches:
@@ -251,7 +251,7 @@ class Renderer:
                 raise RenderCancelled("The render was cancelled.")
 
         try:
-            memo = self._frame_memo
+            memo = self._frame_memos.get(client)
             same = (memo is not None and accumulate is not None
                     and memo.frame == _frame_of(scene, settings, accumulate, client, map_image_side))
             if same:     # a later sample of a frame: what the first sample prepared, used again
@@ -264,7 +264,7 @@ class Renderer:
                 self.counters["samples_reusing_plans"] += 1
                 step("scene", t0)
             else:
-                self._frame_memo = None
+                self._frame_memos.pop(client, None)
                 culled = self.counters["faces_culled"]
                 t0 = time.perf_counter()
                 medium_gpu, medium_warnings = self._medium(scene, settings)
@@ -286,7 +286,7 @@ class Renderer:
                     plans += faces
                     step("light_maps", t0)
                 if accumulate is not None:
-                    self._frame_memo = _FrameMemo(
+                    self._frame_memos[client] = _FrameMemo(
                         _frame_of(scene, settings, accumulate, client, map_image_side),
                         (medium_gpu, medium, attributes, seen, plans), list(warnings),
                         [set(cache.used) for cache in self._caches],
@@ -340,7 +340,7 @@ class Renderer:
                 passes = targets.read_passes() if want_passes else {}
                 timings["readback"] = time.perf_counter() - t0
         except RenderCancelled:
-            self._frame_memo = None
+            self._frame_memos.pop(client, None)
             # Every pass finished (ctx.finish) before the check that cancelled: what the frame
             # cached is complete, and kept for this client's next frame (which, under latest-wins
             # cancellation, likely reuses it) along with what its last completed frame used; what
@@ -349,7 +349,7 @@ class Renderer:
                 cache.cancelled(client)
             raise
         except BaseException:
-            self._frame_memo = None
+            self._frame_memos.pop(client, None)
             # A pass failed midway: drop whatever this frame built, it may be partial.
             for cache in self._caches:
                 cache.drop_fresh()
@@ -652,7 +652,7 @@ class Renderer:
 
     def clear_maps(self) -> None:
         """Drop every cached map and buffer (compiled programs stay): the next render is full."""
-        self._frame_memo = None
+        self._frame_memos.clear()
         if self._gl is not None:
             with self._gl.ctx:
                 for cache in self._caches:
