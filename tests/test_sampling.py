@@ -111,3 +111,65 @@ def test_halton_offsets_halve_the_edge_error_of_the_r2_sequence(renderer, monkey
                         lambda k: ((0.5 + k / plastic) % 1.0, (0.5 + k / plastic**2) % 1.0))
     r2 = errors()
     assert halton[32] < 0.6 * r2[32] and halton[64] < 0.6 * r2[64], (halton, r2)
+
+
+def test_gpu_sums_equal_the_mean_of_the_samples_read_back_one_by_one(fresh):
+    """The frame's samples summed on the GPU (composed straight into the sums) against the
+    numpy running mean of every sample read back, combined image and passes, both films."""
+    scene = smoke_scene(width=40, height=24, n=32)
+    for film in (True, False):
+        settings = dataclasses.replace(SETTINGS, film_transparent=film)
+        summed = render_samples(fresh, scene, settings, 6, adaptive_threshold=None)
+        acc = sampling.Accumulator()
+        chosen = frame_settings(scene, settings, 6)
+        for k in range(6):
+            acc.add(fresh.render(*sampling.sample_scene(scene, chosen, k)))
+        assert float(np.abs(summed.combined - acc.output.combined).max()) < 1e-6
+        for name in ("scattering", "surfaces", "transmittance"):
+            assert float(np.abs(summed.passes[name] - acc.output.passes[name]).max()) < 1e-6
+        assert float(np.abs(acc.output.combined[..., :3]).max()) > 0.05       # not black
+    acc = sampling.Accumulator()
+    for _ in sampling.iter_samples(fresh, scene, SETTINGS, 3, accumulator=acc):
+        assert fresh.sample_sums(acc.key).count == acc.count       # summed on the GPU
+    assert fresh.sample_sums(acc.key) is None and acc.output.combined.shape == (24, 40, 4)
+
+
+def test_later_samples_reuse_the_first_samples_plans_only_within_the_frame(fresh):
+    """Samples 1..n-1 of a frame reuse what sample 0 prepared; a new frame of an edited light
+    prepares again and gives what a fresh renderer gives."""
+    scene = smoke_scene(width=40, height=24, n=32)
+    render_samples(fresh, scene, SETTINGS, 5)
+    assert fresh.counters["samples_reusing_plans"] == 4
+    light = scene.lights[0]
+    dimmer = dataclasses.replace(scene, lights=(dataclasses.replace(light, power_w=0.5 * light.power_w),))
+    again = render_samples(fresh, dimmer, SETTINGS, 5).combined
+    assert fresh.counters["samples_reusing_plans"] == 8
+    other = renderer_module.Renderer()
+    try:
+        alone = render_samples(other, dimmer, SETTINGS, 5).combined
+    finally:
+        other.release()
+    assert float(np.abs(again - alone).max()) < 1e-6
+    full = render_samples(fresh, scene, SETTINGS, 5).combined
+    assert float(np.abs(full[..., :3] - again[..., :3]).max()) > 0.01     # the edit shows
+
+
+def test_two_clients_interleaving_their_samples_each_reuse_their_frame(fresh):
+    """Two clients stepping their frames in turn (two viewports on one worker) each reuse their
+    own first sample's plans, and get the images they get alone."""
+    a_scene = smoke_scene(width=40, height=24, n=32)
+    light = a_scene.lights[0]
+    b_scene = dataclasses.replace(a_scene, lights=(dataclasses.replace(light, power_w=0.5 * light.power_w),))
+    alone = {name: render_samples(fresh, scene, SETTINGS, 4, client=name).combined
+             for name, scene in (("a", a_scene), ("b", b_scene))}
+    before = fresh.counters["samples_reusing_plans"]
+    accs = {"a": sampling.Accumulator(), "b": sampling.Accumulator()}
+    steps = {name: sampling.iter_samples(fresh, scene, SETTINGS, 4, accumulator=accs[name], client=name)
+             for name, scene in (("a", a_scene), ("b", b_scene))}
+    for _ in range(5):                     # 4 samples each, then the generators' ends
+        for step in steps.values():
+            next(step, None)
+    assert fresh.counters["samples_reusing_plans"] - before == 6
+    for name in ("a", "b"):
+        assert float(np.abs(accs[name].output.combined - alone[name]).max()) < 1e-6
+    assert float(np.abs(alone["a"][..., :3] - alone["b"][..., :3]).max()) > 0.01

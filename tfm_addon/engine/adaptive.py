@@ -97,6 +97,15 @@ def _neighbourhood(a: np.ndarray, pick) -> np.ndarray:
     return out
 
 
+def _channel_max(a: np.ndarray) -> np.ndarray:
+    """``a.max(axis=-1)``, the same values, channel by channel (numpy reduces a short last axis
+    some twenty times slower)."""
+    out = a[..., 0].copy()
+    for c in range(1, a.shape[-1]):
+        np.maximum(out, a[..., c], out=out)
+    return out
+
+
 def unconverged(mean: np.ndarray, square_mean: np.ndarray, threshold: float = ADAPTIVE_THRESHOLD,
                 contrast: bool = False) -> np.ndarray:
     """The pixels that go on sampling: (h, w) bool from the per-pixel mean and mean square of the
@@ -104,7 +113,7 @@ def unconverged(mean: np.ndarray, square_mean: np.ndarray, threshold: float = AD
     or (h, w, 3) without alpha); ``contrast``: the neighbourhood's contrast counts too (the first
     decision). See the module's docstring."""
     mean = np.asarray(mean, dtype=np.float32)
-    top = mean[..., :3].max(axis=-1).ravel()
+    top = _channel_max(mean[..., :3]).ravel()
     if top.size:
         k = int(0.999 * (top.size - 1))       # the 99.9th percentile, nearest rank
         white = float(np.partition(top, k)[k])
@@ -114,8 +123,8 @@ def unconverged(mean: np.ndarray, square_mean: np.ndarray, threshold: float = AD
     scale = np.ones(mean.shape[-1], dtype=np.float32)
     scale[:3] = white                 # alpha (a 4th channel) is measured against 1
     variance = np.maximum(np.asarray(square_mean, np.float32) - mean * mean, 0.0)
-    going = (variance / (scale * scale)).max(axis=-1) > threshold * threshold
+    going = _channel_max(variance / (scale * scale)) > threshold * threshold
     if contrast:
         spread = (_neighbourhood(mean, np.maximum) - _neighbourhood(mean, np.minimum)) / scale
-        going |= spread.max(axis=-1) > threshold
+        going |= _channel_max(spread) > threshold
     return _neighbourhood(going, np.logical_or)

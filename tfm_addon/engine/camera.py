@@ -57,13 +57,21 @@ def view_plane(camera: Camera) -> ViewPlane:
 
 def camera_to_world(camera: Camera) -> np.ndarray:
     """The camera's matrix with its rotation made orthonormal (Blender ignores camera scale)."""
+    global _last_camera
+    last = _last_camera
+    if last[0] is camera:       # a sample's passes ask for the same camera's matrices again
+        return last[1].copy()
     m = np.array(camera.matrix_world, dtype=np.float64)
     u, _, vt = np.linalg.svd(m[:3, :3])
     r = u @ vt
     out = np.eye(4)
     out[:3, :3] = r
     out[:3, 3] = m[:3, 3]
+    _last_camera = (camera, out.copy())
     return out
+
+
+_last_camera: tuple = (None, None)   # the last camera camera_to_world was asked for, and its matrix
 
 
 def clip_matrix(camera: Camera) -> np.ndarray:

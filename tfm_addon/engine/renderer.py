@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from collections import Counter
@@ -18,6 +19,7 @@ from .gl_context import GLContext
 from .light import LightFrame, cone_meets_box, cone_warning, face_meets_box, is_dark, light_faces
 from .medium_grid import grid_allowances, prepare_grid
 from .output import RenderOutput
+from .passes.accumulate import SampleSums
 from .passes.bindings import (
     MAX_GRIDS,
     MAX_MEDIA,
@@ -164,7 +166,8 @@ class Renderer:
     'light_passes', 'renders' (maps and passes per light face), and 'faces_culled' (faces of
     point and area lights that reach neither a medium nor a visible solid: no maps, no pass);
     'pixels_shaded': pixels the light passes of a frame shaded (all of them, or the ``active``
-    ones), once per frame.
+    ones), once per frame; 'samples_reusing_plans': samples of an accumulated frame (``accumulate``)
+    that used the media, solids and light plans the frame's first sample prepared.
     A camera-only change rebuilds no light map; changing sigma_a or sigma_s of a lone medium
     rebuilds nothing on the light side (unless a fixed density weight ties the map to the
     extinction; with several media a map also depends on their relative extinction).
@@ -184,6 +187,7 @@ class Renderer:
         self._attributes = _Cache()
         self._caches = [self._media, self._solids, self._shadows, self._tfms, self._gobos,
                         self._gbuffers, self._targets, self._attributes]
+        self._frame_memos: dict[str, _FrameMemo] = {}   # per client: what the samples of its frame share
 
     @property
     def gl(self) -> GLContext:
@@ -195,7 +199,7 @@ class Renderer:
                cancel: Callable[[], bool] | None = None,
                progress: Callable[[float], None] | None = None, passes: bool = True,
                client: str = "final", sweep: bool = True, map_image_side: int | None = None,
-               active: ActivePixels | None = None) -> RenderOutput:
+               active: ActivePixels | None = None, accumulate=None) -> RenderOutput:
         """Render ``scene``; raises RenderCancelled when ``cancel()`` turns true between passes.
         ``passes=False`` reads back the combined image alone (the viewport's case). ``client``
         names who asks ('viewport', 'final', 'preview', ...): each client's last frame keeps its
@@ -204,23 +208,38 @@ class Renderer:
         ``map_image_side``: the image side (pixels) a 'FOOTPRINT' TFM is capped by, default the
         camera's larger side (the coarse image passes its full image's, to reuse the full maps).
         ``active``: None, or an adaptive.ActivePixels: the light passes shade only those pixels
-        (no light pass touches the others: they come out black; adaptive sampling, sampling.py)."""
+        (no light pass touches the others: they come out black; adaptive sampling, sampling.py).
+        ``accumulate``: None, or a key naming a frame's sample sums (passes/accumulate.SampleSums,
+        ``sample_sums``): the image is added into them on the GPU and nothing is read back (the
+        output's ``combined`` is None, its ``passes`` empty)."""
         gl = self.gl
         gl.check_thread()
         settings = effective_settings(scene, settings)
         with gl.ctx:     # current for the call, whatever other context the thread made current
             return self._render(scene, settings, cancel, progress, passes, client, sweep, map_image_side,
-                                active)
+                                active, accumulate)
+
+    def sample_sums(self, key) -> SampleSums | None:
+        """The sample sums that renders with ``accumulate=key`` added into, or None."""
+        return self._targets.items.get(("sums", key))
+
+    def release_sums(self, key) -> None:
+        """Release the sample sums of ``key`` (the frame is done), if any."""
+        sums = self._targets.items.pop(("sums", key), None)
+        if sums is not None:
+            with self.gl.ctx:
+                sums.release()
 
     def forget_client(self, client: str) -> None:
         """Release the maps that only ``client``'s last frame kept."""
+        self._frame_memos.pop(client, None)
         if self._gl is not None:
             with self._gl.ctx:
                 for cache in self._caches:
                     cache.forget(client)
 
     def _render(self, scene, settings, cancel, progress, want_passes, client, sweep=True,
-                map_image_side=None, active=None) -> RenderOutput:
+                map_image_side=None, active=None, accumulate=None) -> RenderOutput:
         gl = self.gl
         t_start = time.perf_counter()
         timings: dict[str, float] = {}
@@ -240,26 +259,47 @@ class Renderer:
                 raise RenderCancelled("The render was cancelled.")
 
         try:
-            t0 = time.perf_counter()
-            medium_gpu, medium_warnings = self._medium(scene, settings)
-            warnings += medium_warnings
-            # The medium that emits and reads its colour grid: the first one marched (the scene's
-            # first may have been skipped: unbounded fog beside other media, an empty grid).
-            medium = medium_gpu.slots[0].medium if medium_gpu.kind == MEDIUM_GRID else scene.medium
-            attributes = self._medium_attributes(medium, medium_gpu)
-            warnings += attributes.warnings if attributes is not None else []
-            casters = self._solid_set(scene.shadow_casters)
-            seen = self._solid_set(scene.camera_meshes)
-            step("scene", t0)
-
-            plans = []
-            for light in lights:
+            memo = self._frame_memos.get(client)
+            same = (memo is not None and accumulate is not None
+                    and memo.frame == _frame_of(scene, settings, accumulate, client, map_image_side))
+            if same:     # a later sample of a frame: what the first sample prepared, used again
                 t0 = time.perf_counter()
-                faces = self._plan_light(scene, settings, light, medium_gpu, casters, seen.bounds,
-                                         warnings, map_image_side)
-                plans += faces
-                step("light_maps", t0)
-            steps[0] = 2 + len(lights) + max(len(plans), 1)      # a pass per face not culled
+                medium_gpu, medium, attributes, seen, plans = memo.state
+                warnings += memo.warnings
+                for cache, keys in zip(self._caches, memo.used, strict=True):
+                    cache.used.update(keys)
+                self.counters["faces_culled"] += memo.culled
+                self.counters["samples_reusing_plans"] += 1
+                step("scene", t0)
+            else:
+                self._frame_memos.pop(client, None)
+                culled = self.counters["faces_culled"]
+                t0 = time.perf_counter()
+                medium_gpu, medium_warnings = self._medium(scene, settings)
+                warnings += medium_warnings
+                # The medium that emits and reads its colour grid: the first one marched (the scene's
+                # first may have been skipped: unbounded fog beside other media, an empty grid).
+                medium = medium_gpu.slots[0].medium if medium_gpu.kind == MEDIUM_GRID else scene.medium
+                attributes = self._medium_attributes(medium, medium_gpu)
+                warnings += attributes.warnings if attributes is not None else []
+                casters = self._solid_set(scene.shadow_casters)
+                seen = self._solid_set(scene.camera_meshes)
+                step("scene", t0)
+
+                plans = []
+                for light in lights:
+                    t0 = time.perf_counter()
+                    faces = self._plan_light(scene, settings, light, medium_gpu, casters, seen.bounds,
+                                             warnings, map_image_side)
+                    plans += faces
+                    step("light_maps", t0)
+                if accumulate is not None:
+                    self._frame_memos[client] = _FrameMemo(
+                        _frame_of(scene, settings, accumulate, client, map_image_side),
+                        (medium_gpu, medium, attributes, seen, plans), list(warnings),
+                        [set(cache.used) for cache in self._caches],
+                        self.counters["faces_culled"] - culled, (scene.media, scene.lights, scene.meshes))
+            steps[0] = 2 + (0 if same else len(lights)) + max(len(plans), 1)   # a pass per face not culled
 
             t0 = time.perf_counter()
             plane = view_plane(scene.camera)
@@ -293,12 +333,22 @@ class Renderer:
                 self.counters["light_passes"] += 1
                 step("scattering", t0)
             t0 = time.perf_counter()
-            targets.compose(gl, settings.film_transparent, scene.background)
-            gl.finish()   # the read below then copies without waiting on the GPU
-            combined = targets.read_combined()
-            passes = targets.read_passes() if want_passes else {}
-            timings["readback"] = time.perf_counter() - t0
+            if accumulate is not None:
+                sums = self._targets.get(("sums", accumulate),
+                                         lambda: SampleSums(gl, size, want_passes))[0]
+                if (sums.size, sums.passes) != (size, want_passes):
+                    raise ValueError(f"sample sums {accumulate!r} are of another image or passes")
+                sums.add(gl, targets, settings.film_transparent, scene.background, common["active"])
+                combined, passes = None, {}
+                timings["accumulate"] = time.perf_counter() - t0
+            else:
+                targets.compose(gl, settings.film_transparent, scene.background)
+                gl.finish()   # the read below then copies without waiting on the GPU
+                combined = targets.read_combined()
+                passes = targets.read_passes() if want_passes else {}
+                timings["readback"] = time.perf_counter() - t0
         except RenderCancelled:
+            self._frame_memos.pop(client, None)
             # Every pass finished (ctx.finish) before the check that cancelled: what the frame
             # cached is complete, and kept for this client's next frame (which, under latest-wins
             # cancellation, likely reuses it) along with what its last completed frame used; what
@@ -307,6 +357,7 @@ class Renderer:
                 cache.cancelled(client)
             raise
         except BaseException:
+            self._frame_memos.pop(client, None)
             # A pass failed midway: drop whatever this frame built, it may be partial.
             for cache in self._caches:
                 cache.drop_fresh()
@@ -611,6 +662,7 @@ class Renderer:
 
     def clear_maps(self) -> None:
         """Drop every cached map and buffer (compiled programs stay): the next render is full."""
+        self._frame_memos.clear()
         if self._gl is not None:
             with self._gl.ctx:
                 for cache in self._caches:
@@ -626,6 +678,30 @@ class Renderer:
             self.clear_maps()
             self._gl.release()
             self._gl = None
+
+
+@dataclass
+class _FrameMemo:
+    """What the first sample of an accumulated frame prepared (media, attributes, solids, light
+    plans with their maps), its warnings, the cache keys it used (each later sample marks them
+    used again) and the faces it culled; ``frame`` (_frame_of) says which frame."""
+
+    frame: tuple
+    state: tuple
+    warnings: list
+    used: list
+    culled: int
+    held: tuple
+
+
+def _frame_of(scene: Scene, settings: RenderSettings, accumulate, client: str, map_image_side) -> tuple:
+    """What the samples of one frame (``accumulate``, sampling.iter_samples) share: the scene's
+    media, lights and meshes by identity (a sample replaces only the camera, whose jitter no map
+    depends on; _FrameMemo.held keeps the ids theirs), the image size and the settings but for the
+    view-march jitter."""
+    return (accumulate, client, map_image_side, tuple(map(id, scene.media)), tuple(map(id, scene.lights)),
+            tuple(map(id, scene.meshes)), scene.camera.width_px, scene.camera.height_px,
+            dataclasses.replace(settings, view_jitter=None))
 
 
 class _FewerCoefficients:

@@ -12,6 +12,7 @@ stop early, decided from the frame's own samples (still the same bits in any pro
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import math
 from collections.abc import Callable, Iterator
 
@@ -31,6 +32,7 @@ from .renderer import Renderer, effective_settings
 from .scene import Camera, RenderSettings, Scene
 
 _GOLDEN = 0.61803398874989484820  # R1, for the march start
+_FRAMES = itertools.count()       # Accumulator keys
 
 AUTO_SAMPLES = 16  # final-render samples when scene.tfm.samples is 0 (automatic)
 AUTO_POINTS_PER_STEP = 4  # under AUTO: view-march points per pixel and frame, in units of AUTO's steps
@@ -87,29 +89,69 @@ def sample_scene(scene: Scene, settings: RenderSettings, k: int) -> tuple[Scene,
 
 
 class Accumulator:
-    """The float32 running mean of a frame's samples (combined image and passes), per pixel over
-    the samples that pixel took (adaptive sampling: ``add`` with ``active``), and the mean square
-    of the combined RGBA over the samples before the last adaptive decision, which reads it."""
+    """The float32 mean of a frame's samples (combined image and passes), per pixel over the
+    samples that pixel took (adaptive sampling: ``add`` with ``active``), and the mean square of
+    the combined RGBA, which the adaptive decisions read. The samples iter_samples renders are
+    summed on the GPU (passes/accumulate.SampleSums, named by ``key``) and read back only when
+    ``output`` or ``square_mean`` is asked for (the decisions, a progress image, the end); a
+    RenderOutput with arrays is folded in with numpy (a running mean)."""
 
     def __init__(self):
         self.count = 0
-        self.output: RenderOutput | None = None
         self.pixel_samples: np.ndarray | None = None   # (h, w) samples each pixel took
-        self.square_mean: np.ndarray | None = None     # (h, w, 4) float32 mean of combined RGBA squared
         self.active: ActivePixels | None = None        # the pixels still sampling, once decided
         self.decisions = 0                             # adaptive decisions taken (0, 1, 2)
+        self.key = ("frame", next(_FRAMES))            # names the renderer's sums of this frame
+        self._output: RenderOutput | None = None
+        self._square_mean: np.ndarray | None = None    # (h, w, 4) float32
+        self._renderer: Renderer | None = None         # holds the sums when they are newer
+        self._stale = False
 
-    def add(self, out: RenderOutput, active: np.ndarray | None = None, spread: bool = True) -> None:
+    @property
+    def output(self) -> RenderOutput | None:
+        """The mean so far (None before the first sample)."""
+        return self.fetch()
+
+    def fetch(self) -> RenderOutput | None:
+        """``output``, read back from the GPU sums if they are newer (on the renderer's thread)."""
+        if self._stale:
+            self._read()
+        return self._output
+
+    @property
+    def square_mean(self) -> np.ndarray | None:
+        """(h, w, 4) float32: the mean of the combined RGBA squared, per pixel over its samples."""
+        if self._stale:
+            self._read()
+        return self._square_mean
+
+    def add(self, out: RenderOutput, active: np.ndarray | None = None, spread: bool = True,
+            renderer: Renderer | None = None) -> None:
         """Fold one sample in; ``active`` (h, w bool, top row first): the pixels it shaded (None:
-        all); the other pixels keep their mean. ``spread``: update the mean square too."""
+        all); the other pixels keep their mean. ``out.combined`` None: ``renderer`` added the
+        sample into its sums named ``key`` (Renderer.render's ``accumulate``). ``spread`` (numpy
+        path): update the mean square too."""
         self.count += 1
-        if self.output is None:
-            self.output = RenderOutput(combined=out.combined.astype(np.float32, copy=True),
-                                       passes={k: v.astype(np.float32, copy=True)
-                                               for k, v in out.passes.items()},
-                                       warnings=list(out.warnings), timings_s=dict(out.timings_s))
+        if out.combined is None:
+            sums = renderer.sample_sums(self.key)
+            if sums is None or sums.count != self.count:
+                raise RuntimeError("the frame's sample sums were released or added to by another frame")
+            self._renderer, self._stale = renderer, True
+            if self.pixel_samples is None:
+                self.pixel_samples = np.ones(sums.size[::-1], dtype=np.int32)
+                self._output = RenderOutput(combined=None, warnings=list(out.warnings),
+                                            timings_s=dict(out.timings_s))
+                return
+            self.pixel_samples += 1 if active is None else active
+            self._merge(out)
+            return
+        if self._output is None:
+            self._output = RenderOutput(combined=out.combined.astype(np.float32, copy=True),
+                                        passes={k: v.astype(np.float32, copy=True)
+                                                for k, v in out.passes.items()},
+                                        warnings=list(out.warnings), timings_s=dict(out.timings_s))
             self.pixel_samples = np.ones(out.combined.shape[:2], dtype=np.int32)
-            self.square_mean = np.square(self.output.combined)
+            self._square_mean = np.square(self._output.combined)
             return
         acc = self.output
         if active is None:
@@ -120,16 +162,36 @@ class Accumulator:
             w = np.zeros(active.shape + (1,), dtype=np.float32)
             np.divide(np.float32(1.0), self.pixel_samples[..., None], out=w, where=active[..., None])
         if spread:
-            self.square_mean += (np.square(out.combined) - self.square_mean) * w
+            self._square_mean += (np.square(out.combined) - self._square_mean) * w
         acc.combined += (out.combined - acc.combined) * w
         for name, image in out.passes.items():
             if name in acc.passes:
                 acc.passes[name] += (image - acc.passes[name]) * w
+        self._merge(out)
+
+    def _merge(self, out: RenderOutput) -> None:
+        acc = self._output
         for name, seconds in out.timings_s.items():
             acc.timings_s[name] = acc.timings_s.get(name, 0.0) + seconds
         for message in out.warnings:
             if message not in acc.warnings:
                 acc.warnings.append(message)
+
+    def _read(self) -> None:
+        """The means from the renderer's sums (on its GL thread)."""
+        renderer = self._renderer
+        renderer.gl.check_thread()
+        sums = renderer.sample_sums(self.key)
+        if sums is None or sums.count != self.count:
+            raise RuntimeError("the frame's sample sums were released before they were read")
+        with renderer.gl.ctx:
+            renderer.gl.finish()      # the GIL-free wait: the read then only copies
+            total, square, passes = sums.read()
+        n = self.pixel_samples[..., None].astype(np.float32)
+        self._output.combined = total / n
+        self._output.passes = {name: image / n for name, image in passes.items()}
+        self._square_mean = square / n
+        self._stale = False
 
     def snapshot(self) -> RenderOutput:
         """The mean so far, as a RenderOutput whose arrays are copies."""
@@ -177,7 +239,8 @@ def iter_samples(renderer: Renderer, scene: Scene, settings: RenderSettings | No
     when ``samples`` is at least twice ADAPTIVE_MIN_SAMPLES, adaptive sampling (engine/adaptive.py:
     after ADAPTIVE_FIRST_SAMPLES and after ADAPTIVE_MIN_SAMPLES samples, only the pixels whose
     samples still vary take more; this is the second decision's threshold); None: every pixel takes
-    every sample."""
+    every sample. The frame's GPU sums are released once the last sample is yielded: a frame
+    continued later (``first``) with the same ``accumulator`` is refused."""
     n = max(int(samples), 1)
     settings = frame_settings(scene, settings, n)
     acc = accumulator or Accumulator()
@@ -195,9 +258,13 @@ def iter_samples(renderer: Renderer, scene: Scene, settings: RenderSettings | No
         active = acc.active
         sub = None if progress is None else (lambda f, k=k: progress((k + f) / n))
         s_scene, s_settings = sample_scene(scene, settings, k)
-        acc.add(renderer.render(s_scene, s_settings, cancel, sub, passes, client=client, active=active),
-                None if active is None else active.mask, spread=acc.decisions < 2)
+        acc.add(renderer.render(s_scene, s_settings, cancel, sub, passes, client=client, active=active,
+                                accumulate=acc.key),
+                None if active is None else active.mask, spread=acc.decisions < 2, renderer=renderer)
         yield acc
+    if acc.count:
+        acc.fetch()           # the mean, read before the sums are released
+    renderer.release_sums(acc.key)
 
 
 def render_samples(renderer: Renderer, scene: Scene, settings: RenderSettings | None, samples: int,

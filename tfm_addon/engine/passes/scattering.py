@@ -38,7 +38,11 @@ class ScatteringTargets:
         everything when the film is opaque."""
         pass_state(gl.ctx)
         self.combined_fbo.use()
-        prog = gl.program("fullscreen.vert", "composite.frag")
+        gl.draw_fullscreen(self.composite_program(gl, film_transparent, world))
+
+    def composite_program(self, gl: GLContext, film_transparent: bool, world, defines=None):
+        """composite.frag with ``defines``, reading these targets (and the bound G-buffer)."""
+        prog = gl.program("fullscreen.vert", "composite.frag", defines)
         for unit, (name, tex) in enumerate(zip(("u_scatter", "u_surface", "u_transmittance"),
                                                self.textures, strict=True), start=11):
             tex.use(unit)
@@ -46,7 +50,7 @@ class ScatteringTargets:
         prog["u_gb1"].value = 1
         set_uniforms(prog, u_film_transparent=int(bool(film_transparent)),
                      u_world=tuple(float(c) for c in world))
-        gl.draw_fullscreen(prog)
+        return prog
 
     def read_combined(self) -> np.ndarray:
         """(h, w, 4) float32, top row first."""

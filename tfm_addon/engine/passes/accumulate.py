@@ -1,0 +1,58 @@
+"""Pass 5 when sampling: each sample composed straight into the frame's sums on the GPU, read
+back only when someone asks for the mean."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..gl_context import GLContext, set_uniforms
+from .bindings import pass_state
+
+PASS_NAMES = ("scattering", "surfaces", "transmittance")
+
+
+class SampleSums:
+    """RGBA32F textures the size of the pixel window holding, over the samples added so far, the
+    sums of the combined image and of its square and, with ``passes``, of the three passes. A
+    sample adds only at the pixels it shaded (adaptive sampling); ``count`` is the samples added."""
+
+    def __init__(self, gl: GLContext, size: tuple[int, int], passes: bool):
+        ctx = gl.ctx
+        self.size, self.passes, self.count = size, passes, 0
+        self.textures = [ctx.texture(size, 4, dtype="f4") for _ in range(5 if passes else 2)]
+        self.fbo = ctx.framebuffer(self.textures)
+        self.fbo.clear(0, 0, 0, 0)
+
+    def add(self, gl: GLContext, targets, film_transparent: bool, world, active=None) -> None:
+        """Compose the sample in ``targets`` (scattering.ScatteringTargets, with the G-buffer
+        bound) and add it (composite.frag with ACCUMULATE); ``active``: None, or (vertex buffer,
+        count) of the rectangles of the pixels the sample shaded: only those are added."""
+        self.count += 1
+        if active is not None and not active[1]:
+            return
+        defines = {"ACCUMULATE": 1, "PASSES": int(self.passes)}
+        if active is not None:
+            defines["RECTS"] = 1
+        self.fbo.use()
+        prog = targets.composite_program(gl, film_transparent, world, defines)
+        pass_state(gl.ctx, blend=True)
+        if active is None:
+            gl.draw_fullscreen(prog)
+        else:
+            set_uniforms(prog, u_window=(float(self.size[0]), float(self.size[1])))
+            gl.draw_rects(prog, *active)
+        pass_state(gl.ctx)
+
+    def read(self) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]]:
+        """(sum of combined, sum of its square) as (h, w, 4) float32 and the passes' sums as
+        (h, w, 3) float32 ({} without passes), top row first."""
+        w, h = self.size
+        images = [np.frombuffer(t.read(), dtype=np.float32).reshape(h, w, 4)[::-1] for t in self.textures]
+        passes = {name: np.ascontiguousarray(image[..., :3])
+                  for name, image in zip(PASS_NAMES, images[2:], strict=False)}
+        return np.ascontiguousarray(images[0]), np.ascontiguousarray(images[1]), passes
+
+    def release(self) -> None:
+        self.fbo.release()
+        for t in self.textures:
+            t.release()
