@@ -9,6 +9,7 @@ import numpy as np
 from tfm_addon import scenes
 from tfm_addon.engine import Renderer, RenderSettings, Scene
 from tfm_addon.engine.passes import bindings, emission
+from tfm_addon.engine.scene import Light
 
 
 def _slabs_scene() -> Scene:
@@ -55,3 +56,31 @@ def test_a_jittered_march_skips_no_sample_past_an_empty_cell(fresh, monkeypatch)
     print(f"peak {peak:.4f}, largest difference {diff:.2e}")
     assert peak > 0.05
     assert diff <= 1e-4 * peak
+
+
+def test_a_light_map_does_not_depend_on_whether_another_light_made_the_grid_level(fresh):
+    """A point light just outside a 64^3 grid: its faces' grazing rays enter the medium far from
+    the light, where a map texel spans two voxels and the build reads the grid's level 1. The map
+    must read it whether or not another light (a sun) made the level first: deciding from the
+    texel where the box comes nearest to the light made no level for the point light alone, so
+    its image changed (7e-4 of the peak) once a sun had rendered on the same grid."""
+    base = scenes.smoke_scene(width=64, height=40, n=16, with_bar=False)
+    n = 64
+    medium = dataclasses.replace(base.medium, density=scenes.smoke_density(n) + np.float32(0.05),
+                                 index_to_world=scenes.grid_to_world((n, n, n), 2.0, (0, 0, 1.2)))
+    point = Light(matrix_world=scenes.look_at((0.0, -1.35, 1.2), (0, 0, 1.2)), power_w=300.0,
+                  kind="POINT", name="Point")
+    sun = Light(matrix_world=scenes.look_at((-1.0, -3.0, 4.0), (0, 0, 1.2)), power_w=3.0, kind="SUN",
+                name="Sun")
+    settings = RenderSettings(view_steps=48, light_steps=16, map_resolution=16, coefficients=8)
+    alone = fresh.render(dataclasses.replace(base, medium=medium, lights=(point,)), settings).rgb
+    other = Renderer(gl=fresh.gl)
+    try:
+        other.render(dataclasses.replace(base, medium=medium, lights=(sun,)), settings)
+        assert other.counters["grid_levels"] == 1
+        after = other.render(dataclasses.replace(base, medium=medium, lights=(point,)), settings).rgb
+    finally:
+        other.clear_maps()
+    peak = float(alone.max())
+    assert peak > 0.05
+    assert float(np.abs(after - alone).max()) <= 1e-6 * peak
