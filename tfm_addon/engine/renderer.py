@@ -604,6 +604,8 @@ class Renderer:
                     self._tfms.used.add(base + ("alpha",))    # the wider map's alpha: kept with it
                 return (_FewerCoefficients(self._tfms.get(min(wider, key=lambda k: k[-2]), None)[0], n),
                         ref.sigma_t)
+        # The level before the alpha probe too, which reads the build's density path.
+        self.counters["grid_levels"] += medium_gpu.ensure_level1(frame, settings.light_steps, res)
         probed = 0.0
         if (settings.density_weight is None and settings.quality == "AUTO" and light.kind == "SPOT"
                 and len(reached) == 1 and ref.density is not None):
@@ -623,7 +625,6 @@ class Renderer:
 
         def build():
             self.counters["tfms"] += 1
-            self.counters["grid_levels"] += medium_gpu.ensure_level1(frame, settings.light_steps, res)
             return TransmittanceMap(self.gl, frame, medium_gpu, shadow,
                                     res, settings.light_steps, n, alpha_d, weights)
 

@@ -237,8 +237,10 @@ class MediaGPU:
         """Make the lone grid's level 1 (``MediumGPU.ensure_level1``) when a light march of the
         face ``frame`` with ``light_steps`` steps may read it: its longest step through the
         grid's non-zero box and (a TFM of side ``resolution``; None: the brute force's march, no
-        texels) the map's texel where the box comes nearest to the light both span two voxels.
-        The shader decides per ray; this only spares the level where no ray wants it."""
+        texels) the map's widest texel where a ray can enter the box (at its corner farthest from
+        the light) both span two voxels. The shader decides per ray; this only spares the level
+        where no ray wants it (a ray that wants it must find it, or a map would depend on whether
+        another light had made the level before)."""
         if self.kind != MEDIUM_GRID or len(self.slots) != 1 or self.slots[0].grid is None:
             return False
         slot = self.slots[0]
@@ -248,7 +250,8 @@ class MediaGPU:
         if resolution is not None:
             w2b = slot.world_to_box
             p = w2b[:3, :3] @ np.asarray(frame.position, float) + w2b[:3, 3]
-            distance = float(np.linalg.norm(slot.box_to_world[:3, :3] @ (np.clip(p, lo, hi) - p)))
+            corners = np.array(np.meshgrid(*zip(lo, hi, strict=True), indexing="ij")).reshape(3, -1)
+            distance = float(np.linalg.norm(slot.box_to_world[:3, :3] @ (corners - p[:, None]), axis=0).max())
             voxel = float(np.linalg.norm(slot.box_to_world[:3, :3], axis=0).min())
             reach = 1.0 if frame.ortho else distance
             texel = 2.0 * min(frame.tan_xy) * reach / max(int(resolution), 1) / max(voxel, 1e-30)

@@ -172,8 +172,8 @@ void main() {
                 scatter += tv_e * emission_at_index(ob + db * t) * dt;
 #endif
 #if N_MEDIA == 1
-            if (!any_d) {     // in an empty occupancy cell: on to the first sample past it
-                int next = max(i + 1, int(ceil((skip_empty(ob, db, t) - seg.x) / dt - 0.501)));
+            if (!any_d) {     // in an empty occupancy cell: on to the first sample past it (at step_at)
+                int next = max(i + 1, int(ceil((skip_empty(ob, db, t) - seg.x) / dt - step_at - 0.001)));
 #if EMISSION && EMISSION != 2
                 // The samples skipped (no density, no emitting voxel near) glow with the constant
                 // part of the emission alone, under this sample's transmittance (st is 0).
