@@ -2,7 +2,8 @@
 compute: the grid summary (non-zero bounds and sharpness from one mask, the sharpness from
 per-axis neighbour differences over the non-zero box) and the light probe's sample points built in
 place. The old code path is kept here, plain numpy, and patched in to compare: the statistics and
-the settings AUTO chooses must be equal on several scenes. Pure numpy, no GL."""
+the settings AUTO chooses must be equal on several scenes (pure numpy). And a frame of samples
+under AUTO takes its automatic alpha from that probe, like a single AUTO render (one GL test)."""
 
 from __future__ import annotations
 
@@ -146,3 +147,31 @@ def test_sharpness_reads_the_non_zero_box_like_the_whole_grid():
             d[int(rng.integers(0, shape[0]))] = 0.0
         assert quality.sharpness(d) == _old_sharpness(d), seed
         assert quality._mask_bounds(d > 0) == nonzero_bounds(d), seed
+
+
+def test_a_sampled_auto_frame_takes_alpha_from_the_probe_not_a_gpu_pass():
+    """iter_samples renders with the frame's settings, whose quality reads 'CUSTOM': they carry
+    ``alpha_from_probe``, so the spot's alpha is the probe's density integral (no alpha pass
+    cached), and the frame equals one rendered with that alpha as a fixed density weight."""
+    from tfm_addon.engine import Renderer
+    from tfm_addon.engine.sampling import frame_settings, render_samples
+
+    scene = scenes.smoke_scene(40, 24, 24)
+    auto = RenderSettings(quality="AUTO", map_resolution=64)
+    chosen = frame_settings(scene, auto, 4)
+    assert chosen.quality == "CUSTOM" and chosen.alpha_from_probe and chosen.density_weight is None
+    probed = quality.light_density_integral(scene.medium, scene.lights[0])
+    fixed = dataclasses.replace(chosen, alpha_from_probe=False,
+                                density_weight=probed * float(scene.medium.sigma_t.max()))
+    renderer = Renderer()
+    try:
+        image = render_samples(renderer, scene, auto, 4, passes=False).combined
+        assert sum(1 for k in renderer._tfms.items if k[-1] == "alpha") == 0
+        want = render_samples(renderer, scene, fixed, 4, passes=False).combined
+        gpu = render_samples(renderer, scene, dataclasses.replace(chosen, alpha_from_probe=False), 4,
+                             passes=False).combined
+        assert sum(1 for k in renderer._tfms.items if k[-1] == "alpha") == 1      # the GPU pass's
+    finally:
+        renderer.release()
+    assert float(np.abs(image - want).max()) <= 1e-5 * float(want.max())
+    assert float(np.abs(gpu - want).max()) <= 0.05 * float(want.max())     # nearly the same alpha

@@ -425,6 +425,7 @@ def auto_settings(scene: Scene, settings: RenderSettings | None = None) -> Rende
     if stats.sharpness < SHARP_FOOTPRINT:
         light_steps = max(LIGHT_MIN_STEPS, min(light_steps, SMOOTH_LIGHT_STEPS_PER_COEFFICIENT * n))
     return dataclasses.replace(settings, coefficients=n,
-                               density_weight=None, tfm_filter="LINEAR", tfm_resolution="FOOTPRINT",
+                               density_weight=None, alpha_from_probe=True,
+                               tfm_filter="LINEAR", tfm_resolution="FOOTPRINT",
                                light_steps=light_steps,
                                view_steps=auto_steps(stats.view_voxels, stats.sharpness))

@@ -605,7 +605,7 @@ class Renderer:
                 return (_FewerCoefficients(self._tfms.get(min(wider, key=lambda k: k[-2]), None)[0], n),
                         ref.sigma_t)
         probed = 0.0
-        if (settings.density_weight is None and settings.quality == "AUTO" and light.kind == "SPOT"
+        if (settings.density_weight is None and settings.alpha_from_probe and light.kind == "SPOT"
                 and len(reached) == 1 and ref.density is not None):
             probed = light_density_integral(ref, light)     # AUTO's probe: no GPU pass, no read-back
         if probed > 0.0:
