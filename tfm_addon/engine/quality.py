@@ -249,11 +249,29 @@ def _summary(m):
 
 def _grid_summary(m) -> tuple[np.ndarray, int, float, tuple]:
     """(the grid block-averaged to <= _COARSE_SIDE a side and padded by one voxel, the factor,
-    the sharpness, its non-zero bounds), from one cleaning of the grid."""
+    the sharpness, its non-zero bounds), from one cleaning of the grid and one non-zero mask."""
     density, _ = clean_density(m.density, m.clipping)      # what the renderer uploads
     f = max(1, math.ceil(max(density.shape) / _COARSE_SIDE))
     coarse = np.pad(downsample(density, f) if f > 1 else density, 1)
-    return coarse, f, sharpness(density), nonzero_bounds(density)
+    mask = density > 0
+    bounds = _mask_bounds(mask)
+    return coarse, f, sharpness(density, mask, bounds), bounds
+
+
+def _mask_bounds(mask: np.ndarray) -> tuple[tuple[float, ...], tuple[float, ...]]:
+    """passes/bindings.nonzero_bounds from the grid's non-zero mask: each axis's occupancy from
+    one projection of the mask (two reductions over the grid instead of three)."""
+    if mask.ndim != 3 or not mask.size:
+        return nonzero_bounds(mask)
+    yz = mask.any(axis=0)
+    occupied = (mask.any(axis=(1, 2)), yz.any(axis=1), yz.any(axis=0))
+    lo, hi = [], []
+    for axis in range(3):
+        nz = np.flatnonzero(occupied[axis])
+        first, last = (int(nz[0]), int(nz[-1])) if nz.size else (1, -1)     # empty: lo = hi
+        lo.append(float(first - 1))
+        hi.append(float(last + 1))
+    return tuple(lo), tuple(hi)
 
 
 def _light_part(m, light, grid) -> tuple[float, float]:
@@ -282,10 +300,17 @@ def _light_part(m, light, grid) -> tuple[float, float]:
     steps = int(min(512, max(16, math.ceil(2.0 * chord.max() / f))))
     s = (np.arange(steps) + 0.5) / steps
     t = t0[:, None] + s[None, :] * (t1 - t0)[:, None]
-    p = o_h[:, None, :] + t[:, :, None] * d_h[:, None, :]     # fine index space
-    c = (p - (f - 1) / 2.0) / f + 1.0                        # padded coarse index space
-    dens = ndimage.map_coordinates(coarse, c.reshape(-1, 3).T, order=1, mode="constant",
-                                   cval=0.0).reshape(p.shape[:2])
+    # the points o + t d in the padded coarse index space, (fine - (f - 1) / 2) / f + 1, built
+    # axis by axis in the (3, points) layout map_coordinates reads (no copy of a transpose)
+    c = np.empty((3,) + t.shape)
+    for k in range(3):
+        np.multiply(t, d_h[:, k, None], out=c[k])
+        c[k] += o_h[:, k, None]
+        c[k] -= (f - 1) / 2.0
+        c[k] /= f
+        c[k] += 1.0
+    dens = ndimage.map_coordinates(coarse, c.reshape(3, -1), order=1, mode="constant",
+                                   cval=0.0).reshape(t.shape)
     tau = sigma * float((dens.sum(axis=1) * (t1 - t0) / steps).max())   # world metres x density
     nonzero = dens > 0
     if not nonzero.any():
@@ -296,24 +321,56 @@ def _light_part(m, light, grid) -> tuple[float, float]:
     return tau, float(span.max())
 
 
-def sharpness(density: np.ndarray) -> float:
-    """See ``MediumStats.sharpness``; from a fixed sample of the non-zero voxels (deterministic)."""
+def sharpness(density: np.ndarray, mask: np.ndarray | None = None, bounds: tuple | None = None) -> float:
+    """See ``MediumStats.sharpness``; from a fixed sample of the non-zero voxels (deterministic).
+    ``mask``, ``bounds``: ``density > 0`` and its ``_mask_bounds`` when the caller has them. Up to
+    _SHARPNESS_SAMPLES non-zero voxels, every voxel's jump is taken from the differences between
+    neighbours along each axis over the non-zero box (one pass per axis, no gathers); beyond, the
+    fixed sample's voxels are gathered. Both give each voxel the jump of the voxel its index
+    clamps to inside the border ring."""
     d = np.asarray(density)
     top = float(d.max()) if d.size else 0.0
     if top <= 0.0 or min(d.shape) < 3:
         return 0.0
-    nonzero = np.flatnonzero(d.reshape(-1) > 0)
-    if len(nonzero) > _SHARPNESS_SAMPLES:
-        nonzero = np.random.default_rng(0).choice(nonzero, _SHARPNESS_SAMPLES, replace=False)
-    idx = np.clip(np.array(np.unravel_index(nonzero, d.shape)).T, 1, np.array(d.shape) - 2)
-    centre = d[tuple(idx.T)]
-    jump = np.zeros(len(idx), dtype=np.float32)
-    for axis in range(3):
-        step = np.zeros(3, dtype=np.int64)
-        step[axis] = 1
-        for sign in (1, -1):
-            jump = np.maximum(jump, np.abs(d[tuple((idx + sign * step).T)] - centre))
+    mask = d > 0 if mask is None else mask
+    count = int(np.count_nonzero(mask))
+    if count <= _SHARPNESS_SAMPLES:
+        lo, hi = _mask_bounds(mask) if bounds is None else bounds     # one voxel around the non-zero ones
+        box = tuple(slice(max(int(a), 0), min(int(b), n - 1) + 1) for a, b, n in zip(lo, hi, d.shape,
+                                                                                     strict=True))
+        sub = d[box]
+        if min(sub.shape) < 3:
+            box, sub = (slice(None),) * 3, d
+        jump = _jumps(sub)[mask[box]]
+    else:
+        nonzero = np.random.default_rng(0).choice(np.flatnonzero(mask.reshape(-1)), _SHARPNESS_SAMPLES,
+                                                   replace=False)
+        idx = np.clip(np.array(np.unravel_index(nonzero, d.shape)).T, 1, np.array(d.shape) - 2)
+        centre = d[tuple(idx.T)]
+        jump = np.zeros(len(idx), dtype=np.float32)
+        for axis in range(3):
+            step = np.zeros(3, dtype=np.int64)
+            step[axis] = 1
+            for sign in (1, -1):
+                jump = np.maximum(jump, np.abs(d[tuple((idx + sign * step).T)] - centre))
     return float(np.percentile(jump, 99)) / top
+
+
+def _jumps(d: np.ndarray) -> np.ndarray:
+    """Per voxel of ``d`` (float32, every side >= 3), the largest |difference| to its six
+    neighbours, computed on the interior voxels and copied outwards to the border ring (the
+    voxel a clamped index reads). On a box cut one voxel around the non-zero voxels, a non-zero
+    voxel on the box's border ring is on the grid's: the same values as on the whole grid."""
+    jump = np.zeros(tuple(n - 2 for n in d.shape), dtype=np.float32)
+    for axis in range(3):
+        diff = np.abs(np.diff(d, axis=axis))         # |d[i+1] - d[i]| along the axis
+        lo = [slice(1, -1)] * 3
+        hi = [slice(1, -1)] * 3
+        lo[axis] = slice(0, -1)                      # to the voxel before: diff[i - 1]
+        hi[axis] = slice(1, None)                    # to the voxel after: diff[i]
+        np.maximum(jump, diff[tuple(lo)], out=jump)
+        np.maximum(jump, diff[tuple(hi)], out=jump)
+    return np.pad(jump, 1, mode="edge")
 
 
 def auto_coefficients(optical_depth: float, sharpness: float = 1.0) -> int:
@@ -368,6 +425,7 @@ def auto_settings(scene: Scene, settings: RenderSettings | None = None) -> Rende
     if stats.sharpness < SHARP_FOOTPRINT:
         light_steps = max(LIGHT_MIN_STEPS, min(light_steps, SMOOTH_LIGHT_STEPS_PER_COEFFICIENT * n))
     return dataclasses.replace(settings, coefficients=n,
-                               density_weight=None, tfm_filter="LINEAR", tfm_resolution="FOOTPRINT",
+                               density_weight=None, alpha_from_probe=True,
+                               tfm_filter="LINEAR", tfm_resolution="FOOTPRINT",
                                light_steps=light_steps,
                                view_steps=auto_steps(stats.view_voxels, stats.sharpness))

@@ -607,7 +607,7 @@ class Renderer:
         # The level before the alpha probe too, which reads the build's density path.
         self.counters["grid_levels"] += medium_gpu.ensure_level1(frame, settings.light_steps, res)
         probed = 0.0
-        if (settings.density_weight is None and settings.quality == "AUTO" and light.kind == "SPOT"
+        if (settings.density_weight is None and settings.alpha_from_probe and light.kind == "SPOT"
                 and len(reached) == 1 and ref.density is not None):
             probed = light_density_integral(ref, light)     # AUTO's probe: no GPU pass, no read-back
         if probed > 0.0:

@@ -413,6 +413,9 @@ class RenderSettings:
     else 1 - mean view transmittance, and the world is not seen (premultiplied RGB over a
     transparent background, as Cycles writes it). False (Blender's default): alpha is 1 and where
     no solid is seen the world (``Scene.world``) shows behind the medium, attenuated by it.
+    ``alpha_from_probe``: set by ``quality.auto_settings`` (and kept in the per-sample settings a
+    frame renders with, whose quality reads 'CUSTOM'): automatic alpha for a spot reaching one grid
+    medium is the largest density integral of AUTO's numpy probe, not a GPU pass and its read-back.
     """
 
     view_steps: int = 100
@@ -429,6 +432,7 @@ class RenderSettings:
     quality: Literal["CUSTOM", "AUTO"] = "CUSTOM"
     film_transparent: bool = True
     view_jitter: float | None = None
+    alpha_from_probe: bool = False
 
 
 _UNSET = object()
