@@ -136,3 +136,54 @@ def test_auto_takes_more_coefficients_for_many_samples():
     assert dataclasses.replace(many, coefficients=few.coefficients, view_steps=few.view_steps) == few
     custom = frame_settings(scene, SETTINGS, MANY_SAMPLES)     # CUSTOM keeps the user's choice
     assert custom.coefficients == SETTINGS.coefficients
+
+
+def test_a_sample_draws_the_gbuffer_and_targets_only_where_its_passes_read(fresh, monkeypatch):
+    # Under adaptive sampling a sample draws its G-buffer over the active rectangles only and does
+    # not clear the light passes' targets (the first pass writes, the others add). Pixels outside
+    # filled with garbage before every sample must not reach the frame: it equals the frame of a
+    # G-buffer drawn and targets cleared over every pixel (a point light: several passes a sample).
+    from tfm_addon.engine.passes.gbuffer import GBuffer
+    from tfm_addon.engine.passes.scattering import ScatteringTargets
+    from tfm_addon.engine.scene import Light
+
+    scene = smoke_scene(width=40, height=24, n=32)
+    point = Light(kind="POINT", matrix_world=np.array(
+        [[1, 0, 0, 1.5], [0, 1, 0, -1.0], [0, 0, 1, 2.5], [0, 0, 0, 1]], float), power_w=800.0)
+    scene = dataclasses.replace(scene, lights=(*scene.lights, point))
+    samples = 2 * ADAPTIVE_MIN_SAMPLES
+
+    def frame():
+        acc = Accumulator()
+        for _ in iter_samples(fresh, scene, SETTINGS, samples, passes=True, accumulator=acc):
+            pass
+        return acc
+
+    draw, begin = GBuffer.draw, ScatteringTargets.begin
+    monkeypatch.setattr(GBuffer, "draw", lambda self, gl, camera, plane, solids, active=None:
+                        draw(self, gl, camera, plane, solids))
+    monkeypatch.setattr(ScatteringTargets, "begin", lambda self, ctx, clear=True: begin(self, ctx))
+    full = frame()
+    assert full.active is not None and 0.0 < full.active.fraction < 0.9
+    fresh.clear_maps()
+    drawn = []
+
+    def poisoned_draw(self, gl, camera, plane, solids, active=None):
+        self.fbo.use()
+        self.fbo.clear(7.0, -3.0, 5.0, 2.0, depth=1.0)
+        drawn.append(active is not None)
+        draw(self, gl, camera, plane, solids, active)
+
+    def poisoned_begin(self, ctx, clear=True):
+        self.fbo.use()
+        self.fbo.clear(1e3, -1e3, 1e3, 1e3)
+        begin(self, ctx, clear)
+
+    monkeypatch.setattr(GBuffer, "draw", poisoned_draw)
+    monkeypatch.setattr(ScatteringTargets, "begin", poisoned_begin)
+    part = frame()
+    assert drawn.count(True) == samples - ADAPTIVE_FIRST_SAMPLES       # rectangles after the first decision
+    assert np.array_equal(part.active.mask, full.active.mask)
+    assert np.abs(part.output.combined - full.output.combined).max() <= 1e-6
+    for name, image in full.output.passes.items():
+        assert np.abs(part.output.passes[name] - image).max() <= 1e-6, name

@@ -303,20 +303,27 @@ class Renderer:
 
             t0 = time.perf_counter()
             plane = view_plane(scene.camera)
+            size = (plane.width_px, plane.height_px)
+            rects = self._active_rects(size, active)
+            # A sample of an accumulated frame draws the G-buffer where its passes draw (the sums
+            # read the same rectangles); a frame composed whole reads every pixel's.
+            gb_rects = rects if accumulate is not None else None
             gbuffer, built = self._gbuffers.get(
-                (scene.camera.key, tuple(m.key for m in scene.camera_meshes)),
-                lambda: self._gbuffer_for(scene.camera, plane, seen))
+                (scene.camera.key, tuple(m.key for m in scene.camera_meshes),
+                 None if gb_rects is None else active.key),
+                lambda: self._gbuffer_for(scene.camera, plane, seen, gb_rects))
             self.counters["gbuffers"] += built
             step("gbuffer", t0)
 
-            size = (plane.width_px, plane.height_px)
             targets = self._targets.get(size, lambda: ScatteringTargets(gl, size))[0]
-            targets.begin(gl.ctx)
+            # Every light pass draws the same pixels, and the first one writes them all: the zeros
+            # of a clear are read only where a frame composed whole has pixels no pass drew.
+            targets.begin(gl.ctx, clear=accumulate is None and active is not None)
             gbuffer.bind()
             ambient = scene.ambient if settings.ambient else (0.0, 0.0, 0.0)
             common = dict(camera=scene.camera, plane=plane, medium=medium,
                           medium_gpu=medium_gpu, settings=settings, ambient=ambient,
-                          attributes=attributes, active=self._active_rects(size, active))
+                          attributes=attributes, active=rects)
             self.counters["pixels_shaded"] += (size[0] * size[1] if active is None
                                                else int(np.count_nonzero(active.mask)))
             if not plans:
@@ -630,7 +637,7 @@ class Renderer:
 
         return self._tfms.get(key, build)[0], ref.sigma_t
 
-    def _gbuffer_for(self, camera, plane, solids) -> _PooledGBuffer:
+    def _gbuffer_for(self, camera, plane, solids, active=None) -> _PooledGBuffer:
         """A G-buffer drawn for ``camera``: GL objects of that size that the cache released (the
         previous sample's) are drawn into again; new ones are made only when none is free."""
         size = (plane.width_px, plane.height_px)
@@ -642,7 +649,7 @@ class Renderer:
             self.counters["gbuffer_objects"] += 1
         entry = _PooledGBuffer(gbuffer, self._gbuffer_pool)
         try:
-            gbuffer.draw(self.gl, camera, plane, solids)
+            gbuffer.draw(self.gl, camera, plane, solids, active)
         except BaseException:
             entry.release()
             raise

@@ -27,10 +27,13 @@ class ScatteringTargets:
         self.combined = ctx.texture(size, 4, dtype="f4")
         self.combined_fbo = ctx.framebuffer([self.combined])
 
-    def begin(self, ctx) -> None:
+    def begin(self, ctx, clear: bool = True) -> None:
+        """Bind the targets for the light passes; ``clear``: zero them first (needed only where a
+        pixel that the first pass does not draw is read: the first pass writes, the others add)."""
         self.fbo.use()
         pass_state(ctx, blend=True)
-        self.fbo.clear(0, 0, 0, 0)
+        if clear:
+            self.fbo.clear(0, 0, 0, 0)
 
     def compose(self, gl: GLContext, film_transparent: bool = True,
                 world=(0.0, 0.0, 0.0)) -> None:
@@ -107,7 +110,8 @@ def run_light_pass(gl: GLContext, *, camera: Camera, plane: ViewPlane, medium: M
     if medium_kind == MEDIUM_GRID:
         defines.update(medium_gpu.defines())
     prog = gl.program("fullscreen.vert", "scatter.frag", defines)
-    pass_state(gl.ctx, blend=True)          # adds into the targets ScatteringTargets.begin bound
+    # The first pass writes the targets ScatteringTargets.begin bound, the others add into them.
+    pass_state(gl.ctx, blend=not first)
     bind_units(prog)
     camera_uniforms(prog, camera, plane)
     medium_gpu.bind(prog)
