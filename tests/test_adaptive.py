@@ -138,12 +138,12 @@ def test_auto_takes_more_coefficients_for_many_samples():
     assert custom.coefficients == SETTINGS.coefficients
 
 
-def test_a_sample_draws_the_gbuffer_and_targets_only_where_its_passes_read(fresh, monkeypatch):
-    # Under adaptive sampling a sample draws its G-buffer over the active rectangles only and does
-    # not clear the light passes' targets (the first pass writes, the others add). Pixels outside
-    # filled with garbage before every sample must not reach the frame: it equals the frame of a
-    # G-buffer drawn and targets cleared over every pixel (a point light: several passes a sample).
-    from tfm_addon.engine.passes.gbuffer import GBuffer
+
+def test_a_sample_reads_its_light_targets_only_where_its_first_pass_wrote(fresh, monkeypatch):
+    # A sample of an accumulated frame does not clear the light passes' targets: the first pass
+    # writes the pixels (blending off), the others add. Garbage put in the targets before every
+    # sample must not reach the frame: it equals the frame of targets cleared before every sample,
+    # under adaptive sampling (rectangles) and with a point light (several passes a sample).
     from tfm_addon.engine.passes.scattering import ScatteringTargets
     from tfm_addon.engine.scene import Light
 
@@ -152,6 +152,8 @@ def test_a_sample_draws_the_gbuffer_and_targets_only_where_its_passes_read(fresh
         [[1, 0, 0, 1.5], [0, 1, 0, -1.0], [0, 0, 1, 2.5], [0, 0, 0, 1]], float), power_w=800.0)
     scene = dataclasses.replace(scene, lights=(*scene.lights, point))
     samples = 2 * ADAPTIVE_MIN_SAMPLES
+    begin = ScatteringTargets.begin
+    cleared = []
 
     def frame():
         acc = Accumulator()
@@ -159,31 +161,42 @@ def test_a_sample_draws_the_gbuffer_and_targets_only_where_its_passes_read(fresh
             pass
         return acc
 
-    draw, begin = GBuffer.draw, ScatteringTargets.begin
-    monkeypatch.setattr(GBuffer, "draw", lambda self, gl, camera, plane, solids, active=None:
-                        draw(self, gl, camera, plane, solids))
-    monkeypatch.setattr(ScatteringTargets, "begin", lambda self, ctx, clear=True: begin(self, ctx))
-    full = frame()
-    assert full.active is not None and 0.0 < full.active.fraction < 0.9
-    fresh.clear_maps()
-    drawn = []
-
-    def poisoned_draw(self, gl, camera, plane, solids, active=None):
-        self.fbo.use()
-        self.fbo.clear(7.0, -3.0, 5.0, 2.0, depth=1.0)
-        drawn.append(active is not None)
-        draw(self, gl, camera, plane, solids, active)
+    def cleared_begin(self, ctx, clear=True):
+        cleared.append(clear)
+        begin(self, ctx, True)
 
     def poisoned_begin(self, ctx, clear=True):
         self.fbo.use()
         self.fbo.clear(1e3, -1e3, 1e3, 1e3)
         begin(self, ctx, clear)
 
-    monkeypatch.setattr(GBuffer, "draw", poisoned_draw)
+    monkeypatch.setattr(ScatteringTargets, "begin", cleared_begin)
+    full = frame()
+    assert cleared == [False] * samples          # the renderer clears none of them itself
+    assert full.active is not None and 0.0 < full.active.fraction < 0.9
+    assert fresh.counters["light_passes"] >= 2 * samples
+    fresh.clear_maps()
     monkeypatch.setattr(ScatteringTargets, "begin", poisoned_begin)
     part = frame()
-    assert drawn.count(True) == samples - ADAPTIVE_FIRST_SAMPLES       # rectangles after the first decision
     assert np.array_equal(part.active.mask, full.active.mask)
     assert np.abs(part.output.combined - full.output.combined).max() <= 1e-6
     for name, image in full.output.passes.items():
         assert np.abs(part.output.passes[name] - image).max() <= 1e-6, name
+
+
+def test_rectangle_sets_drawn_in_turn_each_shade_their_own_pixels(renderer):
+    # draw_rects keeps the vertex arrays of recent (program, rectangles) pairs (RECT_ARRAYS): sets
+    # drawn in turn, more of them than it keeps and then the first ones again, each shade exactly
+    # their blocks (a vertex array of another set, or of a released buffer, would not).
+    from tfm_addon.engine.gl_context import RECT_ARRAYS
+
+    h, w = 24, 40
+    scene = smoke_scene(width=w, height=h, n=32)
+    full = renderer.render(scene, SETTINGS, passes=False).combined
+    rng = np.random.default_rng(5)
+    sets = [active_pixels(rng.random((h, w)) < 0.03) for _ in range(RECT_ARRAYS + 2)]
+    for active in sets + sets[:3]:
+        part = renderer.render(scene, SETTINGS, passes=False, active=active).combined
+        assert np.array_equal(part[active.mask], full[active.mask])
+        assert not part[~active.mask][:, :3].any()
+    assert len(renderer.gl._rects) <= RECT_ARRAYS

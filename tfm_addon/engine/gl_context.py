@@ -10,6 +10,7 @@ from .errors import GLUnavailableError
 
 SHADER_DIR = Path(__file__).parent / "shaders"
 GLSL_VERSION = "#version 330 core\n"
+RECT_ARRAYS = 16                  # vertex arrays draw_rects keeps (programs x rectangle sets)
 
 
 def _backends() -> list[str | None]:
@@ -92,6 +93,9 @@ class GLContext:
         self.thread_id = threading.get_ident()
         self._programs: dict[tuple, object] = {}
         self._fullscreen: dict[int, object] = {}
+        # The vertex arrays of draw_rects' recent (program, buffer) pairs, with the buffer they read
+        # (held, so that its id names it for as long as the entry lives); oldest first.
+        self._rects: dict[tuple[int, int], tuple[object, object]] = {}
         self.max_3d_texture_size = int(self.ctx.info.get("GL_MAX_3D_TEXTURE_SIZE", 256))
         self.max_texture_size = int(self.ctx.info.get("GL_MAX_TEXTURE_SIZE", 4096))
 
@@ -131,13 +135,18 @@ class GLContext:
     def draw_rects(self, prog, vbo, vertices: int) -> None:
         """Run ``prog`` (fullscreen.vert with RECTS) over the triangles of ``vbo`` (2 floats a
         vertex, window pixels)."""
-        vao = self.ctx.vertex_array(prog, [(vbo, "2f", "in_px")])
-        try:
-            vao.render(vertices=vertices)
-        finally:
-            vao.release()
+        key = (id(prog), id(vbo))
+        entry = self._rects.get(key)
+        if entry is None:
+            entry = self._rects[key] = (vbo, self.ctx.vertex_array(prog, [(vbo, "2f", "in_px")]))
+            while len(self._rects) > RECT_ARRAYS:   # an adaptive frame's rectangles change twice
+                self._rects.pop(next(iter(self._rects)))[1].release()
+        entry[1].render(vertices=vertices)
 
     def release(self) -> None:
+        for _, vao in self._rects.values():
+            vao.release()
+        self._rects.clear()
         for vao in self._fullscreen.values():
             vao.release()
         for prog in self._programs.values():

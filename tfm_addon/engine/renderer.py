@@ -303,18 +303,13 @@ class Renderer:
 
             t0 = time.perf_counter()
             plane = view_plane(scene.camera)
-            size = (plane.width_px, plane.height_px)
-            rects = self._active_rects(size, active)
-            # A sample of an accumulated frame draws the G-buffer where its passes draw (the sums
-            # read the same rectangles); a frame composed whole reads every pixel's.
-            gb_rects = rects if accumulate is not None else None
             gbuffer, built = self._gbuffers.get(
-                (scene.camera.key, tuple(m.key for m in scene.camera_meshes),
-                 None if gb_rects is None else active.key),
-                lambda: self._gbuffer_for(scene.camera, plane, seen, gb_rects))
+                (scene.camera.key, tuple(m.key for m in scene.camera_meshes)),
+                lambda: self._gbuffer_for(scene.camera, plane, seen))
             self.counters["gbuffers"] += built
             step("gbuffer", t0)
 
+            size = (plane.width_px, plane.height_px)
             targets = self._targets.get(size, lambda: ScatteringTargets(gl, size))[0]
             # Every light pass draws the same pixels, and the first one writes them all: the zeros
             # of a clear are read only where a frame composed whole has pixels no pass drew.
@@ -323,7 +318,7 @@ class Renderer:
             ambient = scene.ambient if settings.ambient else (0.0, 0.0, 0.0)
             common = dict(camera=scene.camera, plane=plane, medium=medium,
                           medium_gpu=medium_gpu, settings=settings, ambient=ambient,
-                          attributes=attributes, active=rects)
+                          attributes=attributes, active=self._active_rects(size, active))
             self.counters["pixels_shaded"] += (size[0] * size[1] if active is None
                                                else int(np.count_nonzero(active.mask)))
             if not plans:
@@ -637,7 +632,7 @@ class Renderer:
 
         return self._tfms.get(key, build)[0], ref.sigma_t
 
-    def _gbuffer_for(self, camera, plane, solids, active=None) -> _PooledGBuffer:
+    def _gbuffer_for(self, camera, plane, solids) -> _PooledGBuffer:
         """A G-buffer drawn for ``camera``: GL objects of that size that the cache released (the
         previous sample's) are drawn into again; new ones are made only when none is free."""
         size = (plane.width_px, plane.height_px)
@@ -649,7 +644,7 @@ class Renderer:
             self.counters["gbuffer_objects"] += 1
         entry = _PooledGBuffer(gbuffer, self._gbuffer_pool)
         try:
-            gbuffer.draw(self.gl, camera, plane, solids, active)
+            gbuffer.draw(self.gl, camera, plane, solids)
         except BaseException:
             entry.release()
             raise

@@ -13,9 +13,7 @@ class GBuffer:
     """Two RGBA32F textures the size of the pixel window: (albedo, distance along the view ray
     in metres) and (world normal, 1 where a solid is seen, 2 where a holdout is seen), with their
     framebuffer and depth buffer. ``draw`` re-renders the contents for a view into the same GL
-    objects, so that samples that only move the camera (antialiasing jitter) allocate nothing.
-    Drawn over the ``active`` rectangles only, the pixels outside them hold whatever an earlier
-    view left: only passes that draw the same rectangles may read it."""
+    objects, so that samples that only move the camera (antialiasing jitter) allocate nothing."""
 
     def __init__(self, gl: GLContext, size: tuple[int, int]):
         ctx = gl.ctx
@@ -29,30 +27,12 @@ class GBuffer:
         self._vao = None
         self._vao_solids = None   # the SolidsBuffer the vertex array reads (held: compared by identity)
 
-    def draw(self, gl: GLContext, camera: Camera, plane: ViewPlane, solids: SolidsBuffer,
-             active=None) -> None:
-        """Render ``solids`` seen by ``camera`` (``plane`` its pixel window, of this size).
-        ``active``: None (every pixel), or (vertex buffer, count) of rectangles in window pixels
-        (adaptive sampling): only the pixels they cover are drawn."""
+    def draw(self, gl: GLContext, camera: Camera, plane: ViewPlane, solids: SolidsBuffer) -> None:
+        """Render ``solids`` seen by ``camera`` (``plane`` its pixel window, of this size)."""
         ctx = gl.ctx
         self.fbo.use()
         pass_state(ctx, depth_test=True)
-        if active is not None and not active[1]:
-            pass_state(ctx)
-            return
-        if active is None or not solids.vertex_count:
-            self.fbo.clear(0, 0, 0, 0, depth=1.0)
-        else:
-            # Depth 0.0 everywhere, then the rectangles cleared at depth 1.0: the solids' fragments
-            # pass the depth test inside them only (llvmpipe then spares the rest their shading).
-            self.fbo.clear(0, 0, 0, 0, depth=0.0)
-            prog = gl.program("fullscreen.vert", "gbuffer_rects.frag", {"RECTS": 1})
-            set_uniforms(prog, u_window=(float(plane.width_px), float(plane.height_px)))
-            ctx.depth_func = "1"             # always
-            try:
-                gl.draw_rects(prog, *active)
-            finally:
-                ctx.depth_func = "<"
+        self.fbo.clear(0, 0, 0, 0, depth=1.0)
         if solids.vertex_count:
             prog = gl.program("gbuffer.vert", "gbuffer.frag")
             c2w = camera_to_world(camera)
