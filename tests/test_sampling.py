@@ -134,6 +134,30 @@ def test_gpu_sums_equal_the_mean_of_the_samples_read_back_one_by_one(fresh):
     assert fresh.sample_sums(acc.key) is None and acc.output.combined.shape == (24, 40, 4)
 
 
+def test_later_frames_sum_into_the_first_frames_gl_objects_cleared(fresh):
+    """A frame's sample sums go back to a pool when it ends: the next frames of that size sum
+    into the same GL objects, cleared (each equals a fresh renderer's frame), and another size or
+    pass set makes its own."""
+    from tfm_addon.engine import Renderer
+
+    scene = smoke_scene(width=40, height=24, n=32)
+    moved = dataclasses.replace(scene, lights=(dataclasses.replace(
+        scene.lights[0], power_w=scene.lights[0].power_w * 3.0),))
+    images = [render_samples(fresh, s, SETTINGS, 3).combined for s in (scene, moved, scene)]
+    assert fresh.counters["sums_objects"] == 1
+    other = Renderer(gl=fresh.gl)
+    try:
+        want = [render_samples(other, s, SETTINGS, 3).combined for s in (scene, moved)]
+    finally:
+        other.clear_maps()
+    for got, ref in zip(images, [want[0], want[1], want[0]], strict=True):
+        assert float(np.abs(got - ref).max()) < 1e-6
+    assert float(np.abs(images[1] - images[0]).max()) > 0.01           # the frames differ
+    render_samples(fresh, scene, SETTINGS, 3, passes=False)
+    render_samples(fresh, smoke_scene(width=32, height=20, n=32), SETTINGS, 3)
+    assert fresh.counters["sums_objects"] == 3
+
+
 def test_later_samples_reuse_the_first_samples_plans_only_within_the_frame(fresh):
     """Samples 1..n-1 of a frame reuse what sample 0 prepared; a new frame of an edited light
     prepares again and gives what a fresh renderer gives."""

@@ -167,7 +167,8 @@ class Renderer:
     point and area lights that reach neither a medium nor a visible solid: no maps, no pass);
     'pixels_shaded': pixels the light passes of a frame shaded (all of them, or the ``active``
     ones), once per frame; 'samples_reusing_plans': samples of an accumulated frame (``accumulate``)
-    that used the media, solids and light plans the frame's first sample prepared.
+    that used the media, solids and light plans the frame's first sample prepared; 'sums_objects':
+    GL objects made for a frame's sample sums (a later frame of the same size reuses them).
     A camera-only change rebuilds no light map; changing sigma_a or sigma_s of a lone medium
     rebuilds nothing on the light side (unless a fixed density weight ties the map to the
     extinction; with several media a map also depends on their relative extinction).
@@ -183,6 +184,7 @@ class Renderer:
         self._gobos = _Cache()
         self._gbuffers = _Cache()
         self._gbuffer_pool: dict[tuple[int, int], list[GBuffer]] = {}  # free G-buffer objects by size
+        self._sums_pool: dict[tuple, list[SampleSums]] = {}            # free sample sums by size, passes
         self._targets = _Cache()
         self._attributes = _Cache()
         self._caches = [self._media, self._solids, self._shadows, self._tfms, self._gobos,
@@ -336,8 +338,7 @@ class Renderer:
                 step("scattering", t0)
             t0 = time.perf_counter()
             if accumulate is not None:
-                sums = self._targets.get(("sums", accumulate),
-                                         lambda: SampleSums(gl, size, want_passes))[0]
+                sums = self._targets.get(("sums", accumulate), lambda: self._new_sums(size, want_passes))[0]
                 if (sums.size, sums.passes) != (size, want_passes):
                     raise ValueError(f"sample sums {accumulate!r} are of another image or passes")
                 sums.add(gl, targets, settings.film_transparent, scene.background, common["active"])
@@ -650,6 +651,12 @@ class Renderer:
             raise
         return entry
 
+    def _new_sums(self, size, passes) -> SampleSums:
+        """A frame's sample sums: the GL objects of an earlier frame of this size, or new ones."""
+        sums, new = SampleSums.take(self.gl, size, passes, self._sums_pool)
+        self.counters["sums_objects"] += new
+        return sums
+
     def _active_rects(self, size, active):
         """(vertex buffer, vertex count) of the rectangles that cover ``active``
         (adaptive.ActivePixels), or None to shade every pixel."""
@@ -674,6 +681,10 @@ class Renderer:
                     for gbuffer in free:
                         gbuffer.release()
                 self._gbuffer_pool.clear()
+                for free in self._sums_pool.values():
+                    for sums in free:
+                        sums.destroy()
+                self._sums_pool.clear()
 
     def release(self) -> None:
         """Release every GPU resource and the context."""

@@ -9,19 +9,34 @@ from ..gl_context import GLContext, set_uniforms
 from .bindings import pass_state
 
 PASS_NAMES = ("scattering", "surfaces", "transmittance")
+SUMS_POOL = 2      # released sums kept per (size, passes) for the next frames (Renderer's pool)
 
 
 class SampleSums:
     """RGBA32F textures the size of the pixel window holding, over the samples added so far, the
     sums of the combined image and of its square and, with ``passes``, of the three passes. A
-    sample adds only at the pixels it shaded (adaptive sampling); ``count`` is the samples added."""
+    sample adds only at the pixels it shaded (adaptive sampling); ``count`` is the samples added.
+    With a ``pool`` (a dict), ``release`` hands the GL objects back to it for the next frame of the
+    same size (``take``) instead of freeing them; ``destroy`` frees them."""
 
-    def __init__(self, gl: GLContext, size: tuple[int, int], passes: bool):
+    def __init__(self, gl: GLContext, size: tuple[int, int], passes: bool, pool: dict | None = None):
         ctx = gl.ctx
-        self.size, self.passes, self.count = size, passes, 0
+        self.size, self.passes, self.count, self._pool = size, passes, 0, pool
         self.textures = [ctx.texture(size, 4, dtype="f4") for _ in range(5 if passes else 2)]
         self.fbo = ctx.framebuffer(self.textures)
         self.fbo.clear(0, 0, 0, 0)
+
+    @classmethod
+    def take(cls, gl: GLContext, size: tuple[int, int], passes: bool, pool: dict) -> tuple[SampleSums, bool]:
+        """Sums for a new frame: released ones of this size from ``pool``, cleared, or new ones;
+        and whether they are new."""
+        free = pool.get((size, passes))
+        if free:
+            sums = free.pop()
+            sums.count = 0
+            sums.fbo.clear(0, 0, 0, 0)
+            return sums, False
+        return cls(gl, size, passes, pool), True
 
     def add(self, gl: GLContext, targets, film_transparent: bool, world, active=None) -> None:
         """Compose the sample in ``targets`` (scattering.ScatteringTargets, with the G-buffer
@@ -53,6 +68,14 @@ class SampleSums:
         return np.ascontiguousarray(images[0]), np.ascontiguousarray(images[1]), passes
 
     def release(self) -> None:
+        """Back to the pool (at most SUMS_POOL free per size), else freed."""
+        free = None if self._pool is None else self._pool.setdefault((self.size, self.passes), [])
+        if free is not None and len(free) < SUMS_POOL:
+            free.append(self)
+        else:
+            self.destroy()
+
+    def destroy(self) -> None:
         self.fbo.release()
         for t in self.textures:
             t.release()
