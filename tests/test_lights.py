@@ -279,3 +279,19 @@ def test_footprint_side_of_a_face_is_the_finest_its_grids_ask_for(fresh):
         sides.append(sorted(k[4] for k in fresh._tfms.items if k[-1] != "alpha"))
     # The grid's own side (the fog box first once set 64, its half side taken as the voxel).
     assert sides[0] == sides[1] == sides[2] and sides[0][0] > 64, sides
+
+
+def test_auto_reads_the_grid_whatever_the_media_order(renderer):
+    """A fog box listed before a smoke grid: AUTO chooses the grid's settings, as with the grid
+    first (it took the box's analytic-path settings: 8 coefficients, 100 light steps), and the
+    frame matches the reference."""
+    from tfm_addon.engine.quality import auto_settings
+    fog = Medium(sigma_a=(0.02,) * 3, sigma_s=(0.25, 0.2, 0.15), anisotropy=-0.2,
+                 box_to_world=translate_scale((0.8, 0.0, 1.0), 1.5), name="Fog")
+    spot = Light(matrix_world=look_at((-2.5, -1.0, 4.0), (0, 0, 1.0)), power_w=1500.0,
+                 spot_size_rad=math.radians(45), spot_blend=0.2)
+    scenes = [Scene(camera=_camera(), lights=(spot,), media=media, meshes=(plane_mesh((0, 0, 0), 8.0),))
+              for media in ((_smoke(), fog), (fog, _smoke()))]
+    grid_first, box_first = (auto_settings(s, RenderSettings()) for s in scenes)
+    assert box_first == grid_first and box_first.tfm_resolution == "FOOTPRINT", (box_first, grid_first)
+    _compare(renderer, scenes[1], settings=RenderSettings(), ref_steps=dict(view_steps=192, light_steps=192))

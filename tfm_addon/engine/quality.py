@@ -395,13 +395,20 @@ def auto_steps(voxels: float, sharpness: float, per_voxel_range: tuple[float, fl
 
 def marched_first(scene: Scene) -> Scene:
     """``scene`` without the media in front of the first one the renderer marches (unbounded fog
-    beside other media, empty grids: it skips them), so that the rule reads that one."""
+    beside other media, empty grids: it skips them), so that the rule reads that one; a
+    homogeneous box before a density grid goes behind it (the rule is the grid's whatever the
+    media's order: the box alone would choose the analytic path's settings)."""
     media = list(scene.media)
     if len(media) > 1:
         media = [m for m in media if m.density is not None or m.box_to_world is not None] or media
     while len(media) > 1 and media[0].density is not None and _is_empty(media[0]):
         media.pop(0)
-    return scene if len(media) == len(scene.media) else dataclasses.replace(scene, media=tuple(media))
+    grids = [m for m in media if m.density is not None and not _is_empty(m)]
+    if media and media[0].density is None and grids:
+        media = [grids[0]] + [m for m in media if m is not grids[0]]
+    if len(media) == len(scene.media) and all(a is b for a, b in zip(media, scene.media, strict=True)):
+        return scene
+    return dataclasses.replace(scene, media=tuple(media))
 
 
 def _is_empty(m) -> bool:
