@@ -2,6 +2,9 @@
 // Principled Volume defines them: emission is not scaled by density; the blackbody term is
 // evaluated per voxel on the CPU (engine/blackbody.py). EMISSION 1: a constant, 2: read from grids,
 // 3: from grids plus a constant part (passes/emission.AttributesGPU.program_kind).
+// PACKED_DENSITY (AttributesGPU.packing): the first medium's density is read from the texture
+// whose values the sample reads anyway, one fetch instead of two: 1 u_attrs' r (beside a blackbody
+// grid in gba), 2 u_attrs' g (beside a strength grid in r), 3 u_color_grid's a; 0 u_density.
 #if EMISSION
 uniform sampler3D u_attrs;       // up to four attribute grids (padded like the density), or 1 voxel
 uniform vec3 u_attrs_size;       // padded texture size, voxels
@@ -53,9 +56,26 @@ int samples_within(vec2 e, int k_lo, int k_hi, float t0, float dt, float at) {
 #endif
 
 #if COLOR_GRID
-uniform sampler3D u_color_grid;  // RGB per voxel, padded like the density
+uniform sampler3D u_color_grid;  // RGB per voxel (and the density: PACKED_DENSITY 3), padded like the density
 
 vec3 color_at_index(vec3 idx) {
     return texture(u_color_grid, (idx + 1.5) / u_grid_size).rgb;
+}
+#endif
+
+#if PACKED_DENSITY
+// The packed texture's values at a point in the first medium's index space.
+vec4 packed_fetch(vec3 idx) {
+#if PACKED_DENSITY == 3
+    return textureLod(u_color_grid, (idx + 1.5) / u_grid_size, 0.0);
+#else
+    return textureLod(u_attrs, (idx + 1.5) / u_attrs_size, 0.0);
+#endif
+}
+
+// The first medium's density from its packed values pk at idx: medium_density(0, p) of common.glsl.
+float packed_density(vec4 pk, vec3 idx) {
+    if (any(lessThan(idx, u_med_lo[0])) || any(greaterThan(idx, u_med_hi[0]))) return 0.0;
+    return pk[PACKED_DENSITY == 1 ? 0 : PACKED_DENSITY == 2 ? 1 : 3] * u_grid_scales[0];
 }
 #endif
