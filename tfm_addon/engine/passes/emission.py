@@ -14,6 +14,8 @@ into the colour grid's fourth channel. The packed density is the density texture
 
 from __future__ import annotations
 
+from collections import Counter
+
 import numpy as np
 
 from ..gl_context import GLContext, set_uniforms
@@ -68,6 +70,7 @@ class AttributesGPU:
         color = prepared.color if prepared is not None else None
         # Where the density is packed: the colour grid's 4th channel, else the attributes' free one.
         self.packed = 0
+        self.packed_passes: Counter = Counter()     # passes per PACKED_DENSITY value (packing)
         self.density_grid = density
         lattice = tuple(grid_size) if grid_size is not None else None
         if PACK_DENSITY and density is not None and density.texture is not None:
@@ -135,6 +138,11 @@ class AttributesGPU:
         """The march's PACKED_DENSITY define for a pass over ``medium_gpu`` (``emits``: the pass
         adds ``medium``'s emission; ``colored``: it reads the colour grid): where the first
         medium's density is read, 0 (its own texture) unless the texture read anyway holds it."""
+        where = self._packing(medium, medium_gpu, emits, colored)
+        self.packed_passes[where] += 1
+        return where
+
+    def _packing(self, medium: Medium, medium_gpu, emits: bool, colored: bool) -> int:
         if not self.packed or not medium_gpu.slots or medium_gpu.slots[0].grid is not self.density_grid:
             return 0
         if not medium_gpu.grids or medium_gpu.grids[0] is not self.density_grid:
