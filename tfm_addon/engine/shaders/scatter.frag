@@ -204,7 +204,11 @@ void main() {
 #endif
                 vec3 ss = vec3(0.0);
                 for (int m = 0; m < N_MEDIA; ++m) ss += u_med_sigma_s[m] * (m == 0 ? tint0 : vec3(1.0)) * D[m];
+#if EMISSION
+                vec3 tv = tv_e;             // the same value: tau and st have not changed since
+#else
                 vec3 tv = exp(-(tau + 0.5 * st * dt));
+#endif
                 vec3 src = vec3(0.0);
 #if FIRST_PASS
                 src += ss * u_ambient;
