@@ -61,7 +61,7 @@ def _scene(size: Size, kind: str, emits: bool, colored: bool):
 def run(size: Size, log=print) -> list[dict]:
     """Median seconds per frame of the burning plume lit by a spot (``CASES``: emission kinds,
     with and without a colour grid, with the density packed beside the attributes or not) and
-    each emitting frame's ratio to the same frame without emission. Every map is built before
+    each emitting frame's ratio to the same frame without emission (``_ratio``). Every map is built before
     the timing (a steady viewport frame: the emission needs no map, so it changes none)."""
     scenes = {name: _scene(size, kind, emits, colored) for name, kind, emits, colored, _, _ in CASES}
     settings = RenderSettings(map_resolution=size.map_resolution)
@@ -94,29 +94,36 @@ def run(size: Size, log=print) -> list[dict]:
     rows = []
     for name, _, _, _, _, baseline in CASES:
         base = baseline or name
-        rows.append(dict(case=name, seconds=seconds[name], baseline=base, ratio=seconds[name] / seconds[base],
-                         cpu_ratio=cpu[name] / cpu[base] if cpu_gl else None, rebuilt=rebuilt[name],
-                         packed=packed[name]))
+        rows.append(dict(case=name, seconds=statistics.median(seconds[name]), baseline=base,
+                         ratio=_ratio(seconds, name, base),
+                         cpu_ratio=_ratio(cpu, name, base) if cpu_gl else None,
+                         rebuilt=rebuilt[name], packed=packed[name]))
     log(f"emission: {size.width}x{size.height}, {size.grid} grid: " +
         ", ".join(f"{r['case']} {r['seconds'] * 1e3:.1f} ms ({r['ratio']:.3f}x"
                   + (f", CPU {r['cpu_ratio']:.3f}x)" if r["cpu_ratio"] is not None else ")") for r in rows))
     return rows
 
 
-def _side_by_side(frames: dict, repeats: int) -> tuple[dict[str, float], dict[str, float]]:
-    """Median wall-clock and process CPU seconds of each frame, repetitions interleaved. On a GL
-    that renders on this process's CPU threads (llvmpipe) the CPU seconds are the frame's work,
-    which other jobs on a shared machine do not inflate as they do the wall clock."""
+def _side_by_side(frames: dict, repeats: int) -> tuple[dict[str, list[float]], dict[str, list[float]]]:
+    """Wall-clock and process CPU seconds of each frame per round, the frames interleaved (in
+    reverse order every other round, so that no frame always follows the same one). On a GL that
+    renders on this process's CPU threads (llvmpipe) the CPU seconds are the frame's work, which
+    other jobs on a shared machine do not inflate as they do the wall clock."""
     wall: dict[str, list[float]] = {name: [] for name in frames}
     cpu: dict[str, list[float]] = {name: [] for name in frames}
-    for _ in range(repeats):
-        for name, frame in frames.items():
+    for k in range(repeats):
+        for name, frame in (list(frames.items()) if k % 2 == 0 else list(frames.items())[::-1]):
             t0, c0 = time.perf_counter(), time.process_time()
             frame()
             wall[name].append(time.perf_counter() - t0)
             cpu[name].append(time.process_time() - c0)
-    return ({n: statistics.median(v) for n, v in wall.items()},
-            {n: statistics.median(v) for n, v in cpu.items()})
+    return wall, cpu
+
+
+def _ratio(times: dict[str, list[float]], name: str, base: str) -> float:
+    """Median over the rounds of the frame's time over its baseline's in the same round: a load
+    that changes between rounds cancels."""
+    return statistics.median(a / b for a, b in zip(times[name], times[base], strict=True))
 
 
 def _color(medium):
@@ -132,8 +139,9 @@ TARGET_ROWS = ("Quick Fire (blackbody grid)", "flame strength", "emission + blac
 def report(rows: list[dict]) -> str:
     cpu = all(r.get("cpu_ratio") is not None for r in rows)
     lines = ["# What emission costs a frame", "",
-             "Burning plume lit by one spot, maps cached; median of interleaved repetitions; each "
-             "ratio to the row named (the same frame without emission)"
+             "Burning plume lit by one spot, maps cached; medians of interleaved repetitions; each "
+             "ratio to the row named (the same frame without emission), the median of the ratios "
+             "of the two frames in each round"
              + ("; CPU ratio: process CPU seconds (this GL renders on the CPU)." if cpu else "."), "",
              "| case | density read from | ms per frame | ratio | to |" + (" CPU ratio |" if cpu else "")
              + " maps or grids rebuilt while timing |",
