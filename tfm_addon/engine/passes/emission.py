@@ -134,6 +134,10 @@ class AttributesGPU:
             return 1
         return 3 if constant_emits(medium) else 2
 
+    def grids_read(self) -> int:
+        """The march's EMISSION_GRIDS define: bit 0 a strength grid, bit 1 a blackbody grid."""
+        return int(self.strength_grid) | 2 * int(self.blackbody_grid)
+
     def packing(self, medium: Medium, medium_gpu, emits: bool, colored: bool) -> int:
         """The march's PACKED_DENSITY define for a pass over ``medium_gpu`` (``emits``: the pass
         adds ``medium``'s emission; ``colored``: it reads the colour grid): where the first
@@ -157,14 +161,18 @@ class AttributesGPU:
         grid."""
         self.attrs.use(UNIT_ATTRS)
         v = medium.emission_strength
-        strength = ((float(v.scale), float(v.offset), 0.0) if self.strength_grid
-                    else (0.0, float(v.offset), -1.0))
+        color = np.asarray(medium.emission_color, np.float64)
+        tint = np.asarray(medium.blackbody_tint, np.float64)
+        # The parts that read no grid (a constant strength, a blackbody term without grid), summed.
+        const = tint * np.asarray(constant_blackbody(medium), np.float64)
+        if not self.strength_grid:
+            const = const + color * max(float(v.offset), 0.0)
         lo, hi = self.emission_box(medium)
         set_uniforms(prog, u_attrs=UNIT_ATTRS, u_attrs_size=tuple(float(n) for n in self.attrs_size),
-                     u_emission_color=tuple(float(c) for c in medium.emission_color),
-                     u_strength=strength, u_bb_grid=int(self.blackbody_grid),
-                     u_bb_const=constant_blackbody(medium),
-                     u_bb_tint=tuple(float(c) for c in medium.blackbody_tint),
+                     u_emission_color=tuple(float(c) for c in color),
+                     u_strength=(float(v.scale), float(v.offset)),
+                     u_emission_const=tuple(float(c) for c in const),
+                     u_bb_tint=tuple(float(c) for c in tint),
                      u_emit_lo=lo, u_emit_hi=hi)
         if emits and self.cells is not None:
             self.cells.use(UNIT["u_occupancy"])

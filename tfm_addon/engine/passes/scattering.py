@@ -104,7 +104,8 @@ def run_light_pass(gl: GLContext, *, camera: Camera, plane: ViewPlane, medium: M
                "PROJECTIVE": int(settings.sampling == "PROJECTIVE"),
                "EMISSION": attributes.program_kind(medium) if emits else 0, "COLOR_GRID": int(colored),
                "PACKED_DENSITY": attributes.packing(medium, medium_gpu, emits, colored)
-               if attributes is not None else 0}
+               if attributes is not None else 0,
+               "EMISSION_GRIDS": attributes.grids_read() if emits else 0}
     if active is not None:
         defines["RECTS"] = 1
     if tfm is not None:

@@ -9,10 +9,9 @@
 uniform sampler3D u_attrs;       // up to four attribute grids (padded like the density), or 1 voxel
 uniform vec3 u_attrs_size;       // padded texture size, voxels
 uniform vec3 u_emission_color;   // W/(sr m^2) per metre per unit strength
-uniform vec3 u_strength;         // scale, offset, channel of u_attrs (-1: constant)
-uniform int u_bb_grid;           // 1: the blackbody term per voxel in channels 1-3 (before tint)
-uniform vec3 u_bb_const;         // else this constant
+uniform vec2 u_strength;         // scale, offset of the strength grid in r (EMISSION_GRIDS bit 0)
 uniform vec3 u_bb_tint;
+uniform vec3 u_emission_const;   // the parts that read no grid: colour x strength, tint x blackbody
 uniform vec3 u_emit_lo;          // index-space box outside which nothing emits
 uniform vec3 u_emit_hi;
 
@@ -26,10 +25,18 @@ vec2 emission_interval(vec3 ob, vec3 db) {
     return vec2(max(max(lo.x, lo.y), lo.z), min(min(hi.x, hi.y), hi.z));
 }
 
-// Emitted radiance per metre for the attribute values a (grid channels).
+// Emitted radiance per metre for the attribute values a (grid channels). EMISSION_GRIDS (bit 0:
+// a strength grid in r, bit 1: the blackbody term in gba) is fixed with the attribute texture; the
+// parts that read no grid come summed in one uniform (passes/emission.AttributesGPU.bind).
 vec3 emission_of(vec4 a) {
-    float strength = u_strength.z < 0.0 ? u_strength.y : u_strength.x * max(a.r, 0.0) + u_strength.y;
-    return u_emission_color * max(strength, 0.0) + u_bb_tint * (u_bb_grid == 1 ? a.gba : u_bb_const);
+    vec3 e = u_emission_const;
+#if EMISSION_GRIDS & 1
+    e += u_emission_color * max(u_strength.x * max(a.r, 0.0) + u_strength.y, 0.0);
+#endif
+#if EMISSION_GRIDS & 2
+    e += u_bb_tint * a.gba;
+#endif
+    return e;
 }
 
 // Emitted radiance per metre at a point in box (grid index) space.
