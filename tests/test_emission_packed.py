@@ -143,3 +143,31 @@ def test_the_packed_values_are_the_density_texture_and_the_attributes():
         density.occupancy.release()
     finally:
         r.release()
+
+
+@pytest.mark.parametrize("grids", [1, 2, 3])
+def test_the_emission_compiled_for_its_grids_matches_the_reference(fresh, grids):
+    """The emission compiled for the grids its texture holds (EMISSION_GRIDS: 1 strength, 2
+    blackbody, 3 both), with constant parts beside a grid (a strength offset, a blackbody term
+    without grid) summed into one uniform, against the numpy reference."""
+    from tfm_addon.engine import metrics
+    from tfm_addon.engine.reference import render_reference
+
+    scene = scenes.fire_scene(64, 36, 24, kind="FIRE")
+    m = scene.medium
+    if grids == 1:      # the strength grid with an offset, a constant blackbody term (1800 K)
+        m = dataclasses.replace(m, emission_strength=GridValue("flame", 4.0, 0.05),
+                                temperature=GridValue(offset=1800.0),
+                                blackbody_intensity=GridValue(offset=0.3))
+    elif grids == 2:    # the blackbody grid, a constant strength
+        m = dataclasses.replace(m, emission_strength=GridValue(offset=0.1))
+    scene = dataclasses.replace(scene, medium=m)
+    out = fresh.render(scene, SETTINGS).combined[..., :3]
+    compiled = {dict(k[2]).get("EMISSION_GRIDS") for k in fresh.gl._programs if k[1] == "scatter.frag"}
+    assert compiled == {grids}
+    ref = render_reference(scene, view_steps=96, light_steps=96).combined[..., :3]
+    ratio = out.sum(axis=(0, 1)) / ref.sum(axis=(0, 1))
+    print(f"EMISSION_GRIDS {grids}: SSIM {metrics.ssim(out, ref):.5f}, brightness {np.round(ratio, 4)}")
+    assert ref.max() > 0.05
+    assert np.all(np.abs(ratio - 1.0) <= 0.01), ratio
+    assert metrics.ssim(out, ref) >= 0.99
