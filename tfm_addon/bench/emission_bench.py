@@ -23,7 +23,7 @@ PAPER = Size(1280, 720, 128, 1024, 9)
 
 
 CASES = (
-    # (case, fire_scene kind or None for the base one, emission, colour grid, density packed, baseline)
+    # (case, fire_scene kind, emission, colour grid, density packed, baseline: None for a baseline)
     ("no emission", "FIRE", False, False, True, None),
     ("flame strength", "EMISSION", True, False, True, "no emission"),
     ("flame strength, two fetches", "EMISSION", True, False, False, "no emission"),

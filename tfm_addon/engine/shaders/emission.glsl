@@ -63,7 +63,7 @@ int samples_within(vec2 e, int k_lo, int k_hi, float t0, float dt, float at) {
 #endif
 
 #if COLOR_GRID
-uniform sampler3D u_color_grid;  // RGB per voxel (and the density: PACKED_DENSITY 3), padded like the density
+uniform sampler3D u_color_grid;  // RGB per voxel (A: the density, PACKED_DENSITY 3), padded like it
 
 vec3 color_at_index(vec3 idx) {
     return texture(u_color_grid, (idx + 1.5) / u_grid_size).rgb;
