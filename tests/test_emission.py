@@ -15,6 +15,7 @@ SETTINGS = RenderSettings(view_steps=96, light_steps=96, map_resolution=128, coe
 CASES = {
     "emission": dict(kind="EMISSION"),
     "blackbody": dict(kind="BLACKBODY"),
+    "quick_fire_lit": dict(kind="QUICK_FIRE", with_light=True, with_occluder=True, with_ground=True),
     "fire_lit": dict(kind="FIRE", with_light=True, with_occluder=True, with_ground=True),
     "color_grid": dict(kind="COLOR", with_light=True, with_occluder=True),
 }

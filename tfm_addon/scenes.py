@@ -407,7 +407,9 @@ def fire_scene(width: int = 96, height: int = 54, n: int = 32, kind: str = "EMIS
 
     ``kind``: 'EMISSION' (Emission Strength 4 x flame, an orange Emission Color), 'BLACKBODY'
     (Blackbody Intensity 1, temperature 1500 K x the temperature grid: 2250-4500 K), 'FIRE' (both,
-    1000 K x the grid),
+    1000 K x the grid), 'QUICK_FIRE' (Blender's Quick Smoke fire material: Principled Volume,
+    Density 5 with its default grey Color (sigma_s = sigma_a = 2.5 per unit density), Blackbody
+    Intensity 1, Temperature 1000 K x the temperature grid, Emission Strength 0),
     'COLOR' (no emission, a per-voxel colour grid, black absorption colour so the extinction does
     not depend on it). ``with_light``: a spot from above left; ``with_occluder``: a bar in its beam.
     """
@@ -423,6 +425,10 @@ def fire_scene(width: int = 96, height: int = 54, n: int = 32, kind: str = "EMIS
         fields.update(blackbody_intensity=GridValue(offset=1.0),
                       temperature=GridValue("temperature", 1500.0 if kind == "BLACKBODY" else 1000.0, 0.0),
                       blackbody_tint=(1.0, 0.9, 0.8))
+    if kind == "QUICK_FIRE":
+        fields.update(blackbody_intensity=GridValue(offset=1.0),
+                      temperature=GridValue("temperature", 1000.0, 0.0))
+        sigma_s, sigma_a = (2.5, 2.5, 2.5), (2.5, 2.5, 2.5)
     if kind == "COLOR":
         grids["color"] = color_grid_for(density)
         fields.update(color_grid="color")

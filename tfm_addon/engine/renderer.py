@@ -524,7 +524,7 @@ class Renderer:
             self.counters["attribute_uploads"] += 1
             factor = medium_attributes.downsample_factor(medium, medium_gpu.box_to_world)
             return AttributesGPU(self.gl, medium_attributes.prepare_attributes(medium, factor),
-                                 first.grid_size, first.occupancy_cells)
+                                 first.grid_size, first.occupancy_cells, first)
 
         return self._attributes.get(key, build)[0]
 

@@ -3,9 +3,18 @@
 The textures hold the attribute grids as read (no emission constant is baked in), so changing an
 emission colour, strength, intensity, tint or temperature scale changes uniforms only. With the
 attributes comes an occupancy grid of the emitting medium (R: the density's, G: where its grids
-can emit), through which its march skips the cells where it neither absorbs nor glows."""
+can emit), through which its march skips the cells where it neither absorbs nor glows.
+
+Where the emitting medium's density and the values a sample reads besides it fit in four channels
+on the density's lattice, the density is packed into the same texture (``packing``), so that its
+view march makes one texture fetch per sample instead of two: into the attributes' free channel
+(a blackbody grid alone: density, blackbody RGB; a strength grid alone: strength, density), or
+into the colour grid's fourth channel. The packed density is the density texture's own values
+(read back from it), so both paths march the same density."""
 
 from __future__ import annotations
+
+from collections import Counter
 
 import numpy as np
 
@@ -18,32 +27,71 @@ from ..medium_attributes import (
     padded_xyz_fastest,
 )
 from ..scene import Medium
-from .bindings import OCCUPANCY_BLOCK, UNIT, occupancy
+from .bindings import GRID_FORMATS, OCCUPANCY_BLOCK, UNIT, MediumGPU, occupancy
 
 UNIT_ATTRS, UNIT_COLOR = UNIT["u_attrs"], UNIT["u_color_grid"]
+
+PACK_DENSITY = True
+"""Pack the emitting medium's density beside its attributes where they fit (tests and the
+benchmark turn it off to compare with the two-fetch march)."""
+PACKED_ATTRS_R, PACKED_ATTRS_G, PACKED_COLOR_A = 1, 2, 3
+"""The march's PACKED_DENSITY define: where it reads the first medium's density (0: u_density)."""
+
+
+def stored_density(grid: MediumGPU) -> np.ndarray:
+    """The density texture's level 0 as float32 (padded, x fastest, z y x order), in its own
+    units (density / ``grid.density_scale``): normalised integers divided by their maximum as the
+    GL converts them."""
+    dtype, numpy_type = GRID_FORMATS[grid.grid_format]
+    nx, ny, nz = grid.grid_size
+    a = np.frombuffer(grid.texture.read(alignment=1), numpy_type).reshape(nz, ny, nx)
+    if np.issubdtype(numpy_type, np.integer):
+        return a.astype(np.float32) / np.float32(np.iinfo(numpy_type).max)
+    return a.astype(np.float32)
 
 
 class AttributesGPU:
     """The attribute grids of one medium as textures (a 1-voxel texture when there are none)."""
 
     def __init__(self, gl: GLContext, prepared: PreparedAttributes | None,
-                 grid_size: tuple[int, ...] | None = None, density_cells: np.ndarray | None = None):
+                 grid_size: tuple[int, ...] | None = None, density_cells: np.ndarray | None = None,
+                 density: MediumGPU | None = None):
         """``grid_size``: the padded density texture's size, whose index box [-1, n] bounds a
         constant emission in a grid (as the reference's march does); ``density_cells``: that
-        grid's occupancy (bindings.occupancy), the R channel of the emitting medium's."""
+        grid's occupancy (bindings.occupancy), the R channel of the emitting medium's;
+        ``density``: that grid's texture, packed beside the attributes where they fit (None: not
+        packed)."""
         ctx = gl.ctx
         self.strength_grid = prepared is not None and prepared.strength_grid
         self.blackbody_grid = prepared is not None and prepared.blackbody_grid
         self.warnings = list(prepared.warnings) if prepared is not None else []
         scalars = prepared.scalars if prepared is not None else None
         self.reads_grid = scalars is not None
+        color = prepared.color if prepared is not None else None
+        # Where the density is packed: the colour grid's 4th channel, else the attributes' free one.
+        self.packed = 0
+        self.packed_passes: Counter = Counter()     # passes per PACKED_DENSITY value (packing)
+        self.density_grid = density
+        lattice = tuple(grid_size) if grid_size is not None else None
+        if PACK_DENSITY and density is not None and density.texture is not None:
+            if color is not None and tuple(int(n) + 2 for n in color.shape[:3]) == lattice:
+                self.packed = PACKED_COLOR_A
+            elif (scalars is not None and self.strength_grid != self.blackbody_grid
+                  and tuple(int(n) + 2 for n in scalars.shape[:3]) == lattice):
+                self.packed = PACKED_ATTRS_G if self.strength_grid else PACKED_ATTRS_R
+        stored = stored_density(density) if self.packed else None
         if scalars is None:
             self.attrs_size = (1, 1, 1)
             data = np.zeros((1, 1, 1, 4), np.float32)
         else:
             data = padded_xyz_fastest(scalars)
             self.attrs_size = tuple(int(n) + 2 for n in scalars.shape[:3])
-        self.attrs = ctx.texture3d(self.attrs_size, 4, data.tobytes(), dtype="f4")
+            if self.packed == PACKED_ATTRS_R:         # density, blackbody RGB
+                data[..., 0] = stored
+            elif self.packed == PACKED_ATTRS_G:       # strength, density
+                data = np.stack([data[..., 0], stored], axis=-1)
+        self.attrs = ctx.texture3d(self.attrs_size, data.shape[-1], np.ascontiguousarray(data).tobytes(),
+                                   dtype="f4")
         # A constant part of the emission glows in the grid's box (or everywhere: no grid).
         self.grid_box = (((-1.0, -1.0, -1.0), tuple(float(n) - 2.0 for n in grid_size))
                          if grid_size is not None else ((-2.0, -2.0, -2.0), (1e30, 1e30, 1e30)))
@@ -61,9 +109,12 @@ class AttributesGPU:
             self.cells.filter = (ctx.NEAREST, ctx.NEAREST)
             self.cells.repeat_x = self.cells.repeat_y = self.cells.repeat_z = False
         self.color = None
-        if prepared is not None and prepared.color is not None:
-            size = tuple(int(n) + 2 for n in prepared.color.shape[:3])
-            self.color = ctx.texture3d(size, 3, padded_xyz_fastest(prepared.color).tobytes(), dtype="f4")
+        if color is not None:
+            size = tuple(int(n) + 2 for n in color.shape[:3])
+            data = padded_xyz_fastest(color)
+            if self.packed == PACKED_COLOR_A:         # colour RGB, density
+                data = np.concatenate([data, stored[..., None]], axis=-1)
+            self.color = ctx.texture3d(size, data.shape[-1], np.ascontiguousarray(data).tobytes(), dtype="f4")
         for tex in (self.attrs, self.color):
             if tex is not None:
                 tex.filter = (ctx.LINEAR, ctx.LINEAR)
@@ -83,20 +134,45 @@ class AttributesGPU:
             return 1
         return 3 if constant_emits(medium) else 2
 
+    def grids_read(self) -> int:
+        """The march's EMISSION_GRIDS define: bit 0 a strength grid, bit 1 a blackbody grid."""
+        return int(self.strength_grid) | 2 * int(self.blackbody_grid)
+
+    def packing(self, medium: Medium, medium_gpu, emits: bool, colored: bool) -> int:
+        """The march's PACKED_DENSITY define for a pass over ``medium_gpu`` (``emits``: the pass
+        adds ``medium``'s emission; ``colored``: it reads the colour grid): where the first
+        medium's density is read, 0 (its own texture) unless the texture read anyway holds it."""
+        where = self._packing(medium, medium_gpu, emits, colored)
+        self.packed_passes[where] += 1
+        return where
+
+    def _packing(self, medium: Medium, medium_gpu, emits: bool, colored: bool) -> int:
+        if not self.packed or not medium_gpu.slots or medium_gpu.slots[0].grid is not self.density_grid:
+            return 0
+        if not medium_gpu.grids or medium_gpu.grids[0] is not self.density_grid:
+            return 0        # the packed density stands for grid slot 0 (u_density)
+        if self.packed == PACKED_COLOR_A:
+            return self.packed if colored else 0
+        return self.packed if emits and self.program_kind(medium) >= 2 else 0
+
     def bind(self, prog, medium: Medium, emits: bool = True) -> None:
         """The uniforms and textures of ``medium``'s emission (``emits``: the program adds it,
         and skips the cells where it neither absorbs nor glows through these cells) and colour
         grid."""
         self.attrs.use(UNIT_ATTRS)
         v = medium.emission_strength
-        strength = ((float(v.scale), float(v.offset), 0.0) if self.strength_grid
-                    else (0.0, float(v.offset), -1.0))
+        color = np.asarray(medium.emission_color, np.float64)
+        tint = np.asarray(medium.blackbody_tint, np.float64)
+        # The parts that read no grid (a constant strength, a blackbody term without grid), summed.
+        const = tint * np.asarray(constant_blackbody(medium), np.float64)
+        if not self.strength_grid:
+            const = const + color * max(float(v.offset), 0.0)
         lo, hi = self.emission_box(medium)
         set_uniforms(prog, u_attrs=UNIT_ATTRS, u_attrs_size=tuple(float(n) for n in self.attrs_size),
-                     u_emission_color=tuple(float(c) for c in medium.emission_color),
-                     u_strength=strength, u_bb_grid=int(self.blackbody_grid),
-                     u_bb_const=constant_blackbody(medium),
-                     u_bb_tint=tuple(float(c) for c in medium.blackbody_tint),
+                     u_emission_color=tuple(float(c) for c in color),
+                     u_strength=(float(v.scale), float(v.offset)),
+                     u_emission_const=tuple(float(c) for c in const),
+                     u_bb_tint=tuple(float(c) for c in tint),
                      u_emit_lo=lo, u_emit_hi=hi)
         if emits and self.cells is not None:
             self.cells.use(UNIT["u_occupancy"])

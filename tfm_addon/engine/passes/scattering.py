@@ -102,7 +102,10 @@ def run_light_pass(gl: GLContext, *, camera: Camera, plane: ViewPlane, medium: M
     defines = {"MEDIUM": medium_kind, "LIGHT_T": light_t, "FIRST_PASS": int(first),
                "HAS_LIGHT": int(light is not None),
                "PROJECTIVE": int(settings.sampling == "PROJECTIVE"),
-               "EMISSION": attributes.program_kind(medium) if emits else 0, "COLOR_GRID": int(colored)}
+               "EMISSION": attributes.program_kind(medium) if emits else 0, "COLOR_GRID": int(colored),
+               "PACKED_DENSITY": attributes.packing(medium, medium_gpu, emits, colored)
+               if attributes is not None else 0,
+               "EMISSION_GRIDS": attributes.grids_read() if emits else 0}
     if active is not None:
         defines["RECTS"] = 1
     if tfm is not None:

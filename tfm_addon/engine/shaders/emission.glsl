@@ -2,14 +2,16 @@
 // Principled Volume defines them: emission is not scaled by density; the blackbody term is
 // evaluated per voxel on the CPU (engine/blackbody.py). EMISSION 1: a constant, 2: read from grids,
 // 3: from grids plus a constant part (passes/emission.AttributesGPU.program_kind).
+// PACKED_DENSITY (AttributesGPU.packing): the first medium's density is read from the texture
+// whose values the sample reads anyway, one fetch instead of two: 1 u_attrs' r (beside a blackbody
+// grid in gba), 2 u_attrs' g (beside a strength grid in r), 3 u_color_grid's a; 0 u_density.
 #if EMISSION
 uniform sampler3D u_attrs;       // up to four attribute grids (padded like the density), or 1 voxel
 uniform vec3 u_attrs_size;       // padded texture size, voxels
 uniform vec3 u_emission_color;   // W/(sr m^2) per metre per unit strength
-uniform vec3 u_strength;         // scale, offset, channel of u_attrs (-1: constant)
-uniform int u_bb_grid;           // 1: the blackbody term per voxel in channels 1-3 (before tint)
-uniform vec3 u_bb_const;         // else this constant
+uniform vec2 u_strength;         // scale, offset of the strength grid in r (EMISSION_GRIDS bit 0)
 uniform vec3 u_bb_tint;
+uniform vec3 u_emission_const;   // the parts that read no grid: colour x strength, tint x blackbody
 uniform vec3 u_emit_lo;          // index-space box outside which nothing emits
 uniform vec3 u_emit_hi;
 
@@ -23,10 +25,18 @@ vec2 emission_interval(vec3 ob, vec3 db) {
     return vec2(max(max(lo.x, lo.y), lo.z), min(min(hi.x, hi.y), hi.z));
 }
 
-// Emitted radiance per metre for the attribute values a (grid channels).
+// Emitted radiance per metre for the attribute values a (grid channels). EMISSION_GRIDS (bit 0:
+// a strength grid in r, bit 1: the blackbody term in gba) is fixed with the attribute texture; the
+// parts that read no grid come summed in one uniform (passes/emission.AttributesGPU.bind).
 vec3 emission_of(vec4 a) {
-    float strength = u_strength.z < 0.0 ? u_strength.y : u_strength.x * max(a.r, 0.0) + u_strength.y;
-    return u_emission_color * max(strength, 0.0) + u_bb_tint * (u_bb_grid == 1 ? a.gba : u_bb_const);
+    vec3 e = u_emission_const;
+#if EMISSION_GRIDS & 1
+    e += u_emission_color * max(u_strength.x * max(a.r, 0.0) + u_strength.y, 0.0);
+#endif
+#if EMISSION_GRIDS & 2
+    e += u_bb_tint * a.gba;
+#endif
+    return e;
 }
 
 // Emitted radiance per metre at a point in box (grid index) space.
@@ -53,9 +63,26 @@ int samples_within(vec2 e, int k_lo, int k_hi, float t0, float dt, float at) {
 #endif
 
 #if COLOR_GRID
-uniform sampler3D u_color_grid;  // RGB per voxel, padded like the density
+uniform sampler3D u_color_grid;  // RGB per voxel (A: the density, PACKED_DENSITY 3), padded like it
 
 vec3 color_at_index(vec3 idx) {
     return texture(u_color_grid, (idx + 1.5) / u_grid_size).rgb;
+}
+#endif
+
+#if PACKED_DENSITY
+// The packed texture's values at a point in the first medium's index space.
+vec4 packed_fetch(vec3 idx) {
+#if PACKED_DENSITY == 3
+    return textureLod(u_color_grid, (idx + 1.5) / u_grid_size, 0.0);
+#else
+    return textureLod(u_attrs, (idx + 1.5) / u_attrs_size, 0.0);
+#endif
+}
+
+// The first medium's density from its packed values pk at idx: medium_density(0, p) of common.glsl.
+float packed_density(vec4 pk, vec3 idx) {
+    if (any(lessThan(idx, u_med_lo[0])) || any(greaterThan(idx, u_med_hi[0]))) return 0.0;
+    return pk[PACKED_DENSITY == 1 ? 0 : PACKED_DENSITY == 2 ? 1 : 3] * u_grid_scales[0];
 }
 #endif

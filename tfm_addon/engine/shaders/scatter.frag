@@ -161,15 +161,27 @@ void main() {
             float D[N_MEDIA];
             bool any_d = false;
             vec3 st = vec3(0.0);
+#if PACKED_DENSITY
+            vec3 idx0 = ob + db * t;
+            vec4 pk = packed_fetch(idx0);     // the first medium's density and emission or colour
+#endif
             for (int m = 0; m < N_MEDIA; ++m) {
+#if PACKED_DENSITY
+                D[m] = m == 0 ? packed_density(pk, idx0) : medium_density(m, p);
+#else
                 D[m] = medium_density(m, p);
+#endif
                 any_d = any_d || D[m] > 0.0;
                 st += u_med_sigma_t[m] * D[m];
             }
 #if EMISSION
             vec3 tv_e = exp(-(tau + 0.5 * st * dt));     // for this sample and those it skips
             if (t >= emit.x && t <= emit.y)
+#if PACKED_DENSITY == 1 || PACKED_DENSITY == 2
+                scatter += tv_e * emission_of(pk) * dt;
+#else
                 scatter += tv_e * emission_at_index(ob + db * t) * dt;
+#endif
 #endif
 #if N_MEDIA == 1
             if (!any_d) {     // in an empty occupancy cell: on to the first sample past it (at step_at)
@@ -185,12 +197,18 @@ void main() {
 #endif
             if (any_d) {
                 vec3 tint0 = vec3(1.0);     // the first medium's scattering colour per voxel
-#if COLOR_GRID
+#if PACKED_DENSITY == 3
+                tint0 = pk.rgb;
+#elif COLOR_GRID
                 tint0 = color_at_index(ob + db * t);
 #endif
                 vec3 ss = vec3(0.0);
                 for (int m = 0; m < N_MEDIA; ++m) ss += u_med_sigma_s[m] * (m == 0 ? tint0 : vec3(1.0)) * D[m];
+#if EMISSION
+                vec3 tv = tv_e;             // the same value: tau and st have not changed since
+#else
                 vec3 tv = exp(-(tau + 0.5 * st * dt));
+#endif
                 vec3 src = vec3(0.0);
 #if FIRST_PASS
                 src += ss * u_ambient;

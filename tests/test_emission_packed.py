@@ -1,0 +1,173 @@
+"""The emitting medium's density packed beside the values its view march reads anyway (issue 10's
+cost target: one texture fetch per sample instead of two). Each packed frame is checked against
+the same frame marched with the density read from its own texture (passes/emission.PACK_DENSITY
+off: what the march did before), and the path a frame took is counted."""
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from tfm_addon import scenes
+from tfm_addon.engine import Renderer, RenderSettings, Scene
+from tfm_addon.engine.medium_attributes import prepare_attributes
+from tfm_addon.engine.medium_grid import prepare_grid
+from tfm_addon.engine.passes import bindings, emission
+from tfm_addon.engine.scene import GridValue
+
+SETTINGS = RenderSettings(view_steps=96, light_steps=96, map_resolution=128, coefficients=8)
+
+
+def _colored(scene: Scene) -> Scene:
+    m = scene.medium
+    return dataclasses.replace(scene, medium=dataclasses.replace(
+        m, grids={**m.grids, "color": scenes.color_grid_for(m.density)}, color_grid="color"))
+
+
+def _instanced(scene: Scene) -> Scene:
+    """The fire and a second, darker instance of its density grid beside it (one texture, two
+    media: only the first reads the packed density, the other the density texture)."""
+    m = scene.medium
+    placed = m.index_to_world.copy()
+    placed[0, 3] += 1.6
+    dark = dict(emission_strength=GridValue(offset=0.0), blackbody_intensity=GridValue(offset=0.0),
+                temperature=GridValue(offset=1000.0))
+    other = dataclasses.replace(m, name="Smoke", index_to_world=placed, grids={}, **dark)
+    return dataclasses.replace(scene, medium=None, media=(m, other))
+
+
+def _scene(case: str) -> Scene:
+    kind = {"quick fire": "QUICK_FIRE", "strength": "EMISSION", "fire": "FIRE", "colour": "COLOR",
+            "quick fire instanced": "QUICK_FIRE"}.get(case.replace(" + colour grid", ""), "FIRE")
+    scene = scenes.fire_scene(64, 36, 24, kind=kind, with_light=True, with_occluder=True)
+    if case.endswith("+ colour grid"):
+        scene = _colored(scene)
+    if case == "quick fire instanced":
+        scene = _instanced(scene)
+    return scene
+
+
+def _render(gl, scene: Scene, pack: bool, monkeypatch) -> tuple[np.ndarray, list[int]]:
+    """The frame and the PACKED_DENSITY of its passes, by a renderer that builds everything."""
+    monkeypatch.setattr(emission, "PACK_DENSITY", pack)
+    r = Renderer(gl=gl)
+    try:
+        out = r.render(scene, SETTINGS).combined[..., :3]
+        (attributes,) = r._attributes.items.values()
+        return out, sorted(v for v, n in attributes.packed_passes.items() if n)
+    finally:
+        r.clear_maps()
+
+
+# Where each case reads its density: 1 the attributes' R (a blackbody grid alone, as Blender's
+# Quick Smoke fire material), 2 their G (a strength grid alone), 3 the colour grid's A; the fire
+# with both grids needs five values a sample and keeps two fetches (0).
+CASES = {"quick fire": [1], "strength": [2], "fire": [0], "colour": [3], "fire + colour grid": [3],
+         "quick fire + colour grid": [3], "quick fire instanced": [1]}
+
+
+@pytest.mark.parametrize("case", list(CASES))
+def test_the_packed_density_gives_the_two_fetch_frame(fresh, monkeypatch, case):
+    scene = _scene(case)
+    packed, where = _render(fresh.gl, scene, True, monkeypatch)
+    apart, where_apart = _render(fresh.gl, scene, False, monkeypatch)
+    peak = float(apart.max())
+    diff = float(np.abs(packed - apart).max())
+    print(f"{case}: density read from {where}, peak {peak:.4f}, largest difference {diff:.2e}")
+    assert where == CASES[case] and where_apart == [0]
+    assert peak > 0.05
+    assert diff <= 1e-5 * peak
+
+
+def test_emission_edits_of_a_packed_fire_upload_nothing(fresh):
+    """Colour, strength (scale and an offset across 0) and tint edits of the packed fires, one after
+    the other, are uniforms: no grid or attribute texture is uploaded, and each image is a fresh
+    renderer's."""
+    edits = {"QUICK_FIRE": [dict(blackbody_tint=(0.5, 0.7, 1.0)),
+                            dict(emission_strength=GridValue(offset=0.2)),
+                            dict(emission_color=(0.2, 0.9, 0.3))],
+             "EMISSION": [dict(emission_color=(0.2, 0.9, 0.3)),
+                          dict(emission_strength=GridValue("flame", 9.0, 0.0)),
+                          dict(emission_strength=GridValue("flame", 4.0, 0.2))]}
+    for kind, changes in edits.items():
+        scene = scenes.fire_scene(48, 27, 24, kind=kind, with_light=True)
+        first = fresh.render(scene, SETTINGS).combined
+        for change in changes:
+            edited = scene = dataclasses.replace(scene, medium=dataclasses.replace(scene.medium, **change))
+            before = dict(fresh.counters)
+            out = fresh.render(edited, SETTINGS).combined
+            for counter in ("attribute_uploads", "grid_uploads", "shadow_maps", "tfms"):
+                assert fresh.counters.get(counter, 0) == before.get(counter, 0), (kind, change, counter)
+            assert np.abs(out - first).max() > 1e-3, (kind, change)     # the edit shows
+            other = Renderer(gl=fresh.gl)
+            try:
+                again = other.render(edited, SETTINGS).combined
+            finally:
+                other.clear_maps()
+            assert np.abs(out - again).max() <= 1e-6 * max(float(again.max()), 1.0), (kind, change)
+            first = out
+        (attributes,) = [a for a in fresh._attributes.items.values() if a.packed]
+        packed = emission.PACKED_ATTRS_R if kind == "QUICK_FIRE" else emission.PACKED_ATTRS_G
+        assert attributes.packed == packed
+
+
+def test_the_packed_values_are_the_density_texture_and_the_attributes():
+    """The packed texture holds the density texture's own values (R16 as the GL reads them) and
+    the attributes as before; grids on another lattice than the density are not packed."""
+    r = Renderer()
+    try:
+        scene = scenes.fire_scene(48, 27, 24, kind="QUICK_FIRE")
+        m = scene.medium
+        grid = prepare_grid(m.density, np.eye(4), 256, 1 << 30, m.clipping)
+        density = bindings.MediumGPU(r.gl, m, grid)
+        prepared = prepare_attributes(m, 1)
+        gpu = emission.AttributesGPU(r.gl, prepared, density.grid_size, density.occupancy_cells, density)
+        try:
+            nx, ny, nz = gpu.attrs_size
+            data = np.frombuffer(gpu.attrs.read(), np.float32).reshape(nz, ny, nx, 4)
+            stored = bindings.stored_grid(grid.density, np.uint16, density.density_scale) / 65535.0
+            assert gpu.packed == emission.PACKED_ATTRS_R
+            assert np.abs(data[..., 0] - stored).max() <= 1e-7
+            padded = np.pad(prepared.scalars, ((1, 1), (1, 1), (1, 1), (0, 0))).transpose(2, 1, 0, 3)
+            assert np.array_equal(data[..., 1:], padded[..., 1:])
+            assert float(stored.max()) == 1.0
+        finally:
+            gpu.release()
+        # The attributes downsampled by 2 beside the full density: not the same lattice.
+        other = emission.AttributesGPU(r.gl, prepare_attributes(m, 2), density.grid_size, None, density)
+        try:
+            assert other.packed == 0 and other.attrs.components == 4
+        finally:
+            other.release()
+        density.texture.release()
+        density.occupancy.release()
+    finally:
+        r.release()
+
+
+@pytest.mark.parametrize("grids", [1, 2, 3])
+def test_the_emission_compiled_for_its_grids_matches_the_reference(fresh, grids):
+    """The emission compiled for the grids its texture holds (EMISSION_GRIDS: 1 strength, 2
+    blackbody, 3 both), with constant parts beside a grid (a strength offset, a blackbody term
+    without grid) summed into one uniform, against the numpy reference."""
+    from tfm_addon.engine import metrics
+    from tfm_addon.engine.reference import render_reference
+
+    scene = scenes.fire_scene(64, 36, 24, kind="FIRE")
+    m = scene.medium
+    if grids == 1:      # the strength grid with an offset, a constant blackbody term (1800 K)
+        m = dataclasses.replace(m, emission_strength=GridValue("flame", 4.0, 0.05),
+                                temperature=GridValue(offset=1800.0),
+                                blackbody_intensity=GridValue(offset=0.3))
+    elif grids == 2:    # the blackbody grid, a constant strength
+        m = dataclasses.replace(m, emission_strength=GridValue(offset=0.1))
+    scene = dataclasses.replace(scene, medium=m)
+    out = fresh.render(scene, SETTINGS).combined[..., :3]
+    compiled = {dict(k[2]).get("EMISSION_GRIDS") for k in fresh.gl._programs if k[1] == "scatter.frag"}
+    assert compiled == {grids}
+    ref = render_reference(scene, view_steps=96, light_steps=96).combined[..., :3]
+    ratio = out.sum(axis=(0, 1)) / ref.sum(axis=(0, 1))
+    print(f"EMISSION_GRIDS {grids}: SSIM {metrics.ssim(out, ref):.5f}, brightness {np.round(ratio, 4)}")
+    assert ref.max() > 0.05
+    assert np.all(np.abs(ratio - 1.0) <= 0.01), ratio
+    assert metrics.ssim(out, ref) >= 0.99
