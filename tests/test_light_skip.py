@@ -15,7 +15,7 @@ from tfm_addon.engine.light import LightFrame, light_faces
 from tfm_addon.engine.metrics import brightness_ratio, ssim
 from tfm_addon.engine.passes import bindings
 from tfm_addon.engine.passes import tfm as tfm_pass
-from tfm_addon.engine.passes.bindings import OCCUPANCY_BLOCK, MediumGPU, occupancy, occupancy_level1
+from tfm_addon.engine.passes.bindings import OCCUPANCY_BLOCK, MediaGPU, MediumGPU, occupancy, occupancy_level1
 from tfm_addon.engine.reference import render_reference
 from tfm_addon.scenes import grid_to_world, smoke_scene
 
@@ -87,7 +87,8 @@ def _build(renderer, scene, res, steps, n, *, occupancy_fill=None, monkeypatch=N
             fill = bytes([occupancy_fill]) * int(np.prod(size))
             fake = renderer.gl.ctx.texture3d(size, 1, fill, dtype="f1")
             fake.filter = (renderer.gl.ctx.NEAREST, renderer.gl.ctx.NEAREST)
-            monkeypatch.setattr(MediumGPU, "light_occupancy", property(lambda self: fake))
+            monkeypatch.setattr(MediaGPU, "bind_light_occupancy",
+                                lambda self, level1: fake.use(bindings.UNIT["u_light_occupancy"]))
         try:
             m = tfm_pass.TransmittanceMap(renderer.gl, frame, medium, None, res, steps, n, 0.5)
             maps = np.concatenate([np.frombuffer(t.read(), np.float32).reshape(res, res, 4)

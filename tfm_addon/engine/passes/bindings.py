@@ -281,6 +281,11 @@ class MediaGPU:
         the light) both span two voxels. The shader decides per ray; this only spares the level
         where no ray wants it (a ray that wants it must find it, or a map would depend on whether
         another light had made the level before)."""
+        return self.may_read_level1(frame, light_steps, resolution) and self.slots[0].grid.ensure_level1()
+
+    def may_read_level1(self, frame: LightFrame, light_steps: int, resolution: int | None = None) -> bool:
+        """Whether a light march of ``frame`` (``ensure_level1``'s arguments) may read the lone
+        grid's level 1."""
         if self.kind != MEDIUM_GRID or len(self.slots) != 1 or self.slots[0].grid is None:
             return False
         slot = self.slots[0]
@@ -295,7 +300,14 @@ class MediaGPU:
             voxel = float(np.linalg.norm(slot.box_to_world[:3, :3], axis=0).min())
             reach = 1.0 if frame.ortho else distance
             texel = 2.0 * min(frame.tan_xy) * reach / max(int(resolution), 1) / max(voxel, 1e-30)
-        return min(step, texel) >= 2.0 and slot.grid.ensure_level1()
+        return min(step, texel) >= 2.0
+
+    def bind_light_occupancy(self, level1: bool) -> None:
+        """Bind the lone grid's light occupancy for a march that may (``level1``) or may not read
+        the level 1: the level 0's occupancy skips more where only level 0 is read."""
+        grid = self.slots[0].grid if self.kind == MEDIUM_GRID and self.slots else None
+        if grid is not None:
+            (grid.light_occupancy if level1 else grid.occupancy).use(UNIT["u_light_occupancy"])
 
     def defines(self) -> dict:
         """The media's count, grid count and grid slot per medium, compiled into the program

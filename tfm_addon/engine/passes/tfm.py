@@ -118,6 +118,7 @@ def largest_density_integral(gl: GLContext, frame: LightFrame, medium: MediaGPU,
                                                             "N_TARGETS": 1, **medium.defines()})
     bind_units(prog)
     medium.bind(prog, weights)
+    medium.bind_light_occupancy(medium.may_read_level1(frame, light_steps, res))
     bind_light(prog, frame, (0, 0, 0), res, None, None)
     set_uniforms(prog, u_light_steps=int(light_steps), u_inv_alpha=1.0)
     draw_in_rect(gl, prog, fbo, map_rect(frame, medium, res) if MAP_RECT else None,
@@ -153,6 +154,7 @@ class TransmittanceMap:
                                                                 **medium.defines()})
         bind_units(prog)
         medium.bind(prog, weights)
+        medium.bind_light_occupancy(medium.may_read_level1(frame, light_steps, resolution))
         bind_light(prog, frame, (0, 0, 0), resolution, shadow, None)
         set_uniforms(prog, u_light_steps=int(light_steps), u_inv_alpha=1.0 / self.alpha_d)
         self.rect = map_rect(frame, medium, resolution) if MAP_RECT else None
