@@ -3,10 +3,10 @@
 // where it leaves it or meets a solid (K_out), both tightened to where the density is not zero, and project F(x) = exp(-tau_D(x) / alpha_D)
 // onto N_COEFF cosines, x in [0, 1] from K_in to K_out (METHOD.md section 3).
 // With OPTICAL_DEPTH_ONLY the texel holds tau_D(1) alone (used to choose alpha automatically).
-// LIGHT_SKIP 1 (the default): the march jumps over the samples in empty occupancy cells, exactly
-// (see the march); 0: every step is fetched (passes/tfm.LIGHT_SKIP, for tests and benchmarks).
+// LIGHT_SKIP 1: the march jumps over the samples in empty occupancy cells, exactly (see the
+// march); 0, bindings.LIGHT_SKIP's default: every step is fetched (faster on llvmpipe).
 #ifndef LIGHT_SKIP
-#define LIGHT_SKIP 1
+#define LIGHT_SKIP 0
 #endif
 uniform int u_light_steps;
 uniform float u_inv_alpha;          // 1 / alpha_D, per unit density integral (metres)
@@ -139,7 +139,7 @@ void main() {
             cs = vec2(cs.x * turn.x - cs.y * turn.y, cs.y * turn.x + cs.x * turn.y);
 #endif
             tau += d * dt;
-            if (LIGHT_SKIP == 1 && skip && d <= 0.0) {
+            if (skip && d <= 0.0) {
                 int next = int(ceil((skip_empty_light(ob, db, t) - k_in) / dt - 0.501));
                 if (next > m + 1) {
                     m = next - 1;

@@ -1,9 +1,9 @@
 // The transmittance from a light face to a point, by the method LIGHT_T:
 // 0 TFM lookup, 1 march (brute force), 2 analytic (homogeneous), 3 none (the light's rays never
-// cross the medium). Needs common.glsl. LIGHT_SKIP (MediaGPU.defines, default 1): the march of a
-// lone grid skips empty occupancy cells.
+// cross the medium). Needs common.glsl. LIGHT_SKIP 1 (bindings.LIGHT_SKIP; default 0): the
+// march of a lone grid skips empty occupancy cells.
 #ifndef LIGHT_SKIP
-#define LIGHT_SKIP 1
+#define LIGHT_SKIP 0
 #endif
 uniform vec3 u_sigma_t;        // 1/m per unit density
 uniform int u_light_steps;
