@@ -15,9 +15,7 @@ UNIT = {"u_gb0": 0, "u_gb1": 1, "u_density": 2, "u_shadow": 3, "u_gobo": 4, "u_k
         "u_coef0": 6, "u_coef1": 7, "u_coef2": 8, "u_coef3": 9, "u_attrs": 10, "u_color_grid": 11,
         "u_density1": 12, "u_density2": 13, "u_shadow_depth": 14, "u_occupancy": 15, "u_density3": 16,
         # the probe pass reads no G-buffer: its points take the G-buffer's unit
-        "u_points": 0,
-        # read by the light marches only (the TFM build, LIGHT_T 1), which read no TFM
-        "u_light_occupancy": 5}
+        "u_points": 0}
 
 # The density texture's format: (moderngl dtype, numpy type); values are stored divided by the
 # grid's maximum (``MediumGPU.density_scale``) so that half floats never overflow and the
@@ -303,11 +301,12 @@ class MediaGPU:
         return min(step, texel) >= 2.0
 
     def bind_light_occupancy(self, level1: bool) -> None:
-        """Bind the lone grid's light occupancy for a march that may (``level1``) or may not read
-        the level 1: the level 0's occupancy skips more where only level 0 is read."""
+        """Bind, in u_occupancy's place, the lone grid's occupancy for a TFM build that may
+        (``level1``) or may not read the level 1 (the build reads no other occupancy): the level
+        0's skips more where only level 0 is read."""
         grid = self.slots[0].grid if self.kind == MEDIUM_GRID and self.slots else None
         if grid is not None:
-            (grid.light_occupancy if level1 else grid.occupancy).use(UNIT["u_light_occupancy"])
+            (grid.light_occupancy if level1 else grid.occupancy).use(UNIT["u_occupancy"])
 
     def defines(self) -> dict:
         """The media's count, grid count and grid slot per medium, compiled into the program
@@ -353,8 +352,6 @@ class MediaGPU:
             set_uniforms(prog, u_grid_size=tuple(float(x) for x in first.grid_size),
                          u_density_scale=first.density_scale, u_occupancy_block=float(OCCUPANCY_BLOCK))
             first.occupancy.use(UNIT["u_occupancy"])
-            if prog.get("u_light_occupancy", None) is not None:     # a light march's skipping
-                first.light_occupancy.use(UNIT["u_light_occupancy"])
         sizes = [tuple(float(x) for x in g.grid_size) for g in self.grids]
         sizes += [(1.0, 1.0, 1.0)] * (MAX_GRIDS - len(sizes))
         scales = [float(g.density_scale) for g in self.grids] + [1.0] * (MAX_GRIDS - len(self.grids))

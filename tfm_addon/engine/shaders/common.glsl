@@ -33,19 +33,14 @@ float density_at_index(vec3 idx) {
 // cell holding its point at t, or t when that cell is not empty.
 uniform sampler3D u_occupancy;
 uniform float u_occupancy_block;
-float skip_empty_in(sampler3D occupancy, vec3 ob, vec3 db, float t) {
+float skip_empty(vec3 ob, vec3 db, float t) {
     ivec3 cell = clamp(ivec3(floor((ob + db * t + 1.0) / u_occupancy_block)), ivec3(0),
-                       textureSize(occupancy, 0) - 1);
-    if (any(greaterThan(texelFetch(occupancy, cell, 0).rg, vec2(0.0)))) return t;
+                       textureSize(u_occupancy, 0) - 1);
+    if (any(greaterThan(texelFetch(u_occupancy, cell, 0).rg, vec2(0.0)))) return t;
     db = mix(db, vec3(1e-12), lessThan(abs(db), vec3(1e-12)));
     vec3 tb = ((vec3(cell) + step(0.0, db)) * u_occupancy_block - 1.0 - ob) / db;
     return max(t, min(min(tb.x, tb.y), tb.z));
 }
-float skip_empty(vec3 ob, vec3 db, float t) { return skip_empty_in(u_occupancy, ob, db, t); }
-// The light marches' (the TFM build, LIGHT_T 1) skipping: u_light_occupancy is empty only where
-// every level they may read is 0 (passes/bindings.MediumGPU.light_occupancy).
-uniform sampler3D u_light_occupancy;
-float skip_empty_light(vec3 ob, vec3 db, float t) { return skip_empty_in(u_light_occupancy, ob, db, t); }
 
 // Density at a world point.
 float density_at(vec3 p) {

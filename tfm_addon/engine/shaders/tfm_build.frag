@@ -3,6 +3,7 @@
 // where it leaves it or meets a solid (K_out), both tightened to where the density is not zero, and project F(x) = exp(-tau_D(x) / alpha_D)
 // onto N_COEFF cosines, x in [0, 1] from K_in to K_out (METHOD.md section 3).
 // With OPTICAL_DEPTH_ONLY the texel holds tau_D(1) alone (used to choose alpha automatically).
+// u_occupancy holds the light marches' occupancy here (bindings.MediaGPU.bind_light_occupancy).
 // LIGHT_SKIP 1: the march jumps over the samples in empty occupancy cells, exactly (see the
 // march); 0, bindings.LIGHT_SKIP's default: every step is fetched (faster on llvmpipe).
 #ifndef LIGHT_SKIP
@@ -81,7 +82,7 @@ void main() {
                 first = m;
                 break;
             }
-            if (skip) m = max(m, int(ceil((skip_empty_light(ob, db, t) - k_in) / dt - 0.501)) - 1);
+            if (skip) m = max(m, int(ceil((skip_empty(ob, db, t) - k_in) / dt - 0.501)) - 1);
         }
         int last = -1;
         for (int m = u_light_steps - 1; m >= first; --m) {
@@ -90,7 +91,7 @@ void main() {
                 last = m;
                 break;
             }
-            if (skip) m = min(m, int(floor((-skip_empty_light(ob, -db, -t) - k_in) / dt - 0.499)) + 1);
+            if (skip) m = min(m, int(floor((-skip_empty(ob, -db, -t) - k_in) / dt - 0.499)) + 1);
         }
         if (last < 0) {
             k_out = k_in;
@@ -140,7 +141,7 @@ void main() {
 #endif
             tau += d * dt;
             if (skip && d <= 0.0) {
-                int next = int(ceil((skip_empty_light(ob, db, t) - k_in) / dt - 0.501));
+                int next = int(ceil((skip_empty(ob, db, t) - k_in) / dt - 0.501));
                 if (next > m + 1) {
                     m = next - 1;
 #ifndef OPTICAL_DEPTH_ONLY

@@ -155,15 +155,17 @@ vec3 light_transmittance(vec3 p, vec3 q, float r) {
         ray.lod = grid_ray_lod(ray, dt, dt);    // level 1 where the steps span two voxels
         float s = 0.0;
 #if LIGHT_SKIP
-        // From a sample of density 0 in an empty occupancy cell (conservative for the level read)
-        // on to the first sample past the cell: the samples skipped are 0 (as tfm_build.frag).
+        // From a sample of density 0 in an empty occupancy cell on to the first sample past the
+        // cell: the samples skipped are 0 (as tfm_build.frag). u_occupancy is the view march's,
+        // conservative for level 0 only: a march that reads level 1 does not jump.
         vec3 ob = (u_world_to_box * vec4(p, 1.0)).xyz;
         vec3 db = (u_world_to_box * vec4(dir, 0.0)).xyz;
         for (int i = 0; i < u_light_steps; ++i) {
             float t = a + (float(i) + 0.5) * dt;
             float d = ray_density(ray, t);
             s += d;
-            if (d <= 0.0) i = max(i, int(ceil((skip_empty_light(ob, db, t) - a) / dt - 0.501)) - 1);
+            if (d <= 0.0 && ray.lod == 0.0)
+                i = max(i, int(ceil((skip_empty(ob, db, t) - a) / dt - 0.501)) - 1);
         }
 #else
         for (int i = 0; i < u_light_steps; ++i) s += ray_density(ray, a + (float(i) + 0.5) * dt);
