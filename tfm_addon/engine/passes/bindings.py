@@ -26,6 +26,8 @@ GRID_FORMATS = {"R32F": ("f4", np.float32), "R16F": ("f2", np.float16), "R16": (
                 "R8": ("nu1", np.uint8)}
 GRID_FORMAT = "R16"
 OCCUPANCY_BLOCK = 8     # voxels per side of an occupancy cell (empty-space skipping)
+LIGHT_SKIP = 0          # 1: the light marches (TFM build, brute force) jump over empty cells, exactly
+# (tfm_build.frag); 0, the default: every step (slower with 1 on llvmpipe, docs/benchmark.md)
 
 MEDIUM_NONE, MEDIUM_BOX, MEDIUM_EVERYWHERE, MEDIUM_GRID = 0, 1, 2, 3
 """MEDIUM_GRID marches every medium (density grids and homogeneous boxes, several of them)."""
@@ -127,7 +129,23 @@ class MediumGPU:
         self.texture.build_mipmaps(0, 1)
         self.texture.filter = (self._gl.ctx.LINEAR_MIPMAP_NEAREST, self._gl.ctx.LINEAR)
         self.has_level1 = True
+        # The level's occupancy from the texture's own values (read back once: no copy of the grid
+        # is kept on the CPU); a value stored as 0 has all its bits 0 in every format.
+        width = np.dtype(GRID_FORMATS[self.grid_format][1]).itemsize
+        raw = np.frombuffer(self.texture.read(alignment=1), dtype=f"u{width}")
+        occ = occupancy_level1(raw.reshape(self.grid_size[::-1]) != 0)
+        self.occupancy1 = self._gl.ctx.texture3d(occ.shape[::-1], 1, occ.tobytes(), dtype="f1")
+        self.occupancy1.filter = (self._gl.ctx.NEAREST, self._gl.ctx.NEAREST)
+        self.occupancy1.repeat_x = self.occupancy1.repeat_y = self.occupancy1.repeat_z = False
         return True
+
+    occupancy1 = None
+
+    @property
+    def light_occupancy(self):
+        """The occupancy the light marches skip by: conservative for every level they may read
+        (``occupancy1`` once the level 1 exists, else the level 0's ``occupancy``)."""
+        return self.occupancy1 if self.occupancy1 is not None else self.occupancy
 
     def bind(self, prog) -> None:
         set_matrix(prog, "u_world_to_box", self.world_to_box)
@@ -139,7 +157,7 @@ class MediumGPU:
             self.occupancy.use(UNIT["u_occupancy"])
 
     def release(self) -> None:
-        for t in (self.texture, self.occupancy):
+        for t in (self.texture, self.occupancy, self.occupancy1):
             if t is not None:
                 t.release()
 
@@ -172,21 +190,38 @@ def stored_grid(density: np.ndarray, numpy_type, scale: float) -> np.ndarray:
     return np.ascontiguousarray(out.transpose(2, 1, 0))
 
 
-def occupancy(padded_zyx: np.ndarray, block: int = OCCUPANCY_BLOCK) -> np.ndarray:
+def occupancy(padded_zyx: np.ndarray, block: int = OCCUPANCY_BLOCK, below: int = 0,
+              above: int = 1) -> np.ndarray:
     """255 where a cell of block^3 padded voxels may hold non-zero trilinear density, else 0, in
     the layout of ``padded_zyx`` (x fastest). Cell c covers padded positions [c b, (c + 1) b) on
     each axis, whose trilinear value reads voxels c b .. (c + 1) b: the OR is over those, one
-    axis at a time on the already reduced array (a box filter is separable)."""
+    axis at a time on the already reduced array (a box filter is separable). ``below`` and
+    ``above`` widen the voxels read to c b - below .. (c + 1) b - 1 + above (occupancy_level1)."""
     d = padded_zyx > 0
     for axis in range(3):
-        starts = np.arange(0, d.shape[axis], block)
+        n = d.shape[axis]
+        starts = np.arange(0, n, block)
         cells = np.logical_or.reduceat(d, starts, axis=axis)
-        if len(starts) > 1:                      # and the first voxel of the next cell
-            head = [slice(None)] * 3
-            head[axis] = slice(0, len(starts) - 1)
-            cells[tuple(head)] |= np.take(d, starts[1:], axis=axis)
+        head = [slice(None)] * 3
+        for k in range(1, above + 1):            # the first voxels of the next cell
+            if len(starts) > 1:
+                voxels = np.minimum(starts[1:] + k - 1, n - 1)
+                head[axis] = slice(0, len(starts) - 1)
+                cells[tuple(head)] |= np.take(d, voxels, axis=axis)
+        for k in range(1, below + 1):            # and the last voxels of the previous one
+            if len(starts) > 1:
+                head[axis] = slice(1, len(starts))
+                cells[tuple(head)] |= np.take(d, starts[1:] - k, axis=axis)
         d = cells
     return np.ascontiguousarray(d.astype(np.uint8) * 255)
+
+
+def occupancy_level1(nonzero_zyx: np.ndarray, block: int = OCCUPANCY_BLOCK) -> np.ndarray:
+    """``occupancy`` for the reads of the level 1 (the 2x2x2 means of an even-sided texture):
+    trilinear between the level's voxels at a padded position p of cell c (in [c b, (c + 1) b),
+    b even) reads level-1 voxels floor((p - 0.5) / 2) and the next, the means of level-0 voxels
+    c b - 2 .. (c + 1) b + 1, so a cell is empty here where those voxels all are."""
+    return occupancy(nonzero_zyx, block, below=2, above=2)
 
 
 class MediumSlot:
@@ -244,6 +279,11 @@ class MediaGPU:
         the light) both span two voxels. The shader decides per ray; this only spares the level
         where no ray wants it (a ray that wants it must find it, or a map would depend on whether
         another light had made the level before)."""
+        return self.may_read_level1(frame, light_steps, resolution) and self.slots[0].grid.ensure_level1()
+
+    def may_read_level1(self, frame: LightFrame, light_steps: int, resolution: int | None = None) -> bool:
+        """Whether a light march of ``frame`` (``ensure_level1``'s arguments) may read the lone
+        grid's level 1."""
         if self.kind != MEDIUM_GRID or len(self.slots) != 1 or self.slots[0].grid is None:
             return False
         slot = self.slots[0]
@@ -258,7 +298,15 @@ class MediaGPU:
             voxel = float(np.linalg.norm(slot.box_to_world[:3, :3], axis=0).min())
             reach = 1.0 if frame.ortho else distance
             texel = 2.0 * min(frame.tan_xy) * reach / max(int(resolution), 1) / max(voxel, 1e-30)
-        return min(step, texel) >= 2.0 and slot.grid.ensure_level1()
+        return min(step, texel) >= 2.0
+
+    def bind_light_occupancy(self, level1: bool) -> None:
+        """Bind, in u_occupancy's place, the lone grid's occupancy for a TFM build that may
+        (``level1``) or may not read the level 1 (the build reads no other occupancy): the level
+        0's skips more where only level 0 is read."""
+        grid = self.slots[0].grid if self.kind == MEDIUM_GRID and self.slots else None
+        if grid is not None:
+            (grid.light_occupancy if level1 else grid.occupancy).use(UNIT["u_occupancy"])
 
     def defines(self) -> dict:
         """The media's count, grid count and grid slot per medium, compiled into the program
@@ -268,7 +316,7 @@ class MediaGPU:
         index = {id(g): i for i, g in enumerate(self.grids)}
         slots = [index[id(s.grid)] if s.grid is not None else -1 for s in self.slots]
         slots += [-1] * (MAX_MEDIA - len(slots))
-        return {"N_MEDIA": len(self.slots), "N_GRIDS": max(len(self.grids), 1),
+        return {"N_MEDIA": len(self.slots), "N_GRIDS": max(len(self.grids), 1), "LIGHT_SKIP": int(LIGHT_SKIP),
                 "MEDIA_SLOTS": "int[{}]({})".format(MAX_MEDIA, ", ".join(str(s) for s in slots))}
 
     def bind(self, prog, weights=None) -> None:

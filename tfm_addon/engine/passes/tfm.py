@@ -15,6 +15,7 @@ COEF_DTYPE = "f4"      # "f2" (half floats) gives the same SSIM on every bench s
 TEXELS_PER_VOXEL = 1.0          # the 'FOOTPRINT' resolution rule (docs/benchmark.md): sharp densities
 SMOOTH_TEXELS_PER_VOXEL = 1 / 3  # ... and smooth ones (quality.footprint_texels_per_voxel)
 MIN_FOOTPRINT_RESOLUTION = 64
+MAP_RECT = True     # build only the texels whose rays may meet a medium (map_rect); False: all
 
 
 def footprint_resolution(frame: LightFrame, medium, cap: int,
@@ -56,6 +57,54 @@ def coefficient_textures(coefficients: int) -> int:
     return max(0, math.ceil((int(coefficients) - 2) / 4))
 
 
+def map_rect(frame: LightFrame, medium: MediaGPU, resolution: int) -> tuple[int, int, int, int] | None:
+    """(x, y, width, height), texels, of a rectangle of the face's map holding every texel whose
+    light ray may meet one of the media's boxes (tfm_build.frag marches nothing elsewhere: a
+    texel there is F = 1, K range 0); width 0 when no ray meets one; None when the rectangle is
+    the whole map (a box behind or around a perspective face's origin). The texels whose centres
+    fall in the boxes' projected corners' bounding rectangle, and one more on every side."""
+    res = int(resolution)
+    lo_uv, hi_uv = np.full(2, np.inf), np.full(2, -np.inf)
+    tan = np.asarray(frame.tan_xy, np.float64)
+    w2l = np.asarray(frame.world_to_light, np.float64)
+    for box_to_world, lo, hi in medium.boxes:
+        if any(a >= b for a, b in zip(lo, hi, strict=True)):
+            continue                     # an empty box: no ray meets it
+        corners = np.array(np.meshgrid(*zip(lo, hi, strict=True), indexing="ij")).reshape(3, -1)
+        world = np.asarray(box_to_world, np.float64)[:3, :3] @ corners + np.asarray(box_to_world)[:3, 3:4]
+        q = w2l[:3, :3] @ world + w2l[:3, 3:4]
+        if frame.ortho:
+            uv = 0.5 + 0.5 * q[:2] / tan[:, None]
+        else:
+            if not (q[2] < 0.0).all():
+                return None
+            uv = 0.5 + 0.5 * q[:2] / (-q[2] * tan[:, None])
+        lo_uv, hi_uv = np.minimum(lo_uv, uv.min(axis=1)), np.maximum(hi_uv, uv.max(axis=1))
+    if not np.isfinite(lo_uv).all():
+        return (0, 0, 0, 0)
+    first = np.clip(np.ceil(lo_uv * res - 0.5) - 1, 0, res)       # texel centres (i + 0.5) / res
+    last = np.clip(np.floor(hi_uv * res - 0.5) + 1, -1, res - 1)
+    x0, y0 = int(first[0]), int(first[1])
+    w, h = max(int(last[0]) - x0 + 1, 0), max(int(last[1]) - y0 + 1, 0)
+    if (x0, y0, w, h) == (0, 0, res, res):
+        return None
+    return (x0, y0, w, h) if w and h else (0, 0, 0, 0)
+
+
+def draw_in_rect(gl: GLContext, prog, fbo, rect, clear_targets) -> None:
+    """Draw ``prog`` over ``fbo`` within ``rect`` (map_rect; None: all of it), the rest of each
+    target cleared first to its value in ``clear_targets`` ((texture, rgba) pairs)."""
+    if rect is not None:
+        for tex, rgba in clear_targets:
+            target = gl.ctx.framebuffer([tex])
+            target.clear(*rgba)
+            target.release()
+        fbo.viewport = rect           # gl_FragCoord stays in the map's texels
+    fbo.use()
+    if rect is None or (rect[2] and rect[3]):
+        gl.draw_fullscreen(prog)
+
+
 def largest_density_integral(gl: GLContext, frame: LightFrame, medium: MediaGPU, resolution: int,
                              light_steps: int, weights=None) -> float:
     """The largest integral of the weighted density (metres at unit density) along the face's
@@ -64,15 +113,16 @@ def largest_density_integral(gl: GLContext, frame: LightFrame, medium: MediaGPU,
     res = max(16, resolution // 4)
     tex = ctx.texture((res, res), 4, dtype="f4")
     fbo = ctx.framebuffer([tex])
-    fbo.use()
     pass_state(ctx)
     prog = gl.program("fullscreen.vert", "tfm_build.frag", {"OPTICAL_DEPTH_ONLY": 1, "N_COEFF": 1,
                                                             "N_TARGETS": 1, **medium.defines()})
     bind_units(prog)
     medium.bind(prog, weights)
+    medium.bind_light_occupancy(medium.may_read_level1(frame, light_steps, res))
     bind_light(prog, frame, (0, 0, 0), res, None, None)
     set_uniforms(prog, u_light_steps=int(light_steps), u_inv_alpha=1.0)
-    gl.draw_fullscreen(prog)
+    draw_in_rect(gl, prog, fbo, map_rect(frame, medium, res) if MAP_RECT else None,
+                 [(tex, (0.0, 0.0, 0.0, 1.0))])
     gl.finish()  # wait with the GIL released; the read then only copies
     tau = np.frombuffer(tex.read(), dtype=np.float32).reshape(-1, 4)[:, 0]
     fbo.release()
@@ -99,15 +149,17 @@ class TransmittanceMap:
             t.filter = (ctx.LINEAR, ctx.LINEAR)      # texelFetch ignores it; 'LINEAR' lookups use it
             t.repeat_x = t.repeat_y = False
         fbo = ctx.framebuffer([self.krange, *self.coef])
-        fbo.use()
         pass_state(ctx)
         prog = gl.program("fullscreen.vert", "tfm_build.frag", {"N_COEFF": n, "N_TARGETS": targets,
                                                                 **medium.defines()})
         bind_units(prog)
         medium.bind(prog, weights)
+        medium.bind_light_occupancy(medium.may_read_level1(frame, light_steps, resolution))
         bind_light(prog, frame, (0, 0, 0), resolution, shadow, None)
         set_uniforms(prog, u_light_steps=int(light_steps), u_inv_alpha=1.0 / self.alpha_d)
-        gl.draw_fullscreen(prog)
+        self.rect = map_rect(frame, medium, resolution) if MAP_RECT else None
+        draw_in_rect(gl, prog, fbo, self.rect, [(self.krange, (0.0, 0.0, 1.0, 0.0))]
+                     + [(t, (0.0, 0.0, 0.0, 0.0)) for t in self.coef])
         fbo.release()
 
     def defines(self, tfm_filter: str) -> dict[str, int]:
