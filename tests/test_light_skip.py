@@ -65,11 +65,11 @@ def test_level1_occupancy_marks_every_cell_where_the_level_1_is_not_zero():
     value = ndimage.map_coordinates(level1, ((p + 0.5) / 2 - 0.5).T, order=1, mode="nearest")
     zyx = np.ascontiguousarray(d.transpose(2, 1, 0))
     cell = np.floor(p / OCCUPANCY_BLOCK).astype(int)
-    marked1 = occupancy_level1(zyx > 0)[cell[:, 2], cell[:, 1], cell[:, 0]] > 0
+    marked1 = occupancy_level1(occupancy(zyx))[cell[:, 2], cell[:, 1], cell[:, 0]] > 0
     marked0 = occupancy(zyx)[cell[:, 2], cell[:, 1], cell[:, 0]] > 0
     assert (value[~marked1] == 0).all()
     assert (value[~marked0] > 0).sum() > 100          # what the dilation is for
-    assert marked1.mean() < 0.5                       # and it leaves cells to skip
+    assert marked1.mean() < 0.8                       # and it leaves cells to skip (6^3 cells here)
 
 
 def _build(renderer, scene, res, steps, n, *, occupancy_fill=None, monkeypatch=None):

@@ -129,11 +129,10 @@ class MediumGPU:
         self.texture.build_mipmaps(0, 1)
         self.texture.filter = (self._gl.ctx.LINEAR_MIPMAP_NEAREST, self._gl.ctx.LINEAR)
         self.has_level1 = True
-        # The level's occupancy from the texture's own values (read back once: no copy of the grid
-        # is kept on the CPU); a value stored as 0 has all its bits 0 in every format.
-        width = np.dtype(GRID_FORMATS[self.grid_format][1]).itemsize
-        raw = np.frombuffer(self.texture.read(alignment=1), dtype=f"u{width}")
-        occ = occupancy_level1(raw.reshape(self.grid_size[::-1]) != 0)
+        # The level's occupancy from the level 0's cells (their small texture read back).
+        size = self.occupancy.size
+        occ0 = np.frombuffer(self.occupancy.read(alignment=1), dtype=np.uint8).reshape(size[::-1])
+        occ = occupancy_level1(occ0)
         self.occupancy1 = self._gl.ctx.texture3d(occ.shape[::-1], 1, occ.tobytes(), dtype="f1")
         self.occupancy1.filter = (self._gl.ctx.NEAREST, self._gl.ctx.NEAREST)
         self.occupancy1.repeat_x = self.occupancy1.repeat_y = self.occupancy1.repeat_z = False
@@ -216,12 +215,23 @@ def occupancy(padded_zyx: np.ndarray, block: int = OCCUPANCY_BLOCK, below: int =
     return np.ascontiguousarray(d.astype(np.uint8) * 255)
 
 
-def occupancy_level1(nonzero_zyx: np.ndarray, block: int = OCCUPANCY_BLOCK) -> np.ndarray:
-    """``occupancy`` for the reads of the level 1 (the 2x2x2 means of an even-sided texture):
-    trilinear between the level's voxels at a padded position p of cell c (in [c b, (c + 1) b),
-    b even) reads level-1 voxels floor((p - 0.5) / 2) and the next, the means of level-0 voxels
-    c b - 2 .. (c + 1) b + 1, so a cell is empty here where those voxels all are."""
-    return occupancy(nonzero_zyx, block, below=2, above=2)
+def occupancy_level1(occupancy0: np.ndarray) -> np.ndarray:
+    """``occupancy`` for the reads of the level 1 (the 2x2x2 means of an even-sided texture),
+    from the level 0's occupancy cells: trilinear between the level's voxels at a padded position
+    p of cell c (in [c b, (c + 1) b), b even) reads level-1 voxels floor((p - 0.5) / 2) and the
+    next, the means of level-0 voxels c b - 2 .. (c + 1) b + 1, which cells c - 1 .. c + 1 of the
+    level 0 cover (b >= 2): each cell ORed with its 26 neighbours. Conservative, and made from
+    the small cell grid (no read-back of the level)."""
+    d = np.asarray(occupancy0) > 0
+    for axis in range(3):
+        out = d.copy()
+        lo = [slice(None)] * 3
+        hi = [slice(None)] * 3
+        lo[axis], hi[axis] = slice(0, -1), slice(1, None)
+        out[tuple(lo)] |= d[tuple(hi)]
+        out[tuple(hi)] |= d[tuple(lo)]
+        d = out
+    return np.ascontiguousarray(d.astype(np.uint8) * 255)
 
 
 class MediumSlot:
