@@ -315,8 +315,8 @@ def run_callbacks(width: int, height: int, n: int, folder: Path, log=print) -> d
     return json.loads(out.read_text())
 
 
-AA_SAMPLES = (1, 2, 4, 8, 16, 18, 24, 32, 48, 64)
-AA_UNIFORM_SAMPLES = (16, 24, 32)   # the same with adaptive sampling off: every pixel takes every sample
+AA_SAMPLES = (1, 2, 4, 8, 10, 12, 14, 16, 18, 24, 32, 48, 64)
+AA_UNIFORM_SAMPLES = (12, 16, 24, 32)   # the same with adaptive sampling off: every pixel takes every sample
 AA_ROUNDS = 5
 AA_REPEATS = 3                      # TFM timings per row and round (median), the rows interleaved
 
@@ -337,7 +337,13 @@ def run_aa(out: Path, width: int = 160, height: int = 90, n: int = 64, log=print
 
     from ..engine import Renderer, quality
     from ..engine.exr import read_exr
-    from ..engine.sampling import Accumulator, frame_settings, iter_samples
+    from ..engine.sampling import (
+        ADAPTIVE_FRAME_SAMPLES,
+        MANY_SAMPLES,
+        Accumulator,
+        frame_settings,
+        iter_samples,
+    )
     from .common import compare
     from .timing import time_side_by_side
 
@@ -434,8 +440,9 @@ def run_aa(out: Path, width: int = 160, height: int = 90, n: int = 64, log=print
     chosen = frame_settings(scene, settings, AA_SAMPLES[-1])
     lines = [f"## Final-render antialiasing (issue 7): smoke {n}^3 with bar and ground, {width}x{height}",
              "", "TFM at each sample count (quality AUTO: here a "
-             f"{chosen.coefficients}-coefficient TFM and {chosen.view_steps} view steps a sample from "
-             "16 samples on; adaptive sampling, then the same with every pixel taking every sample) "
+             f"{chosen.coefficients}-coefficient TFM from {MANY_SAMPLES} samples on, "
+             f"{chosen.view_steps} view steps a sample at {AA_SAMPLES[-1]}; adaptive sampling from "
+             f"{ADAPTIVE_FRAME_SAMPLES} samples on, then the same with every pixel taking every sample) "
              "and Cycles at 256 spp (adaptive sampling off as in the reference, then on with Blender's "
              f"defaults), against Cycles at {gt['samples']} spp ({gt['seconds']:.1f} s, rendered once, "
              "adaptive sampling off). 'pixels %': the pixels the light passes shaded, per sample. TFM "

@@ -91,6 +91,27 @@ def _slab(o, d, lo, hi):
     return t0, t1
 
 
+def _affine_inverse(m) -> np.ndarray:
+    """The inverse of an affine 4x4 matrix (last row 0 0 0 1) by the adjugate of its 3x3 part,
+    without LAPACK: numpy's inverse wakes OpenBLAS's threads, which on the shared 2 cores, beside
+    llvmpipe's, took ~1 ms a call at times (a few per frame from scratch); another matrix goes to
+    numpy."""
+    m = np.asarray(m, dtype=np.float64)
+    if not np.array_equal(m[3], (0.0, 0.0, 0.0, 1.0)):
+        return np.linalg.inv(m)
+    a, b, c = m[:3, 0], m[:3, 1], m[:3, 2]
+    rows = np.array([[b[1] * c[2] - b[2] * c[1], b[2] * c[0] - b[0] * c[2], b[0] * c[1] - b[1] * c[0]],
+                     [c[1] * a[2] - c[2] * a[1], c[2] * a[0] - c[0] * a[2], c[0] * a[1] - c[1] * a[0]],
+                     [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]])
+    det = float(rows[0] @ a)
+    if det == 0.0 or not math.isfinite(det):
+        return np.linalg.inv(m)            # numpy's error for a singular matrix
+    out = np.eye(4)
+    out[:3, :3] = rows / det
+    out[:3, 3] = -(out[:3, :3] @ m[:3, 3])
+    return out
+
+
 def _bounds(scene: Scene):
     return _bounds_of(scene.medium)
 
@@ -98,11 +119,11 @@ def _bounds(scene: Scene):
 def _bounds_of(m):
     """(world -> local matrix, lo, hi, local units per voxel): the medium's box in its own space."""
     if m.density is not None:
-        to_local = np.linalg.inv(np.asarray(m.index_to_world, dtype=np.float64))
+        to_local = _affine_inverse(m.index_to_world)
         lo, hi = _cached(("bounds", m.grid_key), lambda: _summary(m)[3])
         return to_local, np.asarray(lo), np.asarray(hi), 1.0
     if m.box_to_world is not None:
-        return np.linalg.inv(np.asarray(m.box_to_world, dtype=np.float64)), -np.ones(3), np.ones(3), None
+        return _affine_inverse(m.box_to_world), -np.ones(3), np.ones(3), None
     return None, None, None, None
 
 
@@ -113,7 +134,7 @@ def _light_rays(frame: LightFrame, n: int) -> np.ndarray:
     local = np.stack([u.ravel() * frame.tan_half, v.ravel() * frame.tan_half, -np.ones(n * n)], axis=1)
     local /= np.linalg.norm(local, axis=1, keepdims=True)
     local = local[-local[:, 2] >= frame.cos_half - 1e-9]
-    to_world = np.linalg.inv(frame.world_to_light)
+    to_world = _affine_inverse(frame.world_to_light)
     return local @ to_world[:3, :3].T
 
 
@@ -127,7 +148,7 @@ def _face_rays(light, m, n: int) -> tuple[np.ndarray, np.ndarray]:
     box = _medium_box(m)
     origins, dirs = [], []
     for face in light_faces(light, [box] if box is not None else []):
-        to_world = np.linalg.inv(face.world_to_light)
+        to_world = _affine_inverse(face.world_to_light)
         if face.ortho:
             s = (np.arange(n) + 0.5) / n * 2.0 - 1.0
             u, v = np.meshgrid(s, s)

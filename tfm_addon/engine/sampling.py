@@ -5,8 +5,9 @@ Sample k of every frame uses the same offsets (they depend on k alone), so frame
 different processes, in any order, are equal bit for bit. Sample 0 is the pixel centre with the
 march at its interval midpoints: one sample is the unjittered image. Light maps do not depend on
 the camera or the march offset, so the renderer builds them once for all the samples of a frame.
-From 16 samples on the sampling is adaptive (adaptive.py): the pixels whose first samples agree
-stop early, decided from the frame's own samples (still the same bits in any process).
+From ADAPTIVE_FRAME_SAMPLES (12) samples on the sampling is adaptive (adaptive.py): the pixels
+whose first samples agree stop early, decided from the frame's own samples (still the same bits in
+any process).
 """
 
 from __future__ import annotations
@@ -35,10 +36,11 @@ _GOLDEN = 0.61803398874989484820  # R1, for the march start
 _FRAMES = itertools.count()       # Accumulator keys
 
 AUTO_SAMPLES = 16  # final-render samples when scene.tfm.samples is 0 (automatic)
-AUTO_POINTS_PER_STEP = 4  # under AUTO: view-march points per pixel and frame, in units of AUTO's steps
+AUTO_POINTS_PER_STEP = 3  # under AUTO: view-march points per pixel and frame, in units of AUTO's steps
 MIN_VIEW_STEPS = 8
-MANY_SAMPLES = 16        # under AUTO, a frame of at least this many samples ...
+MANY_SAMPLES = 12        # under AUTO, a frame of at least this many samples ...
 MANY_SAMPLES_COEFFICIENTS = 4   # ... takes at least this many TFM coefficients (frame_settings)
+ADAPTIVE_FRAME_SAMPLES = 12  # frames of at least this many samples are adaptive (ADAPTIVE_MIN_SAMPLES + 4)
 
 
 def radical_inverse(k: int, base: int) -> float:
@@ -51,14 +53,65 @@ def radical_inverse(k: int, base: int) -> float:
     return x
 
 
+_MASK32 = 0xFFFFFFFF
+# The seeds of the subpixel sequence's scrambles (x, y): drawn at random (Python's
+# random.Random(7)), kept as the best of twelve such draws by the mean sampling error at 16-32
+# samples on three scenes other than the benchmark's (docs/benchmark.md); every draw did better
+# than the Halton sequence used before at 16, 20, 24 and 32 samples.
+SUBPIXEL_SEEDS = (0x269E0D37, 0x6513270E)
+
+
+def _reverse_bits(x: int) -> int:
+    """The 32 bits of ``x`` in reverse order."""
+    x = ((x >> 1) & 0x55555555) | ((x & 0x55555555) << 1)
+    x = ((x >> 2) & 0x33333333) | ((x & 0x33333333) << 2)
+    x = ((x >> 4) & 0x0F0F0F0F) | ((x & 0x0F0F0F0F) << 4)
+    x = ((x >> 8) & 0x00FF00FF) | ((x & 0x00FF00FF) << 8)
+    return ((x >> 16) | (x << 16)) & _MASK32
+
+
+def _owen_scramble(x: int, seed: int) -> int:
+    """A nested uniform (Owen) scramble of the 32-bit binary fraction ``x``, by Laine and
+    Karras' hash on the reversed bits: each digit is flipped or not according to the digits
+    above it alone, so a (t, m, 2)-net stays one."""
+    x = (_reverse_bits(x) + seed) & _MASK32
+    for c in (0x6C50B47C, 0xB82F1E52, 0xC7AFE638, 0x8D22F6E6):
+        x ^= (x * c) & _MASK32
+    return _reverse_bits(x)
+
+
+def _sobol_2d(k: int) -> tuple[int, int]:
+    """Point ``k`` of the first two dimensions of the Sobol sequence, as 32-bit binary fractions."""
+    x, y, v = 0, 0, 1 << 31
+    for bit in range(32):
+        if not k >> bit:
+            break
+        if (k >> bit) & 1:
+            x ^= 1 << (31 - bit)
+            y ^= v
+        v ^= v >> 1
+    return x, y
+
+
+_SUBPIXEL_SHIFT = tuple(_owen_scramble(0, seed) ^ (1 << 31) for seed in SUBPIXEL_SEEDS)
+
+
 def subpixel_offset(k: int) -> tuple[float, float]:
     """Where sample ``k`` looks inside its pixel: (x, y) in [0, 1) pixels from the lower-left
     corner; sample 0 is the centre (0.5, 0.5). Uniform over the pixel: a one-pixel box filter.
-    The Halton sequence in bases 2 and 3, moved by half a pixel (so that it starts at the centre):
-    its first 2^a 3^b samples fall evenly in a 2^a x 3^b grid of the pixel, whatever the count.
-    On the smoke with the bar and the ground it needs half the samples of the R2 sequence used
-    before for the same error at the edges (docs/benchmark.md)."""
-    return (0.5 + radical_inverse(k, 2)) % 1.0, (0.5 + radical_inverse(k, 3)) % 1.0
+    The first two dimensions of the Sobol sequence, Owen-scrambled with fixed seeds (the same
+    offsets in every process) and moved by a digital shift (an XOR, which keeps the net property)
+    so that point 0 is the centre: for every m, the first 2^m samples put one point in each of the
+    2^m cells of any 2^a x 2^(m-a) grid of the pixel, and so do the later blocks of 2^m. On the
+    smoke with the bar and the ground, against Cycles at 4096 spp, 12 samples score about what
+    the Halton(2, 3) sequence used before needed 18 for, 16 what it needed 32 for (SSIM 0.99972
+    and 0.99986; docs/benchmark.md)."""
+    if k == 0:
+        return 0.5, 0.5
+    sx, sy = _sobol_2d(k)
+    x = _owen_scramble(sx, SUBPIXEL_SEEDS[0]) ^ _SUBPIXEL_SHIFT[0]
+    y = _owen_scramble(sy, SUBPIXEL_SEEDS[1]) ^ _SUBPIXEL_SHIFT[1]
+    return x / 2.0**32, y / 2.0**32
 
 
 def march_offset(k: int) -> float | None:
@@ -217,7 +270,7 @@ def frame_settings(scene: Scene, settings: RenderSettings | None, samples: int) 
     MANY_SAMPLES_COEFFICIENTS coefficients: once the samples have averaged the edges and the march
     noise out, what is left of the error is the truncation of a 2-coefficient TFM (on the smoke
     with the bar, against Cycles at 4096 spp: SSIM 0.99973 with 2, 0.99987 with 4 at 32 samples;
-    docs/benchmark.md)."""
+    with the Sobol offsets 12 samples get there: 0.99961 with 2, 0.99972 with 4; docs/benchmark.md)."""
     settings = settings or RenderSettings()
     chosen = effective_settings(scene, settings)
     if settings.quality == "AUTO":
@@ -236,7 +289,7 @@ def iter_samples(renderer: Renderer, scene: Scene, settings: RenderSettings | No
     """Render samples ``first`` .. ``samples - 1`` of ``scene`` into ``accumulator`` and yield it
     after each. ``progress`` gets the fraction of all ``samples`` done; ``cancel`` is the renderer's
     (checked between passes); ``client`` is the renderer's cache client. ``adaptive_threshold``:
-    when ``samples`` is at least twice ADAPTIVE_MIN_SAMPLES, adaptive sampling (engine/adaptive.py:
+    when ``samples`` is at least ADAPTIVE_FRAME_SAMPLES, adaptive sampling (engine/adaptive.py:
     after ADAPTIVE_FIRST_SAMPLES and after ADAPTIVE_MIN_SAMPLES samples, only the pixels whose
     samples still vary take more; this is the second decision's threshold); None: every pixel takes
     every sample. The frame's GPU sums are released once the last sample is yielded: a frame
@@ -244,7 +297,7 @@ def iter_samples(renderer: Renderer, scene: Scene, settings: RenderSettings | No
     n = max(int(samples), 1)
     settings = frame_settings(scene, settings, n)
     acc = accumulator or Accumulator()
-    adaptive = adaptive_threshold is not None and n >= 2 * ADAPTIVE_MIN_SAMPLES
+    adaptive = adaptive_threshold is not None and n >= ADAPTIVE_FRAME_SAMPLES
     for k in range(first, n):
         if adaptive and acc.count == k:
             if k == ADAPTIVE_FIRST_SAMPLES and acc.decisions == 0:
