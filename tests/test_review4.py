@@ -95,3 +95,36 @@ def test_a_sheared_grid_map_does_not_depend_on_another_lights_level(fresh, res):
     assert float(np.abs(after[..., :2] - every[..., :2]).max()) <= 1e-6 * k_scale      # exact skips
     assert float(np.abs(after[..., 2:] - every[..., 2:]).max()) <= 1e-6
     assert float(np.abs(alone - after).max()) <= 1e-6 * max(k_scale, 1.0)          # no history
+
+
+def test_the_alpha_probe_does_not_depend_on_another_lights_level(fresh):
+    """The alpha pass (passes/tfm.largest_density_integral) marches texels four times wider than
+    its map's, so it may read level 1 where the map may not: the level was made only for the
+    map's texels, so a fresh renderer's probe read level 0 and, once another light had made the
+    level, level 1, and the frame changed with what had been rendered before it (seen: alpha 4-5 %
+    apart at map sides 64 and 96, the two-puff grid, 16 light steps). Fixed: the level is made
+    for the probe's texels too. The frame of a fresh renderer equals the frame rendered after the
+    grid's level 1 was made."""
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).parent))
+    from test_light_skip import _scene, _two_blobs
+
+    scene = _scene(_two_blobs())
+    settings = RenderSettings(map_resolution=64, light_steps=16, view_steps=48, coefficients=4)
+    outs, alphas = [], []
+    for level_before in (False, True):
+        r = Renderer(gl=fresh.gl)
+        try:
+            if level_before:
+                with fresh.gl.ctx:
+                    medium, _ = r._medium(scene, settings)
+                    medium.slots[0].grid.ensure_level1()
+            outs.append(r.render(scene, settings).combined[..., :3])
+            alphas.append([v.value for k, v in r._tfms.items.items() if k[-1] == "alpha"])
+        finally:
+            r.clear_maps()
+    assert len(alphas[0]) == 1 and alphas[0][0] > 0.0
+    assert alphas[0] == alphas[1]
+    assert float(np.abs(outs[0] - outs[1]).max()) <= 1e-6 * float(outs[1].max())
