@@ -255,12 +255,13 @@ def smallest_stretch(a: np.ndarray) -> float:
     """The fewest metres a unit of index space spans in any direction (the smallest singular value
     of the 3x3 ``a``): a metre crosses at most 1 / it voxels, the most common.glsl grid_ray_lod
     can count along a ray. The columns' lengths where they are orthogonal (a rotation and a
-    scale); a sheared placement's columns overstate it (LAPACK there only)."""
+    scale, to Blender's float32: cosines under 1e-5, whose error in it is of that order); a
+    sheared placement's columns overstate it (LAPACK there only)."""
     a = np.asarray(a, dtype=np.float64)
     g = a.T @ a
     d = np.sqrt(np.diag(g))
     off = np.abs(g - np.diag(np.diag(g)))
-    if (off <= 1e-9 * np.outer(d, d)).all():
+    if (off <= 1e-5 * np.outer(d, d)).all():
         return float(d.min())
     return float(np.linalg.svd(a, compute_uv=False).min())
 
