@@ -53,6 +53,7 @@ from .passes.tfm import (
     TransmittanceMap,
     coefficient_textures,
     largest_density_integral,
+    probe_resolution,
     tfm_resolution,
 )
 from .quality import auto_settings, footprint_texels_per_voxel, light_density_integral
@@ -616,6 +617,10 @@ class Renderer:
         if probed > 0.0:
             alpha_d = probed
         elif settings.density_weight is None:
+            # The probe's wider texels may read the level where the map's do not: made for them too
+            # (else its alpha would depend on whether another light had made the level).
+            self.counters["grid_levels"] += medium_gpu.ensure_level1(frame, settings.light_steps,
+                                                                     probe_resolution(res))
             alpha_d, _ = self._tfms.get(
                 base + ("alpha",),
                 lambda: _Value(largest_density_integral(self.gl, frame, medium_gpu, res,

@@ -251,6 +251,21 @@ class MediumSlot:
         self.world_to_box = np.linalg.inv(to_world)
 
 
+def smallest_stretch(a: np.ndarray) -> float:
+    """The fewest metres a unit of index space spans in any direction (the smallest singular value
+    of the 3x3 ``a``): a metre crosses at most 1 / it voxels, the most common.glsl grid_ray_lod
+    can count along a ray. The columns' lengths where they are orthogonal (a rotation and a
+    scale, to Blender's float32: cosines under 1e-5, whose error in it is of that order); a
+    sheared placement's columns overstate it (LAPACK there only)."""
+    a = np.asarray(a, dtype=np.float64)
+    g = a.T @ a
+    d = np.sqrt(np.diag(g))
+    off = np.abs(g - np.diag(np.diag(g)))
+    if (off <= 1e-5 * np.outer(d, d)).all():
+        return float(d.min())
+    return float(np.linalg.svd(a, compute_uv=False).min())
+
+
 class MediaGPU:
     """The media of a frame. ``kind``: MEDIUM_NONE, the analytic MEDIUM_BOX or
     MEDIUM_EVERYWHERE for a single homogeneous medium (``first``), or MEDIUM_GRID: every medium
@@ -305,7 +320,7 @@ class MediaGPU:
             p = w2b[:3, :3] @ np.asarray(frame.position, float) + w2b[:3, 3]
             corners = np.array(np.meshgrid(*zip(lo, hi, strict=True), indexing="ij")).reshape(3, -1)
             distance = float(np.linalg.norm(slot.box_to_world[:3, :3] @ (corners - p[:, None]), axis=0).max())
-            voxel = float(np.linalg.norm(slot.box_to_world[:3, :3], axis=0).min())
+            voxel = smallest_stretch(slot.box_to_world[:3, :3])
             reach = 1.0 if frame.ortho else distance
             texel = 2.0 * min(frame.tan_xy) * reach / max(int(resolution), 1) / max(voxel, 1e-30)
         return min(step, texel) >= 2.0

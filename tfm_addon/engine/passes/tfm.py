@@ -105,12 +105,18 @@ def draw_in_rect(gl: GLContext, prog, fbo, rect, clear_targets) -> None:
         gl.draw_fullscreen(prog)
 
 
+def probe_resolution(resolution: int) -> int:
+    """The side of largest_density_integral's coarse map for a map of side ``resolution``: its
+    texels are wider, so its march may read the grid's level 1 where the map's may not."""
+    return max(16, int(resolution) // 4)
+
+
 def largest_density_integral(gl: GLContext, frame: LightFrame, medium: MediaGPU, resolution: int,
                              light_steps: int, weights=None) -> float:
     """The largest integral of the weighted density (metres at unit density) along the face's
-    rays, marched on a coarse map that ignores the solids."""
+    rays, marched on a coarse map (probe_resolution) that ignores the solids."""
     ctx = gl.ctx
-    res = max(16, resolution // 4)
+    res = probe_resolution(resolution)
     tex = ctx.texture((res, res), 4, dtype="f4")
     fbo = ctx.framebuffer([tex])
     pass_state(ctx)
