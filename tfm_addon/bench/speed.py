@@ -254,11 +254,7 @@ def main(argv=None) -> int:
             print(f"## {name} A/B ({args.clock} clock)", file=sys.stderr)
             for k, v in row["ms"].items():
                 print(f"  {k:40s} {v:8.1f} ms", file=sys.stderr)
-        if args.json:
-            with open(args.json, "w") as f:
-                json.dump(rows, f, indent=1)
-        renderer.release()
-        return 0
+        return _finish(renderer, rows, args.json)
     if args.demo_only:
         scene = scenes.demo_scene(960, 540)
         fn = contender(renderer, scene, RenderSettings(map_resolution=512, quality="AUTO"))
@@ -283,8 +279,13 @@ def main(argv=None) -> int:
             print(f"  {k:24s} {v:8.1f} ms{extra}", file=sys.stderr)
         for k, v in row["ratios"].items():
             print(f"  {k:32s} {v:6.2f}", file=sys.stderr)
-    if args.json:
-        with open(args.json, "w") as f:
+    return _finish(renderer, rows, args.json)
+
+
+def _finish(renderer, rows: list[dict], json_path: str | None) -> int:
+    """Write the rows to ``json_path`` (if given), release the renderer; 0 when every time is finite."""
+    if json_path:
+        with open(json_path, "w") as f:
             json.dump(rows, f, indent=1)
     renderer.release()
     return 0 if all(math.isfinite(v) for r in rows for v in r["ms"].values()) else 1
