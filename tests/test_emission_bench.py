@@ -13,6 +13,17 @@ def test_emission_row_rebuilds_nothing_while_timing():
     assert by["Quick Fire (blackbody grid)"]["packed"] == [1]
     assert by["Quick Fire, two fetches"]["packed"] == [0]
     assert by["flame strength"]["packed"] == [2]
-    assert by["emission + blackbody"]["packed"] == [0]           # five values: two fetches
+    assert by["emission + blackbody"]["packed"] == [1]           # combined per voxel: one fetch
+    assert by["emission + blackbody, grids apart"]["packed"] == [0]      # five values: two fetches
     assert by["emission + blackbody + colour grid"]["packed"] == [3]
     assert "Target: emission adds at most 10 %" in emission_bench.report(rows)
+
+
+def test_emission_edit_row_times_edits_that_rebuild_nothing():
+    rows = emission_bench.edit_rows(emission_bench.QUICK, log=lambda *_: None)
+    assert [r["case"] for r in rows] == ["camera move"] + [name for name, _ in emission_bench.EDITS]
+    assert all(r["seconds"] > 0 and r["rebuilt"] == 0 for r in rows)
+    # One combination for the first frame, one per edit frame (the camera moves recompute none).
+    assert rows[0]["combines"] == 1 + len(emission_bench.EDITS) * emission_bench.QUICK.repeats
+    assert rows[0]["ratio"] == 1.0
+    assert "at most 1.05" in emission_bench.edit_report(rows)

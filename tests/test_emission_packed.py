@@ -60,9 +60,9 @@ def _render(gl, scene: Scene, pack: bool, monkeypatch) -> tuple[np.ndarray, list
 
 
 # Where each case reads its density: 1 the attributes' R (a blackbody grid alone, as Blender's
-# Quick Smoke fire material), 2 their G (a strength grid alone), 3 the colour grid's A; the fire
-# with both grids needs five values a sample and keeps two fetches (0).
-CASES = {"quick fire": [1], "strength": [2], "fire": [0], "colour": [3], "fire + colour grid": [3],
+# Quick Smoke fire material, or both grids' emission combined per voxel), 2 their G (a strength
+# grid alone), 3 the colour grid's A.
+CASES = {"quick fire": [1], "strength": [2], "fire": [1], "colour": [3], "fire + colour grid": [3],
          "quick fire + colour grid": [3], "quick fire instanced": [1]}
 
 
@@ -145,11 +145,12 @@ def test_the_packed_values_are_the_density_texture_and_the_attributes():
         r.release()
 
 
-@pytest.mark.parametrize("grids", [1, 2, 3])
-def test_the_emission_compiled_for_its_grids_matches_the_reference(fresh, grids):
+@pytest.mark.parametrize("grids", [1, 2, 3, 4])
+def test_the_emission_compiled_for_its_grids_matches_the_reference(fresh, monkeypatch, grids):
     """The emission compiled for the grids its texture holds (EMISSION_GRIDS: 1 strength, 2
-    blackbody, 3 both), with constant parts beside a grid (a strength offset, a blackbody term
-    without grid) summed into one uniform, against the numpy reference."""
+    blackbody, 3 both apart, 4 both combined per voxel), with constant parts beside a grid (a
+    strength offset, a blackbody term without grid) summed into one uniform, against the numpy
+    reference."""
     from tfm_addon.engine import metrics
     from tfm_addon.engine.reference import render_reference
 
@@ -161,6 +162,10 @@ def test_the_emission_compiled_for_its_grids_matches_the_reference(fresh, grids)
                                 blackbody_intensity=GridValue(offset=0.3))
     elif grids == 2:    # the blackbody grid, a constant strength
         m = dataclasses.replace(m, emission_strength=GridValue(offset=0.1))
+    elif grids == 3:    # both grids kept apart (the path before they were combined)
+        monkeypatch.setattr(emission, "COMBINE_EMISSION", False)
+    else:               # both grids combined, the strength with an offset
+        m = dataclasses.replace(m, emission_strength=GridValue("flame", 4.0, 0.05))
     scene = dataclasses.replace(scene, medium=m)
     out = fresh.render(scene, SETTINGS).combined[..., :3]
     compiled = {dict(k[2]).get("EMISSION_GRIDS") for k in fresh.gl._programs if k[1] == "scatter.frag"}
@@ -171,3 +176,50 @@ def test_the_emission_compiled_for_its_grids_matches_the_reference(fresh, grids)
     assert ref.max() > 0.05
     assert np.all(np.abs(ratio - 1.0) <= 0.01), ratio
     assert metrics.ssim(out, ref) >= 0.99
+
+
+def test_both_grids_combined_per_voxel_give_the_two_grid_frame(fresh, monkeypatch):
+    """The fire whose emission reads a strength and a blackbody grid: its emission combined per voxel
+    (one fetch a sample, beside the density) gives the frame of the two grids kept apart and
+    combined per sample (COMBINE_EMISSION and PACK_DENSITY off: two fetches), before and after
+    colour, strength and tint edits. The edits upload no grid and build no map; each recomputes the
+    combination once (``combines``), and a frame with nothing edited recomputes nothing."""
+    scene = scenes.fire_scene(64, 36, 24, kind="FIRE", with_light=True, with_occluder=True)
+    edits = [dict(emission_color=(0.2, 0.9, 0.3)), dict(emission_strength=GridValue("flame", 9.0, 0.0)),
+             dict(emission_strength=GridValue("flame", 4.0, 0.2)), dict(blackbody_tint=(0.5, 0.7, 1.0))]
+    apart = Renderer(gl=fresh.gl)
+    monkeypatch.setattr(emission, "COMBINE_EMISSION", False)
+    monkeypatch.setattr(emission, "PACK_DENSITY", False)
+    try:
+        expected = [apart.render(scene, SETTINGS).combined[..., :3]]
+        edited = scene
+        for change in edits:
+            edited = dataclasses.replace(edited, medium=dataclasses.replace(edited.medium, **change))
+            expected.append(apart.render(edited, SETTINGS).combined[..., :3])
+        (kept,) = apart._attributes.items.values()
+        assert not kept.combined and kept.packed == 0 and kept.grids_read() == 3
+    finally:
+        apart.clear_maps()
+    monkeypatch.undo()
+    got = [fresh.render(scene, SETTINGS).combined[..., :3]]
+    (attributes,) = fresh._attributes.items.values()
+    assert attributes.combined and attributes.packed == emission.PACKED_ATTRS_R
+    assert attributes.grids_read() == 4 and attributes.combines == 1
+    edited = scene
+    for k, change in enumerate(edits):
+        edited = dataclasses.replace(edited, medium=dataclasses.replace(edited.medium, **change))
+        before = dict(fresh.counters)
+        got.append(fresh.render(edited, SETTINGS).combined[..., :3])
+        for counter in ("attribute_uploads", "grid_uploads", "shadow_maps", "tfms"):
+            assert fresh.counters.get(counter, 0) == before.get(counter, 0), (change, counter)
+        assert attributes.combines == k + 2, change
+    fresh.render(edited, SETTINGS)
+    assert attributes.combines == len(edits) + 1        # nothing edited: nothing recomputed
+    for k, (a, b) in enumerate(zip(got, expected, strict=True)):
+        peak = float(b.max())
+        diff = float(np.abs(a - b).max())
+        print(f"edit {k}: peak {peak:.4f}, largest difference {diff:.2e}")
+        assert peak > 0.05
+        assert diff <= 1e-5 * peak, k
+        if k:
+            assert np.abs(b - expected[k - 1]).max() > 1e-3, k      # each edit shows

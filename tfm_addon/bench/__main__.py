@@ -128,7 +128,9 @@ def main(argv: list[str] | None = None) -> int:
         size = (emission_bench.QUICK if args.quick else emission_bench.PAPER if args.gpu
                 else emission_bench.FULL)
         emission_rows = emission_bench.run(size, log=progress.log)
-        (out / "emission.md").write_text(emission_bench.report(emission_rows) + "\n")
+        edits = emission_bench.edit_rows(size, log=progress.log)
+        (out / "emission.md").write_text(emission_bench.report(emission_rows) + "\n\n"
+                                         + emission_bench.edit_report(edits) + "\n")
     if "viewport" in sections:
         from . import viewport_bench
 

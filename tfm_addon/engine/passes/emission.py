@@ -1,16 +1,27 @@
 """GPU side of the medium's emission and colour grid: two 3D textures and their uniforms.
 
 The textures hold the attribute grids as read (no emission constant is baked in), so changing an
-emission colour, strength, intensity, tint or temperature scale changes uniforms only. With the
-attributes comes an occupancy grid of the emitting medium (R: the density's, G: where its grids
-can emit), through which its march skips the cells where it neither absorbs nor glows.
+emission colour, strength or tint changes uniforms only, with one exception: a medium whose
+emission reads both a strength and a blackbody grid would need five values a sample besides its
+density, so its texture holds the emission those grids give, combined per voxel
+(``combined``: colour x strength + tint x blackbody, less the part that reads no grid), and an
+edit of its colour, strength or tint recomputes that combination over the voxels that can emit
+(a CPU pass over the emission's box, counted in ``combines``; no grid is prepared again and no
+map is built). With the attributes comes an occupancy grid of the emitting medium (R: the
+density's, G: where its grids can emit), through which its march skips the cells where it
+neither absorbs nor glows.
 
 Where the emitting medium's density and the values a sample reads besides it fit in four channels
 on the density's lattice, the density is packed into the same texture (``packing``), so that its
 view march makes one texture fetch per sample instead of two: into the attributes' free channel
 (a blackbody grid alone: density, blackbody RGB; a strength grid alone: strength, density), or
-into the colour grid's fourth channel. The packed density is the density texture's own values
-(read back from it), so both paths march the same density."""
+into the colour grid's fourth channel, and beside the combined emission of a strength and a
+blackbody grid (density, emission RGB). The packed density is the density texture's own values
+(read back from it), so both paths march the same density.
+
+Combining per voxel is what Cycles converges to: it looks a volume's attributes up stochastically
+(one voxel drawn with the trilinear weights) and evaluates the shader on that voxel's values, so a
+frame is the trilinear blend of each voxel's emission (engine/blackbody.py)."""
 
 from __future__ import annotations
 
@@ -20,6 +31,8 @@ import numpy as np
 
 from ..gl_context import GLContext, set_uniforms
 from ..medium_attributes import (
+    BLACKBODY,
+    STRENGTH,
     PreparedAttributes,
     constant_blackbody,
     constant_emits,
@@ -34,6 +47,9 @@ UNIT_ATTRS, UNIT_COLOR = UNIT["u_attrs"], UNIT["u_color_grid"]
 PACK_DENSITY = True
 """Pack the emitting medium's density beside its attributes where they fit (tests and the
 benchmark turn it off to compare with the two-fetch march)."""
+COMBINE_EMISSION = True
+"""Combine a strength and a blackbody grid's emission per voxel (off: the two grids apart and the
+density in its own texture, two fetches a sample: what tests and the benchmark compare with)."""
 PACKED_ATTRS_R, PACKED_ATTRS_G, PACKED_COLOR_A = 1, 2, 3
 """The march's PACKED_DENSITY define: where it reads the first medium's density (0: u_density)."""
 
@@ -67,6 +83,10 @@ class AttributesGPU:
         self.warnings = list(prepared.warnings) if prepared is not None else []
         scalars = prepared.scalars if prepared is not None else None
         self.reads_grid = scalars is not None
+        # Both grids: the texture holds (density or 0, emission RGB) combined per voxel (combine).
+        self.combined = COMBINE_EMISSION and self.strength_grid and self.blackbody_grid
+        self.combines = 0                   # how often the combined emission was computed
+        self._combined_for = None           # the uniforms it was computed for
         color = prepared.color if prepared is not None else None
         # Where the density is packed: the colour grid's 4th channel, else the attributes' free one.
         self.packed = 0
@@ -76,9 +96,10 @@ class AttributesGPU:
         if PACK_DENSITY and density is not None and density.texture is not None:
             if color is not None and tuple(int(n) + 2 for n in color.shape[:3]) == lattice:
                 self.packed = PACKED_COLOR_A
-            elif (scalars is not None and self.strength_grid != self.blackbody_grid
+            elif (scalars is not None and (self.strength_grid != self.blackbody_grid or self.combined)
                   and tuple(int(n) + 2 for n in scalars.shape[:3]) == lattice):
-                self.packed = PACKED_ATTRS_G if self.strength_grid else PACKED_ATTRS_R
+                strength_alone = self.strength_grid and not self.blackbody_grid
+                self.packed = PACKED_ATTRS_G if strength_alone else PACKED_ATTRS_R
         stored = stored_density(density) if self.packed else None
         if scalars is None:
             self.attrs_size = (1, 1, 1)
@@ -86,10 +107,14 @@ class AttributesGPU:
         else:
             data = padded_xyz_fastest(scalars)
             self.attrs_size = tuple(int(n) + 2 for n in scalars.shape[:3])
-            if self.packed == PACKED_ATTRS_R:         # density, blackbody RGB
+            if self.combined:
+                self._keep_sources(data, prepared.emission_box)
+            if self.packed == PACKED_ATTRS_R:         # density, blackbody RGB (or the combined emission)
                 data[..., 0] = stored
             elif self.packed == PACKED_ATTRS_G:       # strength, density
                 data = np.stack([data[..., 0], stored], axis=-1)
+            if self.combined and self._block is not None:
+                self._block[..., 0] = data[self._box + (0,)]
         self.attrs = ctx.texture3d(self.attrs_size, data.shape[-1], np.ascontiguousarray(data).tobytes(),
                                    dtype="f4")
         # A constant part of the emission glows in the grid's box (or everywhere: no grid).
@@ -135,8 +160,58 @@ class AttributesGPU:
         return 3 if constant_emits(medium) else 2
 
     def grids_read(self) -> int:
-        """The march's EMISSION_GRIDS define: bit 0 a strength grid, bit 1 a blackbody grid."""
+        """The march's EMISSION_GRIDS define: bit 0 a strength grid, bit 1 a blackbody grid, 4
+        both, combined per voxel in gba."""
+        if self.combined:
+            return 4
         return int(self.strength_grid) | 2 * int(self.blackbody_grid)
+
+    def _keep_sources(self, data: np.ndarray, box) -> None:
+        """Keep, for ``combine``, the strength and blackbody grids over the texels of the index box
+        ``box`` (the voxels that can emit, one wider), and zero them in ``data`` (the padded texture,
+        z, y, x order): the combined emission is written at the first bind."""
+        n = self.attrs_size
+        lo, hi = box
+        a = [min(max(int(np.floor(lo[k])) + 1, 0), n[k]) for k in range(3)]
+        b = [min(max(int(np.ceil(hi[k])) + 2, a[k]), n[k]) for k in range(3)]
+        self._box = (slice(a[2], b[2]), slice(a[1], b[1]), slice(a[0], b[0]))
+        self._viewport = (a[0], a[1], a[2], b[0] - a[0], b[1] - a[1], b[2] - a[2])
+        self._block = None
+        if all(b[k] > a[k] for k in range(3)):
+            region = data[self._box]
+            self._strength = np.ascontiguousarray(np.maximum(region[..., STRENGTH], 0.0))
+            self._blackbody = [np.ascontiguousarray(region[..., BLACKBODY + k]) for k in range(3)]
+            self._block = np.zeros(region.shape, np.float32)    # R: the packed density (or 0)
+            self._scratch = (np.empty_like(self._strength), np.empty_like(self._strength),
+                             np.empty_like(self._strength))
+        data[..., STRENGTH:] = 0.0
+
+    def combine(self, medium: Medium) -> None:
+        """Make the texture's gba ``medium``'s combined emission, per voxel (where both grids are
+        read): colour x (max(scale x strength + offset, 0) - max(offset, 0)) + tint x blackbody.
+        The part that reads no grid, colour x max(offset, 0), stays a uniform, so that the voxels
+        that cannot emit hold 0 whatever the uniforms are and only the emission's box is
+        recomputed and written. Nothing is done when the uniforms are those of the last call."""
+        v = medium.emission_strength
+        color = tuple(float(c) for c in medium.emission_color)
+        tint = tuple(float(c) for c in medium.blackbody_tint)
+        key = (color, float(v.scale), float(v.offset), tint)
+        if not self.combined or key == self._combined_for:
+            return
+        if self._block is not None:
+            glow, part, term = self._scratch
+            np.multiply(self._strength, np.float32(v.scale), out=glow)
+            glow += np.float32(v.offset)
+            np.maximum(glow, 0.0, out=glow)
+            glow -= np.float32(max(float(v.offset), 0.0))
+            for k in range(3):
+                np.multiply(self._blackbody[k], np.float32(tint[k]), out=term)
+                np.multiply(glow, np.float32(color[k]), out=part)
+                term += part
+                self._block[..., BLACKBODY + k] = term
+            self.attrs.write(self._block, viewport=self._viewport)
+        self._combined_for = key
+        self.combines += 1
 
     def packing(self, medium: Medium, medium_gpu, emits: bool, colored: bool) -> int:
         """The march's PACKED_DENSITY define for a pass over ``medium_gpu`` (``emits``: the pass
@@ -165,8 +240,9 @@ class AttributesGPU:
         tint = np.asarray(medium.blackbody_tint, np.float64)
         # The parts that read no grid (a constant strength, a blackbody term without grid), summed.
         const = tint * np.asarray(constant_blackbody(medium), np.float64)
-        if not self.strength_grid:
+        if not self.strength_grid or self.combined:
             const = const + color * max(float(v.offset), 0.0)
+        self.combine(medium)
         lo, hi = self.emission_box(medium)
         set_uniforms(prog, u_attrs=UNIT_ATTRS, u_attrs_size=tuple(float(n) for n in self.attrs_size),
                      u_emission_color=tuple(float(c) for c in color),

@@ -4,7 +4,8 @@
 // 3: from grids plus a constant part (passes/emission.AttributesGPU.program_kind).
 // PACKED_DENSITY (AttributesGPU.packing): the first medium's density is read from the texture
 // whose values the sample reads anyway, one fetch instead of two: 1 u_attrs' r (beside a blackbody
-// grid in gba), 2 u_attrs' g (beside a strength grid in r), 3 u_color_grid's a; 0 u_density.
+// grid, or both grids' combined emission, in gba), 2 u_attrs' g (beside a strength grid in r),
+// 3 u_color_grid's a; 0 u_density.
 #if EMISSION
 uniform sampler3D u_attrs;       // up to four attribute grids (padded like the density), or 1 voxel
 uniform vec3 u_attrs_size;       // padded texture size, voxels
@@ -26,10 +27,14 @@ vec2 emission_interval(vec3 ob, vec3 db) {
 }
 
 // Emitted radiance per metre for the attribute values a (grid channels). EMISSION_GRIDS (bit 0:
-// a strength grid in r, bit 1: the blackbody term in gba) is fixed with the attribute texture; the
-// parts that read no grid come summed in one uniform (passes/emission.AttributesGPU.bind).
+// a strength grid in r, bit 1: the blackbody term in gba, 4: both, combined in gba) is fixed with
+// the attribute texture; the parts that read no grid come summed in one uniform
+// (passes/emission.AttributesGPU.bind).
 vec3 emission_of(vec4 a) {
     vec3 e = u_emission_const;
+#if EMISSION_GRIDS & 4
+    e += a.gba;             // both grids' emission, combined per voxel (AttributesGPU.combine)
+#endif
 #if EMISSION_GRIDS & 1
     e += u_emission_color * max(u_strength.x * max(a.r, 0.0) + u_strength.y, 0.0);
 #endif
