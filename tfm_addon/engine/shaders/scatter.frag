@@ -154,6 +154,11 @@ void main() {
         t_stop = frustum_interval(o, d, seg).y;
 #endif
 #endif
+#if !PACKED_DENSITY && N_MEDIA == 1
+        // One grid alone: its texture coordinates stepped along the ray (one fetch a sample, no
+        // matrix product or box test: outside its non-zero bounds its trilinear density is 0).
+        GridRay vray = grid_ray(o, d, 1.0);
+#endif
         for (int i = 0; i < u_view_steps; ++i) {
             float t = seg.x + (float(i) + step_at) * dt;
             if (t > t_stop) break;
@@ -168,6 +173,9 @@ void main() {
             for (int m = 0; m < N_MEDIA; ++m) {
 #if PACKED_DENSITY
                 D[m] = m == 0 ? packed_density(pk, idx0) : medium_density(m, p);
+#elif N_MEDIA == 1
+                D[m] = MEDIA_SLOT[0] >= 0 ? textureLod(u_density, vray.tc0 + vray.tcd * t, 0.0).r * vray.scale
+                                          : medium_density(m, p);
 #else
                 D[m] = medium_density(m, p);
 #endif
