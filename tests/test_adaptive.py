@@ -161,14 +161,14 @@ def test_a_sample_reads_its_light_targets_only_where_its_first_pass_wrote(fresh,
             pass
         return acc
 
-    def cleared_begin(self, ctx, clear=True):
+    def cleared_begin(self, ctx, clear=True, composing=False):
         cleared.append(clear)
-        begin(self, ctx, True)
+        begin(self, ctx, True, composing)
 
-    def poisoned_begin(self, ctx, clear=True):
+    def poisoned_begin(self, ctx, clear=True, composing=False):
         self.fbo.use()
         self.fbo.clear(1e3, -1e3, 1e3, 1e3)
-        begin(self, ctx, clear)
+        begin(self, ctx, clear, composing)
 
     monkeypatch.setattr(ScatteringTargets, "begin", cleared_begin)
     full = frame()

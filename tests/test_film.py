@@ -67,3 +67,27 @@ def test_holdout_keeps_its_alpha_with_an_opaque_film(renderer, smoke):
     np.testing.assert_allclose(out.combined[..., 3][bar], ref.combined[..., 3][bar], atol=0.01)
     assert out.combined[..., 3][bar].max() < 0.9 and (out.combined[..., 3][~bar] == 1.0).all()
     np.testing.assert_allclose(out.rgb[bar], out.passes["scattering"][bar], atol=1e-5)   # no world
+
+
+@pytest.mark.parametrize("transparent", [True, False])
+def test_a_lone_pass_composes_the_image_the_composite_pass_makes(renderer, smoke, transparent):
+    """A frame of one light pass writes its combined image in that pass (scatter.frag COMPOSE, no
+    composite pass, read back bottom row first); the same frame as a one-sample frame goes through
+    the composite pass (into the sample sums). Both give the same image, holdout included, and the
+    lone frame's passes are unchanged."""
+    import dataclasses
+
+    from tfm_addon.engine.sampling import render_samples
+
+    holes = tuple(dataclasses.replace(m, holdout=True) if i == 0 else m for i, m in enumerate(smoke.meshes))
+    for scene in (smoke, dataclasses.replace(smoke, meshes=holes)):
+        before = renderer.counters["light_passes"]
+        lone = renderer.render(scene, _settings(transparent))
+        assert renderer.counters["light_passes"] - before == 1            # one pass: it composed
+        composed = render_samples(renderer, scene, _settings(transparent), 1)
+        peak = float(np.abs(composed.combined).max())
+        assert peak > 0.05
+        assert np.abs(lone.combined - composed.combined).max() <= 1e-6 * peak
+        for name, image in composed.passes.items():
+            top = max(float(np.abs(image).max()), 1.0)
+            assert np.abs(lone.passes[name] - image).max() <= 1e-6 * top, name

@@ -19,6 +19,7 @@ from .gl_context import GLContext
 from .light import LightFrame, cone_meets_box, cone_warning, face_meets_box, is_dark, light_faces
 from .medium_grid import grid_allowances, prepare_grid
 from .output import RenderOutput
+from .passes import scattering
 from .passes.accumulate import SampleSums
 from .passes.bindings import (
     MAX_GRIDS,
@@ -316,7 +317,10 @@ class Renderer:
             targets = self._targets.get(size, lambda: ScatteringTargets(gl, size))[0]
             # Every light pass draws the same pixels, and the first one writes them all: the zeros
             # of a clear are read only where a frame composed whole has pixels no pass drew.
-            targets.begin(gl.ctx, clear=accumulate is None and active is not None)
+            # A lone pass over every pixel writes the combined image itself (no composite pass).
+            lone = scattering.LONE_PASS_COMPOSES and accumulate is None and active is None and len(plans) <= 1
+            compose = (settings.film_transparent, scene.background) if lone else None
+            targets.begin(gl.ctx, clear=accumulate is None and active is not None, composing=lone)
             gbuffer.bind()
             ambient = scene.ambient if settings.ambient else (0.0, 0.0, 0.0)
             common = dict(camera=scene.camera, plane=plane, medium=medium,
@@ -326,7 +330,7 @@ class Renderer:
                                                else int(np.count_nonzero(active.mask)))
             if not plans:
                 t0 = time.perf_counter()
-                run_light_pass(gl, first=True, **common)
+                run_light_pass(gl, first=True, compose=compose, **common)
                 self.counters["light_passes"] += 1
                 step("scattering", t0)
             for i, plan in enumerate(plans):
@@ -334,7 +338,7 @@ class Renderer:
                 run_light_pass(gl, first=(i == 0), light_t=plan.light_t, tfm=plan.tfm,
                                light=(plan.frame, plan.light.intensity_w_per_sr,
                                       plan.shadow, plan.gobo), tfm_sigma_t=plan.tfm_sigma_t,
-                               **common)
+                               compose=compose, **common)
                 self.counters["light_passes"] += 1
                 step("scattering", t0)
             t0 = time.perf_counter()
@@ -346,8 +350,10 @@ class Renderer:
                 combined, passes = None, {}
                 timings["accumulate"] = time.perf_counter() - t0
             else:
-                targets.compose(gl, settings.film_transparent, scene.background)
+                if not lone:
+                    targets.compose(gl, settings.film_transparent, scene.background)
                 gl.finish()   # the read below then copies without waiting on the GPU
+                timings["compose"] = time.perf_counter() - t0
                 combined = targets.read_combined()
                 passes = targets.read_passes() if want_passes else {}
                 timings["readback"] = time.perf_counter() - t0

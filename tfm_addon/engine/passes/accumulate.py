@@ -62,7 +62,11 @@ class SampleSums:
         """(sum of combined, sum of its square) as (h, w, 4) float32 and the passes' sums as
         (h, w, 3) float32 ({} without passes), top row first."""
         w, h = self.size
-        images = [np.frombuffer(t.read(), dtype=np.float32).reshape(h, w, 4)[::-1] for t in self.textures]
+        images = []
+        for t in self.textures:
+            image = np.empty((h, w, 4), np.float32)
+            t.read_into(image)
+            images.append(image[::-1])
         passes = {name: np.ascontiguousarray(image[..., :3])
                   for name, image in zip(PASS_NAMES, images[2:], strict=False)}
         return np.ascontiguousarray(images[0]), np.ascontiguousarray(images[1]), passes

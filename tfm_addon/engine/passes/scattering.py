@@ -13,6 +13,10 @@ from .bindings import MEDIUM_GRID, MEDIUM_NONE, MediaGPU, bind_light, bind_units
 # LIGHT_T_UNIT: the light reaches the medium but its transmittance is taken as 1 ('UNSHADOWED').
 LIGHT_T_TFM, LIGHT_T_MARCH, LIGHT_T_ANALYTIC, LIGHT_T_NONE, LIGHT_T_UNIT = 0, 1, 2, 3, 4
 
+LONE_PASS_COMPOSES = True
+"""A frame of one light pass over every pixel writes its combined image in that pass, no composite
+pass after it (off: the composite pass, for tests and the benchmark to compare)."""
+
 
 class ScatteringTargets:
     """Three RGBA32F textures the size of the pixel window that the light passes add into:
@@ -26,11 +30,16 @@ class ScatteringTargets:
         self.fbo = ctx.framebuffer(self.textures)
         self.combined = ctx.texture(size, 4, dtype="f4")
         self.combined_fbo = ctx.framebuffer([self.combined])
+        self.composing_fbo = ctx.framebuffer([*self.textures, self.combined])
+        self.flipped = False        # the combined image's rows: top row first (compose) or not
 
-    def begin(self, ctx, clear: bool = True) -> None:
+    def begin(self, ctx, clear: bool = True, composing: bool = False) -> None:
         """Bind the targets for the light passes; ``clear``: zero them first (needed only where a
-        pixel that the first pass does not draw is read: the first pass writes, the others add)."""
-        self.fbo.use()
+        pixel that the first pass does not draw is read: the first pass writes, the others add);
+        ``composing``: a lone pass that writes the combined image too (run_light_pass's
+        ``compose``), bottom row first."""
+        self.flipped = composing
+        (self.composing_fbo if composing else self.fbo).use()
         pass_state(ctx, blend=True)
         if clear:
             self.fbo.clear(0, 0, 0, 0)
@@ -40,8 +49,9 @@ class ScatteringTargets:
         """Write the combined image (blending off); ``world`` is the radiance seen behind
         everything when the film is opaque."""
         pass_state(gl.ctx)
+        self.flipped = False
         self.combined_fbo.use()
-        gl.draw_fullscreen(self.composite_program(gl, film_transparent, world))
+        gl.draw_fullscreen(self.composite_program(gl, film_transparent, world, {"TOP_ROW_FIRST": 1}))
 
     def composite_program(self, gl: GLContext, film_transparent: bool, world, defines=None):
         """composite.frag with ``defines``, reading these targets (and the bound G-buffer)."""
@@ -56,10 +66,12 @@ class ScatteringTargets:
         return prog
 
     def read_combined(self) -> np.ndarray:
-        """(h, w, 4) float32, top row first."""
+        """(h, w, 4) float32, top row first (``compose`` writes the rows in that order and they
+        are read straight into a new array; a composing pass writes them bottom row first)."""
         w, h = self.size
-        a = np.frombuffer(self.combined.read(), dtype=np.float32).reshape(h, w, 4)
-        return np.ascontiguousarray(a[::-1])
+        out = np.empty((h, w, 4), np.float32)
+        self.combined.read_into(out)
+        return np.ascontiguousarray(out[::-1]) if self.flipped else out
 
     def read_passes(self) -> dict[str, np.ndarray]:
         """The passes as (h, w, 3) float32 arrays, top row first."""
@@ -73,6 +85,7 @@ class ScatteringTargets:
     def release(self) -> None:
         self.fbo.release()
         self.combined_fbo.release()
+        self.composing_fbo.release()
         for t in [*self.textures, self.combined]:
             t.release()
 
@@ -86,14 +99,15 @@ def camera_uniforms(prog, camera: Camera, plane: ViewPlane) -> None:
 def run_light_pass(gl: GLContext, *, camera: Camera, plane: ViewPlane, medium: Medium | None,
                    medium_gpu: MediaGPU, settings: RenderSettings, ambient, first: bool,
                    light=None, light_t: int = LIGHT_T_NONE, tfm=None, tfm_sigma_t=None,
-                   attributes=None, active=None) -> None:
+                   attributes=None, active=None, compose=None) -> None:
     """Add one pass into the bound ScatteringTargets. ``light`` is (face, intensity, ShadowMap
     or None, gobo texture or None) or None for the ambient-only first pass; ``tfm_sigma_t`` the
     extinction per unit of the TFM's weighted density (default: ``medium``'s). ``attributes``
     (emission.AttributesGPU or None): the first medium's emission, added by the first pass, and
     colour grid. ``active``: None (every pixel), or (vertex buffer, count) of rectangles in window
     pixels: only the pixels they cover are shaded (adaptive sampling; the others keep the targets'
-    zeros)."""
+    zeros). ``compose``: None, or (film_transparent, world) for a lone first pass that writes the
+    combined image too (the targets bound with ``begin(composing=True)``)."""
     medium_kind = medium_gpu.kind
     if light is not None and light_t == LIGHT_T_NONE and not first:
         medium_kind = MEDIUM_NONE          # this light never reaches the medium
@@ -108,6 +122,8 @@ def run_light_pass(gl: GLContext, *, camera: Camera, plane: ViewPlane, medium: M
                "EMISSION_GRIDS": attributes.grids_read() if emits else 0}
     if active is not None:
         defines["RECTS"] = 1
+    if compose is not None:
+        defines["COMPOSE"] = 1
     if tfm is not None:
         defines.update(tfm.defines(settings.tfm_filter))
     if medium_kind == MEDIUM_GRID:
@@ -131,6 +147,10 @@ def run_light_pass(gl: GLContext, *, camera: Camera, plane: ViewPlane, medium: M
         tfm.bind(prog, medium.sigma_t if tfm_sigma_t is None else tfm_sigma_t)
     if emits or colored:
         attributes.bind(prog, medium, emits)
+    if compose is not None:
+        film_transparent, world = compose
+        set_uniforms(prog, u_film_transparent=int(bool(film_transparent)),
+                     u_world=tuple(float(c) for c in world))
     if active is None:
         gl.draw_fullscreen(prog)
     elif active[1]:

@@ -25,6 +25,12 @@ uniform float u_view_jitter;   // < 0: march at step midpoints; else this sample
 layout(location = 0) out vec4 o_scatter;
 layout(location = 1) out vec4 o_surface;
 layout(location = 2) out vec4 o_transmittance;
+#if COMPOSE
+// A lone light pass (no other pass adds to its targets) writes the combined image too, so that
+// no composite pass follows (compose.glsl: what composite.frag would write).
+#include "compose.glsl"
+layout(location = 3) out vec4 o_combined;
+#endif
 
 #if HAS_LIGHT
 // Radiance arriving at p (q in light space) from the light face, past solids and medium; r is
@@ -304,4 +310,7 @@ void main() {
 #endif
     o_scatter = vec4(scatter, 0.0);
     o_surface = vec4(surface, 0.0);
+#if COMPOSE
+    o_combined = combined_pixel(scatter, surface, transmittance, g1.w);
+#endif
 }

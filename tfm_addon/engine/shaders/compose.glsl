@@ -1,0 +1,21 @@
+// The combined pixel from the light passes' sums: scattered light plus the solids' radiance seen
+// through the medium. Transparent film: alpha 1 on solids, else (background, holdouts) 1 - mean
+// view transmittance. Opaque film: the world's radiance behind the medium, attenuated by it,
+// where no solid is seen, and alpha 1 (holdouts keep their alpha, as in Cycles). Read by
+// composite.frag, and by a lone light pass that composes its own image (scatter.frag COMPOSE).
+uniform int u_film_transparent;
+uniform vec3 u_world;             // radiance seen behind everything (opaque film)
+
+// scatter, the solids' radiance before the medium (surface), the view transmittance t, and the
+// G-buffer's hit flag (1 solid, 2 holdout).
+vec4 combined_pixel(vec3 scatter, vec3 surface, vec3 t, float hit_flag) {
+    vec3 rgb = scatter + t * surface;
+    bool hit = hit_flag > 0.5 && hit_flag < 1.5;
+    bool holdout = hit_flag > 1.5;
+    float alpha = hit ? 1.0 : 1.0 - (t.r + t.g + t.b) / 3.0;
+    if (u_film_transparent == 0 && !holdout) {
+        if (!hit) rgb += t * u_world;
+        alpha = 1.0;
+    }
+    return vec4(rgb, alpha);
+}
