@@ -215,3 +215,248 @@ def test_the_combined_fire_matches_the_reference_and_differs_only_by_the_per_vox
             print(f"    the reference (clamp of the blend): {off:.3f} of the peak from it, "
                   f"{apart_diff:.2e} from the grids apart")
             assert off >= 0.02 and apart_diff <= 0.005, name
+
+
+def _fresh_frame(renderer, scene, settings=SETTINGS):
+    """``scene`` by a renderer that builds everything (on ``renderer``'s context)."""
+    other = Renderer(gl=renderer.gl)
+    try:
+        return other.render(scene, settings).combined[..., :3]
+    finally:
+        other.clear_maps()
+
+
+def _close(a, b, what, rel=1e-6):
+    peak = max(float(b.max()), 1e-30)
+    diff = float(np.abs(a - b).max())
+    assert diff <= rel * peak, (what, diff, peak)
+    return diff / peak
+
+
+def test_edits_kind_switches_instances_and_clears_keep_the_combination_right(fresh):
+    """One renderer through a row of changes of the fire (a light and a bar, so the TFM and the
+    scattering are in every frame): its instance beside it (one density texture, only the first
+    emits), the instances swapped (the other emits nothing: no attributes), a colour edit, the
+    strength grid replaced by a constant (another kind), the blackbody intensity 0, back to both
+    grids, a second renderer on the same context rendering another colour in between, and
+    clear_maps: every frame is a fresh renderer's, and the combined texture is recomputed
+    exactly when its uniforms changed."""
+    scene = scenes.fire_scene(48, 27, 24, kind="FIRE", with_light=True, with_occluder=True)
+    m = scene.medium
+    placed = m.index_to_world.copy()
+    placed[0, 3] += 1.4
+    twin = dataclasses.replace(m, name="Twin", index_to_world=placed, emission_color=(0.0, 0.0, 0.0),
+                               blackbody_intensity=GridValue(offset=0.0))
+    pair = dataclasses.replace(scene, medium=None, media=(m, twin))
+    green = dataclasses.replace(m, emission_color=(0.2, 0.9, 0.3))
+    steps = [
+        ("alone", scene, True),
+        ("with its instance", pair, True),
+        ("instances swapped", dataclasses.replace(pair, media=(twin, m)), False),
+        ("green", dataclasses.replace(pair, media=(green, twin)), True),
+        ("constant strength", _with(scene, emission_strength=GridValue(offset=0.3)), False),
+        ("no blackbody", _with(scene, blackbody_intensity=GridValue(offset=0.0)), False),
+        ("both grids again", _with(scene, emission_color=(0.2, 0.9, 0.3)), True),
+        ("as made", scene, True),
+    ]
+    other = Renderer(gl=fresh.gl)
+    try:
+        for name, s, combined in steps:
+            out = fresh.render(s, SETTINGS).combined[..., :3]
+            want = _fresh_frame(fresh, s)
+            print(f"{name}: {_close(out, want, name):.1e} of the peak from a fresh renderer's")
+            live = [a for a in fresh._attributes.items.values() if a.combined]
+            assert bool(live) == combined, name
+            # The other renderer on the same context, another colour: its own texture.
+            other.render(_with(scene, emission_color=(0.9, 0.1, 0.9)), SETTINGS)
+        (mine,) = [a for a in fresh._attributes.items.values() if a.combined]
+        fresh.clear_maps()
+        out = fresh.render(_with(scene, emission_color=(0.5, 0.5, 1.0)), SETTINGS).combined[..., :3]
+        (rebuilt,) = fresh._attributes.items.values()
+        assert rebuilt is not mine and rebuilt.combines == 1
+        _close(out, _fresh_frame(fresh, _with(scene, emission_color=(0.5, 0.5, 1.0))), "after clear_maps")
+        (theirs,) = other._attributes.items.values()
+        assert theirs.combines == 1           # the same colour each time: computed once
+    finally:
+        other.clear_maps()
+
+
+def test_a_cancelled_frame_leaves_no_stale_combination(fresh):
+    """Frames cancelled after the emission was bound (after the first light pass, before the image
+    is read), then the edit before it again, the cancelled one again, and others: each finished
+    frame is a fresh renderer's, and a cancelled frame's combination is reused only for its own
+    uniforms."""
+    scene = scenes.fire_scene(48, 27, 24, kind="FIRE", with_light=True)
+    a = scene
+    b = _with(scene, emission_color=(0.2, 0.9, 0.3))
+    c = _with(scene, emission_strength=GridValue("flame", 9.0, 0.1))
+
+    def cancelled(s):
+        calls = []
+
+        def cancel():     # the checks: scene, light maps, G-buffer, then after each light pass
+            calls.append(1)
+            return len(calls) >= 4
+
+        with pytest.raises(Exception, match="cancelled"):
+            fresh.render(s, SETTINGS, cancel=cancel, client="viewport")
+
+    fresh.render(a, SETTINGS, client="viewport")
+    (attributes,) = fresh._attributes.items.values()
+    # combines: each bind whose uniforms differ from the last bound ones, cancelled or not.
+    for name, s, cancel_first, combines in [("a after b cancelled", a, b, 3),
+                                            ("b after b cancelled", b, b, 4),
+                                            ("c after c cancelled", c, c, 5),
+                                            ("a after c cancelled", a, c, 6)]:
+        cancelled(cancel_first)
+        out = fresh.render(s, SETTINGS, client="viewport").combined[..., :3]
+        assert fresh._attributes.items and attributes in fresh._attributes.items.values()
+        _close(out, _fresh_frame(fresh, s), name)
+        assert attributes.combines == combines, name
+
+
+def test_the_viewport_shows_every_emission_edit_in_a_row():
+    """The progressive viewport on the GL worker through fire edits in a row, each request posted
+    as the previous one's first frame is offered (it is superseded while it refines), and back to
+    the first colour: each converged image is the final render of its edit at that sample count,
+    and each edit shows."""
+    from tfm_addon.engine.progressive import ProgressiveView
+    from tfm_addon.engine.sampling import render_samples
+    from tfm_addon.engine.worker import RenderWorker
+
+    class View(ProgressiveView):
+        on_offer = None
+
+        def _publish(self, generation, *args):
+            if self.on_offer is not None:
+                self.on_offer(generation)
+            return super()._publish(generation, *args)
+
+    settings = RenderSettings(view_steps=48, light_steps=32, map_resolution=64, coefficients=4)
+    scene = scenes.fire_scene(48, 27, 24, kind="FIRE", with_light=True)
+    edits = [scene, _with(scene, emission_color=(0.2, 0.9, 0.3)),
+             _with(scene, emission_strength=GridValue("flame", 9.0, 0.1)),
+             _with(scene, blackbody_tint=(0.4, 0.6, 1.0)), scene]
+    worker = RenderWorker()
+    try:
+        view = View(worker)
+        converged = []
+        for k in range(0, len(edits), 2):
+            nxt = k + 1
+
+            def chain(generation, nxt=nxt):       # the next edit while this one's frame is offered
+                if generation == nxt and nxt < len(edits):
+                    view.on_offer = None
+                    view.request(nxt + 1, edits[nxt], settings, 3)
+
+            view.on_offer = chain
+            view.request(k + 1, edits[k], settings, 3)
+            last = min(k + 2, len(edits))
+            for _ in range(6000):
+                frame = view.frame()
+                if frame is not None and frame.generation == last and view.state == "idle":
+                    break
+                threading_wait(0.01)
+            else:
+                raise AssertionError(f"not converged: {view.state}, {view.counters}")
+            final = worker.call(lambda r, s=edits[last - 1]: render_samples(r, s, settings, 3, passes=False))
+            diff = float(np.abs(frame.image - final.combined).max())
+            print(f"edit {last - 1}: {diff:.2e} from its final render ({view.counters})")
+            assert diff <= 1e-4 * max(float(final.combined.max()), 1.0)
+            converged.append(frame.image)
+        assert view.counters["dropped"] + worker.stats["superseded"] >= 1
+        for x, y in zip(converged, converged[1:], strict=False):
+            assert float(np.abs(x - y).max()) > 1e-3          # each edit shows
+    finally:
+        assert worker.close(10)
+
+
+def threading_wait(seconds):
+    import threading
+
+    threading.Event().wait(seconds)
+
+
+def test_a_downsampled_fire_is_combined_on_the_density_lattice(fresh, monkeypatch):
+    """The fire over a memory budget that halves its density: its attributes are downsampled with
+    it (the density's lattice), combined and packed, and its frame is that of the two grids kept
+    apart beside the density in its own texture, within 1e-5 of the peak; so is the pair of the
+    fire and its instance."""
+    scene = scenes.fire_scene(48, 27, 24, kind="FIRE", with_light=True, with_occluder=True)
+    settings = dataclasses.replace(SETTINGS, max_grid_bytes=scene.medium.density.size * 4 // 5)
+    m = scene.medium
+    placed = m.index_to_world.copy()
+    placed[0, 3] += 1.4
+    pair = dataclasses.replace(scene, medium=None, media=(m, dataclasses.replace(
+        m, name="Twin", index_to_world=placed, emission_color=(0.0, 0.0, 0.0),
+        blackbody_intensity=GridValue(offset=0.0))))
+    for name, s in [("fire", scene), ("fire and its instance", pair)]:
+        out = fresh.render(s, settings)
+        assert any("downsampled by 2" in w for w in out.warnings), out.warnings
+        (attributes,) = fresh._attributes.items.values()
+        (density,) = [t.texture for t in fresh._media.items.values()]
+        assert attributes.combined and attributes.packed == emission.PACKED_ATTRS_R
+        assert attributes.attrs_size == density.grid_size == tuple(-(-n // 2) + 2 for n in m.density.shape)
+        monkeypatch.setattr(emission, "COMBINE_EMISSION", False)
+        monkeypatch.setattr(emission, "PACK_DENSITY", False)
+        try:
+            apart = _fresh_frame(fresh, s, settings)
+        finally:
+            monkeypatch.undo()
+        rel = _close(out.combined[..., :3], apart, name, 1e-5)
+        print(f"{name}: {rel:.1e} of the peak from the grids apart")
+        fresh.clear_maps()
+
+
+def test_the_lone_grid_march_needs_no_box_test(fresh, monkeypatch):
+    """The view march of a lone grid reads its density along the ray without a box test
+    (grid_ray); the packed march keeps the test (emission.glsl packed_density). For a grid whose
+    non-zero voxels touch every face of the texture, under a sheared and rotated placement, with
+    clipping, and for a mesh volume (engine/mesh_volume.py), the two marches agree within 1e-5 of
+    the peak, and the grid's transmittance matches the numpy reference."""
+    from tfm_addon.engine import mesh_volume as mv
+
+    base = scenes.fire_scene(48, 27, 24, kind="QUICK_FIRE", with_light=True, with_occluder=True)
+    m = base.medium
+    rng = np.random.default_rng(9)
+    d = (0.2 + rng.random(m.density.shape)).astype(np.float32)
+    a = np.asarray(m.index_to_world, np.float64)
+    shear = np.eye(4)
+    shear[0, 2], shear[1, 0] = 0.35, -0.2
+    c, s = np.cos(0.5), np.sin(0.5)
+    turn = np.array([[c, -s, 0, 0], [s, c, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1.0]])
+    centre, back = np.eye(4), np.eye(4)
+    centre[:3, 3], back[:3, 3] = a[:3, 3], -a[:3, 3]
+    sheared = centre @ shear @ turn @ back @ a
+    v, t = scenes.uv_sphere(1.0, 24, 12, (0.0, 0.0, 1.5))
+    sphere, _ = mv.mesh_medium(np.asarray(v), np.asarray(t), np.eye(4), sigma_a=(1.0,) * 3,
+                               sigma_s=(1.0,) * 3, resolution=32, cache=mv.OccupancyCache(),
+                               blackbody_intensity=GridValue(offset=1.0),
+                               temperature=GridValue(offset=1500.0))
+    cases = {"border grid, sheared, clipped": dataclasses.replace(
+                 m, density=d, index_to_world=sheared, clipping=0.4,
+                 grids={k: np.ones_like(g) * 1.2 for k, g in m.grids.items()}),
+             "mesh volume": sphere}
+    for name, medium in cases.items():
+        scene = dataclasses.replace(base, medium=medium)
+        packed = fresh.render(scene, SETTINGS).combined
+        (attributes,) = fresh._attributes.items.values()
+        assert attributes.packed == emission.PACKED_ATTRS_R, name
+        fresh.clear_maps()
+        monkeypatch.setattr(emission, "PACK_DENSITY", False)
+        try:
+            ray = fresh.render(scene, SETTINGS).combined
+            compiled = {dict(k[2]).get("PACKED_DENSITY") for k in fresh.gl._programs
+                        if k[1] == "scatter.frag"}
+            fresh.clear_maps()
+        finally:
+            monkeypatch.undo()
+        assert 0 in compiled
+        rel = _close(ray, packed, name, 1e-5)
+        dark = render_reference(dataclasses.replace(scene, lights=()), view_steps=96, light_steps=8)
+        alpha = fresh.render(dataclasses.replace(scene, lights=()), SETTINGS).combined[..., 3]
+        fresh.clear_maps()
+        err = float(np.abs(alpha - dark.combined[..., 3]).max())
+        print(f"{name}: grid_ray {rel:.1e} of the peak from the boxed march; alpha {err:.2e} from the "
+              "reference")
+        assert float(dark.combined[..., 3].max()) > 0.5 and err <= 0.01, name
