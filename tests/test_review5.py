@@ -460,3 +460,39 @@ def test_the_lone_grid_march_needs_no_box_test(fresh, monkeypatch):
         print(f"{name}: grid_ray {rel:.1e} of the peak from the boxed march; alpha {err:.2e} from the "
               "reference")
         assert float(dark.combined[..., 3].max()) > 0.5 and err <= 0.01, name
+
+
+@pytest.mark.parametrize("spots", ["low corner", "high corner", "both corners", "none"])
+def test_the_emission_box_at_the_texture_corners(fresh, spots):
+    """One emitting voxel at a corner of the grid (its texel box clamped to the texture), at both
+    (the whole texture), or none (no box: nothing written, a positive offset glows through the
+    uniform): the combined texture is the per-voxel emission, for a positive, a negative scale
+    and a negative offset."""
+    base = scenes.fire_scene(32, 18, 16, kind="FIRE")
+    shape = base.medium.density.shape
+    high = tuple(n - 1 for n in shape)
+    at = {"low corner": [(0, 0, 0)], "high corner": [high], "both corners": [(0, 0, 0), high], "none": []}
+    flame, temperature = np.zeros(shape, np.float32), np.zeros(shape, np.float32)
+    for voxel in at[spots]:
+        flame[voxel], temperature[voxel] = 0.8, 2.0
+    boxes = {"low corner": (0, 0, 0, 3, 3, 3), "high corner": (*(n - 1 for n in shape), 3, 3, 3),
+             "both corners": (0, 0, 0, *(n + 2 for n in shape))}
+    grids = {"flame": flame, "temperature": temperature}
+    for strength in [GridValue("flame", 4.0, 0.0), GridValue("flame", -3.0, 0.4),
+                     GridValue("flame", 2.0, -0.5)]:
+        r = Renderer(gl=fresh.gl)
+        try:
+            scene = _with(base, grids=grids, emission_strength=strength)
+            r.render(scene, SETTINGS)
+            (attributes,) = r._attributes.items.values()
+            assert attributes.combined
+            if spots in boxes:
+                assert attributes._viewport == boxes[spots]
+            else:
+                assert attributes._block is None
+            got, stored = _read(r, attributes, True)
+            want = _expected_texels(scene.medium, stored)
+            assert np.abs(got - want).max() <= 1e-6 * max(float(np.abs(want).max()), 1e-30)
+            assert np.all(got[..., 1:][want[..., 1:] == 0.0] == 0.0)
+        finally:
+            r.clear_maps()
