@@ -18,6 +18,23 @@ LONE_PASS_COMPOSES = True
 pass after it (off: the composite pass, for tests and the benchmark to compare)."""
 
 
+GREY = True
+"""Compile the march for grey extinction where every transmittance it computes is grey
+(``grey_extinction``; off: always per channel, for tests and the benchmark to compare)."""
+
+
+def grey_extinction(medium: Medium | None, medium_gpu: MediaGPU, tfm_sigma_t=None) -> bool:
+    """Whether the extinction of every medium a light pass marches (and of the TFM it reads) is the
+    same in the three channels, so that every transmittance is grey (the shader's GREY_EXTINCTION:
+    one exponential per sample instead of three)."""
+    coefficients = [s.medium.sigma_t for s in medium_gpu.slots if s.medium is not None]
+    if medium is not None:
+        coefficients.append(medium.sigma_t)
+    if tfm_sigma_t is not None:
+        coefficients.append(tfm_sigma_t)
+    return GREY and all(float(np.ptp(np.asarray(c, np.float64))) == 0.0 for c in coefficients)
+
+
 class ScatteringTargets:
     """Three RGBA32F textures the size of the pixel window that the light passes add into:
     scattered light, solids' radiance (before the medium in front of them), view transmittance;
@@ -119,7 +136,8 @@ def run_light_pass(gl: GLContext, *, camera: Camera, plane: ViewPlane, medium: M
                "EMISSION": attributes.program_kind(medium) if emits else 0, "COLOR_GRID": int(colored),
                "PACKED_DENSITY": attributes.packing(medium, medium_gpu, emits, colored)
                if attributes is not None else 0,
-               "EMISSION_GRIDS": attributes.grids_read() if emits else 0}
+               "EMISSION_GRIDS": attributes.grids_read() if emits else 0,
+               "GREY_EXTINCTION": int(grey_extinction(medium, medium_gpu, tfm_sigma_t))}
     if active is not None:
         defines["RECTS"] = 1
     if compose is not None:

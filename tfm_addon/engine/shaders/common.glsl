@@ -2,6 +2,20 @@
 const float PI = 3.14159265358979;
 const float NO_HIT = 1e30;
 
+// GREY_EXTINCTION 1 (passes/scattering.grey_extinction): every marched medium's extinction, and
+// so every transmittance, is the same in the three channels: one channel's exponential serves
+// them all (and the compiler drops the other two channels' arithmetic).
+#ifndef GREY_EXTINCTION
+#define GREY_EXTINCTION 0
+#endif
+#if GREY_EXTINCTION
+#define EXP_RGB(v) vec3(exp((v).x))
+#define EXP2_RGB(v) vec3(exp2((v).x))
+#else
+#define EXP_RGB(v) exp(v)
+#define EXP2_RGB(v) exp2(v)
+#endif
+
 // ---- the medium: an oriented box (a grid's index box, or the [-1, 1] cube) ----
 uniform mat4 u_world_to_box;
 uniform vec3 u_box_lo;

@@ -189,7 +189,7 @@ void main() {
                 st += u_med_sigma_t[m] * D[m];
             }
 #if EMISSION
-            vec3 tv_e = exp(-(tau + 0.5 * st * dt));     // for this sample and those it skips
+            vec3 tv_e = EXP_RGB(-(tau + 0.5 * st * dt));     // for this sample and those it skips
             if (t >= emit.x && t <= emit.y)
 #if PACKED_DENSITY == 1 || PACKED_DENSITY == 2
                 scatter += tv_e * emission_of(pk) * dt;
@@ -221,7 +221,7 @@ void main() {
 #if EMISSION
                 vec3 tv = tv_e;             // the same value: tau and st have not changed since
 #else
-                vec3 tv = exp(-(tau + 0.5 * st * dt));
+                vec3 tv = EXP_RGB(-(tau + 0.5 * st * dt));
 #endif
                 vec3 src = vec3(0.0);
 #if FIRST_PASS
@@ -241,10 +241,14 @@ void main() {
 #endif
                 scatter += tv * dt * src;
                 tau += st * dt;
+#if GREY_EXTINCTION
+                if (tau.r > 6.9078) break;                             // view transmittance < 1e-3
+#else
                 if (min(min(tau.r, tau.g), tau.b) > 6.9078) break;    // view transmittance < 1e-3
+#endif
             }
         }
-        transmittance = exp(-tau);
+        transmittance = EXP_RGB(-tau);
 #else
         // Homogeneous: analytic transmittance and ambient term.
         float len = seg.y - seg.x;

@@ -141,7 +141,7 @@ vec3 light_transmittance(vec3 p, vec3 q, float r) {
 #if LIGHT_T == 0
     vec2 uv = light_uv(q);
     if (u_face_ortho == 1 && (any(lessThan(uv, vec2(0.0))) || any(greaterThan(uv, vec2(1.0))))) return vec3(1.0);
-    return exp2(u_tfm_exponent * log2(max(tfm_lookup(uv, r), 1e-30)));   // F^exponent, one log
+    return EXP2_RGB(u_tfm_exponent * log2(max(tfm_lookup(uv, r), 1e-30)));   // F^exponent, one log
 #elif LIGHT_T == 1
     vec3 dir = toward_light(p, q, r);
     vec2 k = media_interval(p, dir);
@@ -170,12 +170,12 @@ vec3 light_transmittance(vec3 p, vec3 q, float r) {
 #else
         for (int i = 0; i < u_light_steps; ++i) s += ray_density(ray, a + (float(i) + 0.5) * dt);
 #endif
-        return exp(-u_med_sigma_t[0] * (s * dt));
+        return EXP_RGB(-u_med_sigma_t[0] * (s * dt));
     }
 #endif
     vec3 tau = vec3(0.0);
     for (int i = 0; i < u_light_steps; ++i) tau += extinction_at(p + dir * (a + (float(i) + 0.5) * dt));
-    return exp(-tau * dt);
+    return EXP_RGB(-tau * dt);
 #elif LIGHT_T == 2
 #if MEDIUM == 2
     return exp(-u_sigma_t * r);
