@@ -35,6 +35,20 @@ def grey_extinction(medium: Medium | None, medium_gpu: MediaGPU, tfm_sigma_t=Non
     return GREY and all(float(np.ptp(np.asarray(c, np.float64))) == 0.0 for c in coefficients)
 
 
+FACE_KIND = True
+"""Compile the light face's kind into its light pass (``face_defines``; off: uniforms, for tests
+and the benchmark to compare)."""
+
+
+def face_defines(frame, shadow, gobo) -> dict:
+    """The light pass's FACE_KIND defines for a face: orthographic (a sun) or not, its emission
+    profile, whether it has a shadow map and a gobo."""
+    if not FACE_KIND:
+        return {}
+    return {"FACE_KIND": 1, "FACE_ORTHO": int(frame.ortho), "FACE_PROFILE": int(frame.profile),
+            "FACE_SHADOW": int(shadow is not None), "FACE_GOBO": int(gobo is not None)}
+
+
 class ScatteringTargets:
     """Three RGBA32F textures the size of the pixel window that the light passes add into:
     scattered light, solids' radiance (before the medium in front of them), view transmittance;
@@ -140,6 +154,8 @@ def run_light_pass(gl: GLContext, *, camera: Camera, plane: ViewPlane, medium: M
                "GREY_EXTINCTION": int(grey_extinction(medium, medium_gpu, tfm_sigma_t))}
     if active is not None:
         defines["RECTS"] = 1
+    if light is not None:
+        defines.update(face_defines(light[0], light[2], light[3]))
     if compose is not None:
         defines["COMPOSE"] = 1
     if tfm is not None:

@@ -191,6 +191,15 @@ uniform sampler2DShadow u_shadow_depth;   // the same as depth, distance / u_sha
 uniform float u_shadow_far;     // metres; the depth texture holds distance / far (linear)
 uniform int u_has_gobo;
 uniform sampler2D u_gobo;
+// FACE_KIND 1 (the light passes, passes/scattering.face_defines): the face's kind compiled in
+// (FACE_ORTHO, FACE_PROFILE, FACE_SHADOW, FACE_GOBO) in place of the uniforms above, whose every
+// branch the GL would otherwise evaluate for every sample (llvmpipe runs both sides of a branch).
+#if defined(FACE_KIND) && FACE_KIND
+#define u_face_ortho FACE_ORTHO
+#define u_profile FACE_PROFILE
+#define u_has_shadow FACE_SHADOW
+#define u_has_gobo FACE_GOBO
+#endif
 
 vec3 light_space(vec3 p) { return (u_world_to_light * vec4(p, 1.0)).xyz; }
 
