@@ -317,10 +317,20 @@ class Renderer:
             targets = self._targets.get(size, lambda: ScatteringTargets(gl, size))[0]
             # Every light pass draws the same pixels, and the first one writes them all: the zeros
             # of a clear are read only where a frame composed whole has pixels no pass drew.
-            # A lone pass over every pixel writes the combined image itself (no composite pass).
-            lone = scattering.LONE_PASS_COMPOSES and accumulate is None and active is None and len(plans) <= 1
+            # A lone pass writes the combined image itself (no composite pass): over every pixel
+            # of a frame, or (an antialiasing sample) added into the frame's sums.
+            lone = (scattering.LONE_PASS_COMPOSES and len(plans) <= 1
+                    and (accumulate is not None or active is None))
             compose = (settings.film_transparent, scene.background) if lone else None
-            targets.begin(gl.ctx, clear=accumulate is None and active is not None, composing=lone)
+            sums = None
+            if accumulate is not None:
+                sums = self._targets.get(("sums", accumulate), lambda: self._new_sums(size, want_passes))[0]
+                if (sums.size, sums.passes) != (size, want_passes):
+                    raise ValueError(f"sample sums {accumulate!r} are of another image or passes")
+            if lone and sums is not None:
+                sums.begin_sample()
+            else:
+                targets.begin(gl.ctx, clear=accumulate is None and active is not None, composing=lone)
             gbuffer.bind()
             ambient = scene.ambient if settings.ambient else (0.0, 0.0, 0.0)
             common = dict(camera=scene.camera, plane=plane, medium=medium,
@@ -330,7 +340,7 @@ class Renderer:
                                                else int(np.count_nonzero(active.mask)))
             if not plans:
                 t0 = time.perf_counter()
-                run_light_pass(gl, first=True, compose=compose, **common)
+                run_light_pass(gl, first=True, compose=compose, sums=sums if lone else None, **common)
                 self.counters["light_passes"] += 1
                 step("scattering", t0)
             for i, plan in enumerate(plans):
@@ -338,15 +348,13 @@ class Renderer:
                 run_light_pass(gl, first=(i == 0), light_t=plan.light_t, tfm=plan.tfm,
                                light=(plan.frame, plan.light.intensity_w_per_sr,
                                       plan.shadow, plan.gobo), tfm_sigma_t=plan.tfm_sigma_t,
-                               compose=compose, **common)
+                               compose=compose, sums=sums if lone else None, **common)
                 self.counters["light_passes"] += 1
                 step("scattering", t0)
             t0 = time.perf_counter()
             if accumulate is not None:
-                sums = self._targets.get(("sums", accumulate), lambda: self._new_sums(size, want_passes))[0]
-                if (sums.size, sums.passes) != (size, want_passes):
-                    raise ValueError(f"sample sums {accumulate!r} are of another image or passes")
-                sums.add(gl, targets, settings.film_transparent, scene.background, common["active"])
+                if not lone:
+                    sums.add(gl, targets, settings.film_transparent, scene.background, common["active"])
                 combined, passes = None, {}
                 timings["accumulate"] = time.perf_counter() - t0
             else:

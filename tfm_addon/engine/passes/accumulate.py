@@ -38,6 +38,12 @@ class SampleSums:
             return sums, False
         return cls(gl, size, passes, pool), True
 
+    def begin_sample(self) -> None:
+        """Bind the sums for a lone light pass that adds its sample into them itself
+        (scattering.run_light_pass with ``sums``), in place of ``add``."""
+        self.count += 1
+        self.fbo.use()
+
     def add(self, gl: GLContext, targets, film_transparent: bool, world, active=None) -> None:
         """Compose the sample in ``targets`` (scattering.ScatteringTargets, with the G-buffer
         bound) and add it (composite.frag with ACCUMULATE); ``active``: None, or (vertex buffer,

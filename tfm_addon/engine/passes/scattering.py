@@ -130,7 +130,7 @@ def camera_uniforms(prog, camera: Camera, plane: ViewPlane) -> None:
 def run_light_pass(gl: GLContext, *, camera: Camera, plane: ViewPlane, medium: Medium | None,
                    medium_gpu: MediaGPU, settings: RenderSettings, ambient, first: bool,
                    light=None, light_t: int = LIGHT_T_NONE, tfm=None, tfm_sigma_t=None,
-                   attributes=None, active=None, compose=None) -> None:
+                   attributes=None, active=None, compose=None, sums=None) -> None:
     """Add one pass into the bound ScatteringTargets. ``light`` is (face, intensity, ShadowMap
     or None, gobo texture or None) or None for the ambient-only first pass; ``tfm_sigma_t`` the
     extinction per unit of the TFM's weighted density (default: ``medium``'s). ``attributes``
@@ -138,7 +138,8 @@ def run_light_pass(gl: GLContext, *, camera: Camera, plane: ViewPlane, medium: M
     colour grid. ``active``: None (every pixel), or (vertex buffer, count) of rectangles in window
     pixels: only the pixels they cover are shaded (adaptive sampling; the others keep the targets'
     zeros). ``compose``: None, or (film_transparent, world) for a lone first pass that writes the
-    combined image too (the targets bound with ``begin(composing=True)``)."""
+    combined image too (the targets bound with ``begin(composing=True)``), or with ``sums``
+    (accumulate.SampleSums, bound by ``begin_sample``) adds the sample into them instead."""
     medium_kind = medium_gpu.kind
     if light is not None and light_t == LIGHT_T_NONE and not first:
         medium_kind = MEDIUM_NONE          # this light never reaches the medium
@@ -156,7 +157,9 @@ def run_light_pass(gl: GLContext, *, camera: Camera, plane: ViewPlane, medium: M
         defines["RECTS"] = 1
     if light is not None:
         defines.update(face_defines(light[0], light[2], light[3]))
-    if compose is not None:
+    if compose is not None and sums is not None:
+        defines.update(SUMS=1, PASSES=int(sums.passes))
+    elif compose is not None:
         defines["COMPOSE"] = 1
     if tfm is not None:
         defines.update(tfm.defines(settings.tfm_filter))
@@ -164,7 +167,7 @@ def run_light_pass(gl: GLContext, *, camera: Camera, plane: ViewPlane, medium: M
         defines.update(medium_gpu.defines())
     prog = gl.program("fullscreen.vert", "scatter.frag", defines)
     # The first pass writes the targets ScatteringTargets.begin bound, the others add into them.
-    pass_state(gl.ctx, blend=not first)
+    pass_state(gl.ctx, blend=not first or sums is not None)
     bind_units(prog)
     camera_uniforms(prog, camera, plane)
     medium_gpu.bind(prog)

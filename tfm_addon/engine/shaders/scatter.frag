@@ -22,6 +22,19 @@ uniform vec3 u_ambient;
 uniform int u_view_steps;
 uniform int u_light_in_medium;
 uniform float u_view_jitter;   // < 0: march at step midpoints; else this sample's start offset
+#if SUMS
+// A lone light pass of an antialiasing sample adds the sample straight into the frame's sums
+// (blending ONE, ONE; passes/accumulate.py), as composite.frag's ACCUMULATE would: the combined
+// pixel, its square and, with PASSES, the three passes (surfaces times the view transmittance).
+#include "compose.glsl"
+layout(location = 0) out vec4 o_combined;
+layout(location = 1) out vec4 o_square;
+#if PASSES
+layout(location = 2) out vec4 o_scatter;
+layout(location = 3) out vec4 o_surface;
+layout(location = 4) out vec4 o_transmittance;
+#endif
+#else
 layout(location = 0) out vec4 o_scatter;
 layout(location = 1) out vec4 o_surface;
 layout(location = 2) out vec4 o_transmittance;
@@ -30,6 +43,7 @@ layout(location = 2) out vec4 o_transmittance;
 // no composite pass follows (compose.glsl: what composite.frag would write).
 #include "compose.glsl"
 layout(location = 3) out vec4 o_combined;
+#endif
 #endif
 
 #if HAS_LIGHT
@@ -307,6 +321,15 @@ void main() {
     }
 #endif
 
+#if SUMS
+    o_combined = combined_pixel(scatter, surface, transmittance, g1.w);
+    o_square = o_combined * o_combined;
+#if PASSES
+    o_scatter = vec4(scatter, 0.0);
+    o_surface = vec4(transmittance * surface, 0.0);
+    o_transmittance = vec4(transmittance, 0.0);
+#endif
+#else
 #if FIRST_PASS
     o_transmittance = vec4(transmittance, 1.0);
 #else
@@ -316,5 +339,6 @@ void main() {
     o_surface = vec4(surface, 0.0);
 #if COMPOSE
     o_combined = combined_pixel(scatter, surface, transmittance, g1.w);
+#endif
 #endif
 }
