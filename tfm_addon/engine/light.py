@@ -239,6 +239,65 @@ def face_meets_box(frame: LightFrame, box_to_world, lo, hi) -> bool:
     return True
 
 
+SHADOW_TEST_TRIANGLES = 20_000
+"""solids_may_shadow tests at most this many triangles one by one (those of the meshes whose bounds
+it cannot separate from the media); beyond, it answers that they may shadow."""
+
+
+def solids_may_shadow(frame: LightFrame, parts, boxes, map_res: int, shadow_far: float) -> bool:
+    """Whether a solid may shadow a point of the media's ``boxes`` ((box_to_world, lo, hi) each)
+    from the face ``frame``, as the light passes' filtered shadow-map lookup sees it. ``parts``:
+    (lo, hi, triangles) per caster mesh, world bounds and (k, 3, 3) world triangles (None: not kept,
+    passes/solids.SolidsBuffer). False only when every caster triangle is separated from the convex
+    hull of the face's origin (a sun: the boxes' corners carried back to its near plane) and the
+    boxes' corners, by one of the hull's faces or by the triangle's own plane, with a margin of
+    three shadow-map texels at the boxes' farthest corner plus twice the lookup's depth bias; then
+    no light ray to a point of a box, nor its neighbours the 2x2 filter reads, meets a solid before
+    the point, and the lookup there is exactly 1 (the light passes skip it). True when the hull is
+    degenerate or the triangles to test are too many (SHADOW_TEST_TRIANGLES)."""
+    from scipy.spatial import ConvexHull, QhullError
+
+    corners = [_corners(*b) for b in boxes if all(h > lo for lo, h in zip(b[1], b[2], strict=True))]
+    if not corners:
+        return True
+    corners = np.concatenate(corners)
+    if frame.ortho:
+        q = corners @ frame.world_to_light[:3, :3].T + frame.world_to_light[:3, 3]
+        q[:, 2] = 0.0
+        inv = np.linalg.inv(frame.world_to_light)
+        points = np.concatenate([corners, q @ inv[:3, :3].T + inv[:3, 3]])
+        footprint = 2.0 * max(frame.shadow_rect[2:]) / max(int(map_res), 1)
+    else:
+        points = np.concatenate([corners, np.asarray(frame.position, float)[None]])
+        reach = float(np.linalg.norm(corners - frame.position, axis=1).max())
+        footprint = 2.0 * frame.tan_half * reach / max(int(map_res), 1)
+    margin = 3.0 * footprint + 4e-4 * float(shadow_far)
+    try:
+        facets = ConvexHull(points).equations            # n . x + d <= 0 inside, |n| = 1
+    except (QhullError, ValueError):
+        return True
+    tested = []
+    for lo, hi, triangles in parts:
+        box = _corners(np.eye(4), lo, hi)
+        if np.any(np.all(box @ facets[:, :3].T + facets[:, 3] > margin, axis=0)):
+            continue                                     # the whole mesh outside one hull face
+        if triangles is None:
+            return True
+        tested.append(np.asarray(triangles, np.float64))
+    if not tested:
+        return False
+    tri = np.concatenate(tested)
+    if len(tri) > SHADOW_TEST_TRIANGLES:
+        return True
+    outside = np.any(np.all(tri @ facets[:, :3].T + facets[:, 3] > margin, axis=1), axis=1)
+    n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    length = np.linalg.norm(n, axis=1)
+    n = n / np.maximum(length, 1e-300)[:, None]
+    side = points @ n.T - np.einsum("kj,kj->k", n, tri[:, 0])
+    apart = (length > 0) & (np.all(side > margin, axis=0) | np.all(side < -margin, axis=0))
+    return bool(np.any(~(outside | apart) & (length > 0)))
+
+
 def is_dark(light: Light) -> bool:
     """A light that adds nothing: no power, no colour or (a spot) no cone."""
     no_cone = light.kind == "SPOT" and light.spot_size_rad <= 0.0

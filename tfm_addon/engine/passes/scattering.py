@@ -86,14 +86,15 @@ def camera_uniforms(prog, camera: Camera, plane: ViewPlane) -> None:
 def run_light_pass(gl: GLContext, *, camera: Camera, plane: ViewPlane, medium: Medium | None,
                    medium_gpu: MediaGPU, settings: RenderSettings, ambient, first: bool,
                    light=None, light_t: int = LIGHT_T_NONE, tfm=None, tfm_sigma_t=None,
-                   attributes=None, active=None) -> None:
+                   attributes=None, active=None, medium_shadow: bool = True) -> None:
     """Add one pass into the bound ScatteringTargets. ``light`` is (face, intensity, ShadowMap
     or None, gobo texture or None) or None for the ambient-only first pass; ``tfm_sigma_t`` the
     extinction per unit of the TFM's weighted density (default: ``medium``'s). ``attributes``
     (emission.AttributesGPU or None): the first medium's emission, added by the first pass, and
     colour grid. ``active``: None (every pixel), or (vertex buffer, count) of rectangles in window
     pixels: only the pixels they cover are shaded (adaptive sampling; the others keep the targets'
-    zeros)."""
+    zeros). ``medium_shadow`` False: no solid shadows a point of the media from this face
+    (light.solids_may_shadow), their samples skip the shadow map."""
     medium_kind = medium_gpu.kind
     if light is not None and light_t == LIGHT_T_NONE and not first:
         medium_kind = MEDIUM_NONE          # this light never reaches the medium
@@ -108,6 +109,8 @@ def run_light_pass(gl: GLContext, *, camera: Camera, plane: ViewPlane, medium: M
                "EMISSION_GRIDS": attributes.grids_read() if emits else 0}
     if active is not None:
         defines["RECTS"] = 1
+    if light is not None and light[2] is not None and not medium_shadow:
+        defines["MEDIUM_SHADOW"] = 0
     if tfm is not None:
         defines.update(tfm.defines(settings.tfm_filter))
     if medium_kind == MEDIUM_GRID:
