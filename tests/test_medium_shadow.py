@@ -119,3 +119,32 @@ def test_a_bar_that_shadows_the_smoke_keeps_the_lookup(fresh, monkeypatch):
     fresh.clear_maps()
     wrong = fresh.render(scene, settings, passes=False).rgb
     assert np.abs(wrong - looked).max() > 0.05 * looked.max()
+
+
+@pytest.mark.parametrize("kind", ["SPOT", "POINT", "AREA", "SUN"])
+def test_the_light_pass_compiled_per_face_kind_matches_the_uniforms(fresh, monkeypatch, kind):
+    """FACE_ORTHO / FACE_PROFILE (scattering.run_light_pass) give the image the uniforms gave."""
+    from tfm_addon.engine import gl_context
+
+    base = smoke_scene(width=64, height=36, n=32)
+    light = base.lights[0]
+    if kind == "SUN":
+        light = Light(matrix_world=look_at((-2.0, -1.0, 6.0), (0.0, 0.0, 1.0)), kind="SUN", power_w=3.0)
+    elif kind != "SPOT":
+        light = dataclasses.replace(light, kind=kind)
+    scene = dataclasses.replace(base, lights=(light,))
+    settings = RenderSettings(quality="AUTO", map_resolution=128)
+    compiled = fresh.render(scene, settings, passes=False).rgb
+    faces = {dict(key[2]).get("FACE_ORTHO") for key in fresh.gl._programs if key[1] == "scatter.frag"}
+    assert faces == {int(kind == "SUN")}
+    program = gl_context.GLContext.program
+
+    def uniforms(self, vertex, fragment, defines=None):
+        d = {k: v for k, v in (defines or {}).items() if k not in ("FACE_ORTHO", "FACE_PROFILE")}
+        return program(self, vertex, fragment, d)
+
+    monkeypatch.setattr(gl_context.GLContext, "program", uniforms)
+    fresh.clear_maps()
+    looked = fresh.render(scene, settings, passes=False).rgb
+    assert looked.max() > 0.05
+    assert np.abs(compiled - looked).max() <= 1e-5 * looked.max()

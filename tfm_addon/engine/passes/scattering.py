@@ -109,8 +109,10 @@ def run_light_pass(gl: GLContext, *, camera: Camera, plane: ViewPlane, medium: M
                "EMISSION_GRIDS": attributes.grids_read() if emits else 0}
     if active is not None:
         defines["RECTS"] = 1
-    if light is not None and light[2] is not None and not medium_shadow:
-        defines["MEDIUM_SHADOW"] = 0
+    if light is not None:
+        defines.update(FACE_ORTHO=int(light[0].ortho), FACE_PROFILE=int(light[0].profile))
+        if light[2] is not None and not medium_shadow:
+            defines["MEDIUM_SHADOW"] = 0
     if tfm is not None:
         defines.update(tfm.defines(settings.tfm_filter))
     if medium_kind == MEDIUM_GRID:

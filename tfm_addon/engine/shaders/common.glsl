@@ -165,8 +165,15 @@ uniform vec3 u_intensity;        // W/sr per channel (a sun: irradiance, W/m^2)
 uniform float u_cos_half;        // cos of half the cone angle
 uniform float u_spot_smooth;     // (1 - cos_half) * blend
 uniform vec2 u_tan_half;         // half-widths of the frustum at unit distance (ortho: metres)
+#ifdef FACE_ORTHO
+// Compiled for one kind of face (the light passes): llvmpipe runs every branch on these in the
+// view march whatever their value (docs/benchmark.md, issue 8 session 5).
+const int u_face_ortho = FACE_ORTHO;
+const int u_profile = FACE_PROFILE;
+#else
 uniform int u_face_ortho;        // 1: orthographic face (a sun)
 uniform int u_profile;           // 0 spot cone, 1 uniform, 2 cosine about u_emit_axis
+#endif
 uniform vec3 u_emit_axis;        // face space
 uniform vec4 u_shadow_rect;      // ortho: face-space centre and half extents of the shadow map
 uniform vec2 u_cone_scale;       // an elliptical cone's x, y scale (object scale x/z, y/z)
