@@ -8,6 +8,7 @@ shadow map and TFM; culling, caching and counters work per face."""
 
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import dataclass
 
@@ -253,14 +254,15 @@ def solids_may_shadow(frame: LightFrame, parts, boxes, map_res: int, shadow_far:
     boxes' corners, by one of the hull's faces or by the triangle's own plane, with a margin of
     three shadow-map texels at the boxes' farthest corner plus twice the lookup's depth bias; then
     no light ray to a point of a box, nor its neighbours the 2x2 filter reads, meets a solid before
-    the point, and the lookup there is exactly 1 (the light passes skip it). True when the hull is
-    degenerate or the triangles to test are too many (SHADOW_TEST_TRIANGLES)."""
-    from scipy.spatial import ConvexHull, QhullError
-
+    the point, and the lookup there is exactly 1 (the light passes skip it). True when the
+    triangles to test are too many (SHADOW_TEST_TRIANGLES). Numpy only (the render path in Blender
+    has no scipy)."""
     corners = [_corners(*b) for b in boxes if all(h > lo for lo, h in zip(b[1], b[2], strict=True))]
     if not corners:
         return True
     corners = np.concatenate(corners)
+    if len(corners) > 24:                    # many boxes: the corners of their bounds (a larger hull)
+        corners = _corners(np.eye(4), corners.min(axis=0), corners.max(axis=0))
     if frame.ortho:
         q = corners @ frame.world_to_light[:3, :3].T + frame.world_to_light[:3, 3]
         q[:, 2] = 0.0
@@ -272,10 +274,7 @@ def solids_may_shadow(frame: LightFrame, parts, boxes, map_res: int, shadow_far:
         reach = float(np.linalg.norm(corners - frame.position, axis=1).max())
         footprint = 2.0 * frame.tan_half * reach / max(int(map_res), 1)
     margin = 3.0 * footprint + 4e-4 * float(shadow_far)
-    try:
-        facets = ConvexHull(points).equations            # n . x + d <= 0 inside, |n| = 1
-    except (QhullError, ValueError):
-        return True
+    facets = _hull_planes(points)                        # n . x + d <= 0 inside, |n| = 1
     tested = []
     for lo, hi, triangles in parts:
         box = _corners(np.eye(4), lo, hi)
@@ -296,6 +295,24 @@ def solids_may_shadow(frame: LightFrame, parts, boxes, map_res: int, shadow_far:
     side = points @ n.T - np.einsum("kj,kj->k", n, tri[:, 0])
     apart = (length > 0) & (np.all(side > margin, axis=0) | np.all(side < -margin, axis=0))
     return bool(np.any(~(outside | apart) & (length > 0)))
+
+
+def _hull_planes(points: np.ndarray) -> np.ndarray:
+    """(F, 4) planes (unit n, d) of the convex hull of a few points, n . x + d <= 0 inside: every
+    plane through three of them with all the others on one side (coplanar points: both sides)."""
+    p = np.asarray(points, np.float64)
+    i, j, k = np.array(list(itertools.combinations(range(len(p)), 3))).T
+    n = np.cross(p[j] - p[i], p[k] - p[i])
+    length = np.linalg.norm(n, axis=1)
+    scale = float(np.abs(p).max()) + float(np.ptp(p, axis=0).max())
+    keep = length > 1e-12 * scale * scale
+    n = n[keep] / length[keep, None]
+    d = -np.einsum("fj,fj->f", n, p[i[keep]])
+    side = p @ n.T + d                                   # (points, planes)
+    eps = 1e-9 * scale
+    below, above = np.all(side <= eps, axis=0), np.all(side >= -eps, axis=0)
+    planes = np.concatenate([np.c_[n[below], d[below]], -np.c_[n[above], d[above]]])
+    return planes if len(planes) else np.zeros((0, 4))
 
 
 def is_dark(light: Light) -> bool:

@@ -190,6 +190,7 @@ class Renderer:
         self._media = _Cache()
         self._solids = _Cache()
         self._shadows = _Cache()
+        self._medium_shadows = _Cache()     # light.solids_may_shadow's answers, by face and media
         self._tfms = _Cache()
         self._gobos = _Cache()
         self._gbuffers = _Cache()
@@ -198,7 +199,7 @@ class Renderer:
         self._targets = _Cache()
         self._attributes = _Cache()
         self._caches = [self._media, self._solids, self._shadows, self._tfms, self._gobos,
-                        self._gbuffers, self._targets, self._attributes]
+                        self._gbuffers, self._targets, self._attributes, self._medium_shadows]
         self._frame_memos: dict[str, _FrameMemo] = {}   # per client: what the samples of its frame share
 
     @property
@@ -596,7 +597,7 @@ class Renderer:
         key = (light.key, frame.key, scene.solids_key, res, "medium shadow",
                tuple((tuple(np.round(np.asarray(b, float), 12).ravel()), tuple(lo), tuple(hi))
                      for b, lo, hi in boxes))
-        flag, built = self._shadows.get(key, lambda: _Value(float(
+        flag, built = self._medium_shadows.get(key, lambda: _Value(float(
             solids_may_shadow(frame, solids.parts, boxes, res, shadow.far))))
         self.counters["medium_shadow_tests"] += built
         return bool(flag.value)
