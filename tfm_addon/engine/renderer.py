@@ -589,9 +589,9 @@ class Renderer:
 
     def _medium_shadow(self, light, frame, scene, shadow, solids, res, boxes, everywhere) -> bool:
         """Whether the face's shadow map may shadow a point of the media ``boxes``
-        (light.solids_may_shadow; True for fog without bounds), cached with the face's maps
-        (counter 'medium_shadow_tests'). Where it may not, the light passes skip the lookup for
-        the media's samples (it would be exactly 1)."""
+        (light.solids_may_shadow; True for fog without bounds), cached by what the face's shadow
+        map depends on and the boxes (counter 'medium_shadow_tests'). Where it may not, the light
+        passes skip the lookup for the media's samples (it would be exactly 1)."""
         if shadow is None or everywhere or not boxes:
             return True
         key = (light.key, frame.key, scene.solids_key, res, "medium shadow",

@@ -166,8 +166,8 @@ uniform float u_cos_half;        // cos of half the cone angle
 uniform float u_spot_smooth;     // (1 - cos_half) * blend
 uniform vec2 u_tan_half;         // half-widths of the frustum at unit distance (ortho: metres)
 #ifdef FACE_ORTHO
-// Compiled for one kind of face (the light passes): llvmpipe runs every branch on these in the
-// view march whatever their value (docs/benchmark.md, issue 8 session 5).
+// Compiled for one kind of face (the light passes): constants, not uniforms, so that the march
+// carries no code for the other kinds (docs/benchmark.md, issue 8 session 5).
 const int u_face_ortho = FACE_ORTHO;
 const int u_profile = FACE_PROFILE;
 #else
