@@ -8,6 +8,7 @@ shadow map and TFM; culling, caching and counters work per face."""
 
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import dataclass
 
@@ -237,6 +238,81 @@ def face_meets_box(frame: LightFrame, box_to_world, lo, hi) -> bool:
         if pa.max() < pb.min() - eps or pb.max() < pa.min() - eps:
             return False
     return True
+
+
+SHADOW_TEST_TRIANGLES = 20_000
+"""solids_may_shadow tests at most this many triangles one by one (those of the meshes whose bounds
+it cannot separate from the media); beyond, it answers that they may shadow."""
+
+
+def solids_may_shadow(frame: LightFrame, parts, boxes, map_res: int, shadow_far: float) -> bool:
+    """Whether a solid may shadow a point of the media's ``boxes`` ((box_to_world, lo, hi) each)
+    from the face ``frame``, as the light passes' filtered shadow-map lookup sees it. ``parts``:
+    (lo, hi, triangles) per caster mesh, world bounds and (k, 3, 3) world triangles (None: not kept,
+    passes/solids.SolidsBuffer). False only when every caster triangle is separated from the convex
+    hull of the face's origin (a sun: the boxes' corners carried back to its near plane) and the
+    boxes' corners, by one of the hull's faces or by the triangle's own plane, with a margin of
+    three shadow-map texels at the boxes' farthest corner plus twice the lookup's depth bias; then
+    no light ray to a point of a box, nor its neighbours the 2x2 filter reads, meets a solid before
+    the point, and the lookup there is exactly 1 (the light passes skip it). True when the
+    triangles to test are too many (SHADOW_TEST_TRIANGLES). Numpy only (the render path in Blender
+    has no scipy)."""
+    corners = [_corners(*b) for b in boxes if all(h > lo for lo, h in zip(b[1], b[2], strict=True))]
+    if not corners:
+        return True
+    corners = np.concatenate(corners)
+    if len(corners) > 24:                    # many boxes: the corners of their bounds (a larger hull)
+        corners = _corners(np.eye(4), corners.min(axis=0), corners.max(axis=0))
+    if frame.ortho:
+        q = corners @ frame.world_to_light[:3, :3].T + frame.world_to_light[:3, 3]
+        q[:, 2] = 0.0
+        inv = np.linalg.inv(frame.world_to_light)
+        points = np.concatenate([corners, q @ inv[:3, :3].T + inv[:3, 3]])
+        footprint = 2.0 * max(frame.shadow_rect[2:]) / max(int(map_res), 1)
+    else:
+        points = np.concatenate([corners, np.asarray(frame.position, float)[None]])
+        reach = float(np.linalg.norm(corners - frame.position, axis=1).max())
+        footprint = 2.0 * frame.tan_half * reach / max(int(map_res), 1)
+    margin = 3.0 * footprint + 4e-4 * float(shadow_far)
+    facets = _hull_planes(points)                        # n . x + d <= 0 inside, |n| = 1
+    tested = []
+    for lo, hi, triangles in parts:
+        box = _corners(np.eye(4), lo, hi)
+        if np.any(np.all(box @ facets[:, :3].T + facets[:, 3] > margin, axis=0)):
+            continue                                     # the whole mesh outside one hull face
+        if triangles is None:
+            return True
+        tested.append(np.asarray(triangles, np.float64))
+    if not tested:
+        return False
+    tri = np.concatenate(tested)
+    if len(tri) > SHADOW_TEST_TRIANGLES:
+        return True
+    outside = np.any(np.all(tri @ facets[:, :3].T + facets[:, 3] > margin, axis=1), axis=1)
+    n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    length = np.linalg.norm(n, axis=1)
+    n = n / np.maximum(length, 1e-300)[:, None]
+    side = points @ n.T - np.einsum("kj,kj->k", n, tri[:, 0])
+    apart = (length > 0) & (np.all(side > margin, axis=0) | np.all(side < -margin, axis=0))
+    return bool(np.any(~(outside | apart) & (length > 0)))
+
+
+def _hull_planes(points: np.ndarray) -> np.ndarray:
+    """(F, 4) planes (unit n, d) of the convex hull of a few points, n . x + d <= 0 inside: every
+    plane through three of them with all the others on one side (coplanar points: both sides)."""
+    p = np.asarray(points, np.float64)
+    i, j, k = np.array(list(itertools.combinations(range(len(p)), 3))).T
+    n = np.cross(p[j] - p[i], p[k] - p[i])
+    length = np.linalg.norm(n, axis=1)
+    scale = float(np.abs(p).max()) + float(np.ptp(p, axis=0).max())
+    keep = length > 1e-12 * scale * scale
+    n = n[keep] / length[keep, None]
+    d = -np.einsum("fj,fj->f", n, p[i[keep]])
+    side = p @ n.T + d                                   # (points, planes)
+    eps = 1e-9 * scale
+    below, above = np.all(side <= eps, axis=0), np.all(side >= -eps, axis=0)
+    planes = np.concatenate([np.c_[n[below], d[below]], -np.c_[n[above], d[above]]])
+    return planes if len(planes) else np.zeros((0, 4))
 
 
 def is_dark(light: Light) -> bool:

@@ -29,6 +29,7 @@ The rule and the sweeps it comes from are written down in ``docs/benchmark.md``:
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import math
 from collections import OrderedDict
 from dataclasses import dataclass
@@ -299,8 +300,6 @@ def _light_part(m, light, grid) -> tuple[float, float]:
     """(the largest density integral along the light's rays, metres at unit density: the optical
     depth over sigma_t; the longest light chord in voxels between the first and last non-zero
     density; for a box: through the box, in its units). Reads the density, not sigma."""
-    from scipy import ndimage
-
     to_local, lo, hi, _ = _bounds_of(m)
     if to_local is None:                      # fog everywhere: no bounds, no chord to speak of
         return 0.0, 0.0
@@ -330,8 +329,7 @@ def _light_part(m, light, grid) -> tuple[float, float]:
         c[k] -= (f - 1) / 2.0
         c[k] /= f
         c[k] += 1.0
-    dens = ndimage.map_coordinates(coarse, c.reshape(3, -1), order=1, mode="constant",
-                                   cval=0.0).reshape(t.shape)
+    dens = trilinear(coarse, c.reshape(3, -1)).reshape(t.shape)
     tau = sigma * float((dens.sum(axis=1) * (t1 - t0) / steps).max())   # world metres x density
     nonzero = dens > 0
     if not nonzero.any():
@@ -340,6 +338,39 @@ def _light_part(m, light, grid) -> tuple[float, float]:
     last = np.where(nonzero.any(axis=1), steps - 1 - nonzero[:, ::-1].argmax(axis=1), -1)
     span = np.clip(last - first + 1, 0, None) / steps * chord
     return tau, float(span.max())
+
+
+def trilinear(grid: np.ndarray, coords: np.ndarray) -> np.ndarray:
+    """``grid`` (3D) interpolated linearly at ``coords`` ((3, N) index coordinates), 0 outside
+    [0, n - 1] on an axis: scipy's ``map_coordinates(order=1, mode='constant')``, which it calls
+    where scipy is installed; a numpy equivalent where it is not (Blender bundles numpy, not
+    scipy, and the add-on ships no scipy wheel)."""
+    try:
+        from scipy import ndimage
+    except ImportError:
+        return _trilinear_numpy(grid, coords)
+    return ndimage.map_coordinates(grid, coords, order=1, mode="constant", cval=0.0)
+
+
+def _trilinear_numpy(grid: np.ndarray, coords: np.ndarray) -> np.ndarray:
+    g = np.asarray(grid, np.float64)
+    top = np.array(g.shape, np.float64)[:, None] - 1.0
+    c = np.asarray(coords, np.float64)
+    inside = np.all((c >= 0.0) & (c <= top), axis=0)
+    c = np.clip(c, 0.0, top)
+    i0 = np.minimum(np.floor(c), np.maximum(top - 1.0, 0.0)).astype(np.intp)
+    w = c - i0
+    stride = np.array(g.strides) // g.itemsize
+    flat = g.ravel()
+    base = (i0 * stride[:, None]).sum(axis=0)
+    out = np.zeros(c.shape[1])
+    for corner in itertools.product((0, 1), repeat=3):
+        step = sum(int(b) * int(s) for b, s, n in zip(corner, stride, g.shape, strict=True) if n > 1)
+        weight = np.prod([wk if b else 1.0 - wk for b, wk in zip(corner, w, strict=True)], axis=0)
+        out += weight * flat[base + step]
+    out[~inside] = 0.0
+    grid_dtype = np.asarray(grid).dtype
+    return out.astype(grid_dtype) if grid_dtype.kind == "f" else out      # as scipy returns it
 
 
 def sharpness(density: np.ndarray, mask: np.ndarray | None = None, bounds: tuple | None = None) -> float:

@@ -154,6 +154,7 @@ class _LightPlan:
     tfm: TransmittanceMap | None
     gobo: object | None
     tfm_sigma_t: np.ndarray | None = None
+    medium_shadow: bool = True      # a solid may shadow the media (light.solids_may_shadow)
 
 
 class Renderer:
@@ -182,6 +183,7 @@ class Renderer:
         self._media = _Cache()
         self._solids = _Cache()
         self._shadows = _Cache()
+        self._medium_shadows = _Cache()     # light.solids_may_shadow's answers, by face and media
         self._tfms = _Cache()
         self._gobos = _Cache()
         self._gbuffers = _Cache()
@@ -190,7 +192,7 @@ class Renderer:
         self._targets = _Cache()
         self._attributes = _Cache()
         self._caches = [self._media, self._solids, self._shadows, self._tfms, self._gobos,
-                        self._gbuffers, self._targets, self._attributes]
+                        self._gbuffers, self._targets, self._attributes, self._medium_shadows]
         self._frame_memos: dict[str, _FrameMemo] = {}   # per client: what the samples of its frame share
 
     @property
@@ -348,7 +350,8 @@ class Renderer:
                 run_light_pass(gl, first=(i == 0), light_t=plan.light_t, tfm=plan.tfm,
                                light=(plan.frame, plan.light.intensity_w_per_sr,
                                       plan.shadow, plan.gobo), tfm_sigma_t=plan.tfm_sigma_t,
-                               compose=compose, sums=sums if lone else None, **common)
+                               compose=compose, sums=sums if lone else None,
+                               medium_shadow=plan.medium_shadow, **common)
                 self.counters["light_passes"] += 1
                 step("scattering", t0)
             t0 = time.perf_counter()
@@ -567,6 +570,9 @@ class Renderer:
                 shadow, built = self._shadows.get((light.key, frame.key, scene.solids_key, res),
                                                   lambda frame=frame: ShadowMap(gl, frame, solids, res))
                 self.counters["shadow_maps"] += built
+            medium_shadow = self._medium_shadow(light, frame, scene, shadow, solids, res,
+                                                [boxes[i] for i in reached] or boxes,
+                                                medium_gpu.kind == MEDIUM_EVERYWHERE)
             light_t, tfm, tfm_sigma = LIGHT_T_NONE, None, None
             unit = settings.method == "UNSHADOWED" or not light.cast_shadow
             if medium_gpu.kind == MEDIUM_GRID:
@@ -585,8 +591,25 @@ class Renderer:
             elif medium_gpu.kind in (MEDIUM_BOX, MEDIUM_EVERYWHERE):
                 if everywhere or reached:
                     light_t = LIGHT_T_UNIT if unit else LIGHT_T_ANALYTIC
-            plans.append(_LightPlan(light, frame, light_t, shadow, tfm, gobo, tfm_sigma))
+            plans.append(_LightPlan(light, frame, light_t, shadow, tfm, gobo, tfm_sigma, medium_shadow))
         return plans
+
+    def _medium_shadow(self, light, frame, scene, shadow, solids, res, boxes, everywhere) -> bool:
+        """Whether the face's shadow map may shadow a point of the media ``boxes``
+        (light.solids_may_shadow; True for fog without bounds), cached by what the face's shadow
+        map depends on and the boxes (counter 'medium_shadow_tests'). Where it may not, the light
+        passes skip the lookup for the media's samples (it would be exactly 1)."""
+        from .light import solids_may_shadow
+
+        if shadow is None or everywhere or not boxes:
+            return True
+        key = (light.key, frame.key, scene.solids_key, res, "medium shadow",
+               tuple((tuple(np.round(np.asarray(b, float), 12).ravel()), tuple(lo), tuple(hi))
+                     for b, lo, hi in boxes))
+        flag, built = self._medium_shadows.get(key, lambda: _Value(float(
+            solids_may_shadow(frame, solids.parts, boxes, res, shadow.far))))
+        self.counters["medium_shadow_tests"] += built
+        return bool(flag.value)
 
     def _tfm(self, scene, settings, light, frame, medium_gpu, shadow, res, reached, warnings):
         """The face's TFM and the extinction per unit of its weighted density, or (None, None)

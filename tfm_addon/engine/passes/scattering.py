@@ -130,7 +130,8 @@ def camera_uniforms(prog, camera: Camera, plane: ViewPlane) -> None:
 def run_light_pass(gl: GLContext, *, camera: Camera, plane: ViewPlane, medium: Medium | None,
                    medium_gpu: MediaGPU, settings: RenderSettings, ambient, first: bool,
                    light=None, light_t: int = LIGHT_T_NONE, tfm=None, tfm_sigma_t=None,
-                   attributes=None, active=None, compose=None, sums=None) -> None:
+                   attributes=None, active=None, compose=None, sums=None,
+                   medium_shadow: bool = True) -> None:
     """Add one pass into the bound ScatteringTargets. ``light`` is (face, intensity, ShadowMap
     or None, gobo texture or None) or None for the ambient-only first pass; ``tfm_sigma_t`` the
     extinction per unit of the TFM's weighted density (default: ``medium``'s). ``attributes``
@@ -139,7 +140,9 @@ def run_light_pass(gl: GLContext, *, camera: Camera, plane: ViewPlane, medium: M
     pixels: only the pixels they cover are shaded (adaptive sampling; the others keep the targets'
     zeros). ``compose``: None, or (film_transparent, world) for a lone first pass that writes the
     combined image too (the targets bound with ``begin(composing=True)``), or with ``sums``
-    (accumulate.SampleSums, bound by ``begin_sample``) adds the sample into them instead."""
+    (accumulate.SampleSums, bound by ``begin_sample``) adds the sample into them instead.
+    ``medium_shadow`` False: no solid shadows a point of the media from this face
+    (light.solids_may_shadow), their samples skip the shadow map."""
     medium_kind = medium_gpu.kind
     if light is not None and light_t == LIGHT_T_NONE and not first:
         medium_kind = MEDIUM_NONE          # this light never reaches the medium
@@ -157,6 +160,8 @@ def run_light_pass(gl: GLContext, *, camera: Camera, plane: ViewPlane, medium: M
         defines["RECTS"] = 1
     if light is not None:
         defines.update(face_defines(light[0], light[2], light[3]))
+        if light[2] is not None and not medium_shadow:
+            defines["MEDIUM_SHADOW"] = 0
     if compose is not None and sums is not None:
         defines.update(SUMS=1, PASSES=int(sums.passes))
     elif compose is not None:

@@ -13,6 +13,12 @@ POSITION_ONLY = "3f 28x"
 def solids_vertices(meshes: tuple[Mesh, ...]) -> np.ndarray:
     """(3 * triangles, 10) float32: position, face normal, albedo, holdout (1 or 0) per vertex,
     world space."""
+    rows = _mesh_blocks(meshes)
+    return np.concatenate(rows) if rows else np.zeros((0, 10), np.float32)
+
+
+def _mesh_blocks(meshes: tuple[Mesh, ...]) -> list[np.ndarray]:
+    """solids_vertices' rows of each mesh that has triangles (degenerate ones dropped)."""
     rows = []
     for mesh in meshes:
         if len(mesh.triangles) == 0:
@@ -28,14 +34,25 @@ def solids_vertices(meshes: tuple[Mesh, ...]) -> np.ndarray:
         block[:, :, 6:9] = np.asarray(mesh.color, dtype=np.float32)
         block[:, :, 9] = float(mesh.holdout)
         rows.append(block.reshape(-1, 10))
-    return np.concatenate(rows) if rows else np.zeros((0, 10), np.float32)
+    return rows
+
+
+KEEP_TRIANGLES = 100_000   # per mesh, world triangles kept on the CPU for light.solids_may_shadow
 
 
 class SolidsBuffer:
-    """The solids' vertices on the GPU, shared by the shadow-map and G-buffer passes."""
+    """The solids' vertices on the GPU, shared by the shadow-map and G-buffer passes; ``parts``:
+    per mesh, its world bounds and (k, 3, 3) float32 world triangles (None beyond
+    KEEP_TRIANGLES), for light.solids_may_shadow."""
 
     def __init__(self, ctx, meshes: tuple[Mesh, ...]):
-        data = solids_vertices(meshes)
+        blocks = [b for b in _mesh_blocks(meshes) if len(b)]
+        self.parts = []
+        for block in blocks:
+            tri = block[:, :3].reshape(-1, 3, 3)
+            self.parts.append((tri.min(axis=(0, 1)), tri.max(axis=(0, 1)),
+                               tri.copy() if len(tri) <= KEEP_TRIANGLES else None))
+        data = np.concatenate(blocks) if blocks else np.zeros((0, 10), np.float32)
         self.vertex_count = len(data)
         self.bounds = (data[:, :3].min(axis=0), data[:, :3].max(axis=0)) if len(data) else None
         self.vbo = ctx.buffer(data.tobytes()) if len(data) else None

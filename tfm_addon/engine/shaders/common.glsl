@@ -186,6 +186,9 @@ uniform vec4 u_shadow_rect;      // ortho: face-space centre and half extents of
 uniform vec2 u_cone_scale;       // an elliptical cone's x, y scale (object scale x/z, y/z)
 uniform float u_map_res;         // texels per side of the shadow map and TFM
 uniform int u_has_shadow;
+#ifndef MEDIUM_SHADOW
+#define MEDIUM_SHADOW 1          // 0: no solid shadows a point of the media (light.solids_may_shadow)
+#endif
 uniform sampler2D u_shadow;      // distance from the light to the nearest solid, metres
 uniform sampler2DShadow u_shadow_depth;   // the same as depth, distance / u_shadow_far
 uniform float u_shadow_far;     // metres; the depth texture holds distance / far (linear)
@@ -253,6 +256,11 @@ float spot_falloff(vec3 q) {
 float g_bias_texels = 0.0;
 float solid_visibility(vec2 uv, float r) {
     if (u_has_shadow == 0) return 1.0;
+#if !MEDIUM_SHADOW
+    // A point of the media, which no solid shadows. A define: the same test on a uniform saved
+    // nothing on llvmpipe (docs/benchmark.md, issue 8 session 5).
+    if (g_bias_texels == 0.0) return 1.0;
+#endif
     if (u_face_ortho == 1 && (any(lessThan(uv, vec2(0.0))) || any(greaterThan(uv, vec2(1.0))))) return 1.0;
     float footprint = u_face_ortho == 1 ? max(u_shadow_rect.z, u_shadow_rect.w) : r * max(u_tan_half.x, u_tan_half.y);
     float bias = g_bias_texels * footprint / u_map_res + 2e-4 * u_shadow_far;
