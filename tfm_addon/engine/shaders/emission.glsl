@@ -76,18 +76,25 @@ vec3 color_at_index(vec3 idx) {
 #endif
 
 #if PACKED_DENSITY
-// The packed texture's values at a point in the first medium's index space.
-vec4 packed_fetch(vec3 idx) {
+// The packed texture and its padded size: the march steps its coordinates along the ray,
+// (ob + db t + 1.5) / PACKED_SIZE in the first medium's index space.
 #if PACKED_DENSITY == 3
-    return textureLod(u_color_grid, (idx + 1.5) / u_grid_size, 0.0);
+#define PACKED_SIZE u_grid_size
 #else
-    return textureLod(u_attrs, (idx + 1.5) / u_attrs_size, 0.0);
+#define PACKED_SIZE u_attrs_size
+#endif
+vec4 packed_fetch(vec3 tc) {
+#if PACKED_DENSITY == 3
+    return textureLod(u_color_grid, tc, 0.0);
+#else
+    return textureLod(u_attrs, tc, 0.0);
 #endif
 }
 
-// The first medium's density from its packed values pk at idx: medium_density(0, p) of common.glsl.
-float packed_density(vec4 pk, vec3 idx) {
-    if (any(lessThan(idx, u_med_lo[0])) || any(greaterThan(idx, u_med_hi[0]))) return 0.0;
+// The first medium's density from its packed values pk: medium_density(0, p) of common.glsl,
+// without its box test (outside the density's non-zero bounds its trilinear values are 0, as
+// the lone grid's march in scatter.frag relies on).
+float packed_density(vec4 pk) {
     return pk[PACKED_DENSITY == 1 ? 0 : PACKED_DENSITY == 2 ? 1 : 3] * u_grid_scales[0];
 }
 #endif

@@ -179,6 +179,11 @@ void main() {
         // matrix product or box test: outside its non-zero bounds its trilinear density is 0).
         GridRay vray = grid_ray(o, d, 1.0);
 #endif
+#if PACKED_DENSITY
+        // The same for the texture that packs the first medium's density (emission.glsl).
+        vec3 ptc0 = (ob + 1.5) / PACKED_SIZE;
+        vec3 ptcd = db / PACKED_SIZE;
+#endif
         for (int i = 0; i < u_view_steps; ++i) {
             float t = seg.x + (float(i) + step_at) * dt;
             if (t > t_stop) break;
@@ -187,12 +192,11 @@ void main() {
             bool any_d = false;
             vec3 st = vec3(0.0);
 #if PACKED_DENSITY
-            vec3 idx0 = ob + db * t;
-            vec4 pk = packed_fetch(idx0);     // the first medium's density and emission or colour
+            vec4 pk = packed_fetch(ptc0 + ptcd * t);  // the first medium's density and emission or colour
 #endif
             for (int m = 0; m < N_MEDIA; ++m) {
 #if PACKED_DENSITY
-                D[m] = m == 0 ? packed_density(pk, idx0) : medium_density(m, p);
+                D[m] = m == 0 ? packed_density(pk) : medium_density(m, p);
 #elif N_MEDIA == 1
                 D[m] = MEDIA_SLOT[0] >= 0 ? textureLod(u_density, vray.tc0 + vray.tcd * t, 0.0).r * vray.scale
                                           : medium_density(m, p);
