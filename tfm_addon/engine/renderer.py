@@ -16,7 +16,15 @@ from .adaptive import ActivePixels
 from .camera import view_plane
 from .errors import RenderCancelled
 from .gl_context import GLContext
-from .light import LightFrame, cone_meets_box, cone_warning, face_meets_box, is_dark, light_faces
+from .light import (
+    LightFrame,
+    cone_meets_box,
+    cone_warning,
+    face_meets_box,
+    is_dark,
+    light_faces,
+    solids_may_shadow,
+)
 from .medium_grid import grid_allowances, prepare_grid
 from .output import RenderOutput
 from .passes import scattering
@@ -364,7 +372,6 @@ class Renderer:
                 if not lone:
                     targets.compose(gl, settings.film_transparent, scene.background)
                 gl.finish()   # the read below then copies without waiting on the GPU
-                timings["compose"] = time.perf_counter() - t0
                 combined = targets.read_combined()
                 passes = targets.read_passes() if want_passes else {}
                 timings["readback"] = time.perf_counter() - t0
@@ -599,8 +606,6 @@ class Renderer:
         (light.solids_may_shadow; True for fog without bounds), cached by what the face's shadow
         map depends on and the boxes (counter 'medium_shadow_tests'). Where it may not, the light
         passes skip the lookup for the media's samples (it would be exactly 1)."""
-        from .light import solids_may_shadow
-
         if shadow is None or everywhere or not boxes:
             return True
         key = (light.key, frame.key, scene.solids_key, res, "medium shadow",

@@ -19,3 +19,26 @@ vec4 combined_pixel(vec3 scatter, vec3 surface, vec3 t, float hit_flag) {
     }
     return vec4(rgb, alpha);
 }
+
+// SAMPLE_SUMS 1: the shader adds a sample into a frame's sums (blending ONE, ONE;
+// passes/accumulate.py): composite.frag with ACCUMULATE, or a lone light pass, scatter.frag with
+// SUMS. Its outputs: the combined pixel, its square and, with PASSES, the three passes (the
+// surfaces times the view transmittance).
+#if defined(SAMPLE_SUMS) && SAMPLE_SUMS
+layout(location = 0) out vec4 o_combined;
+layout(location = 1) out vec4 o_square;
+#if PASSES
+layout(location = 2) out vec4 o_scatter;
+layout(location = 3) out vec4 o_surface;
+layout(location = 4) out vec4 o_transmittance;
+#endif
+void add_to_sums(vec3 scatter, vec3 surface, vec3 t, float hit_flag) {
+    o_combined = combined_pixel(scatter, surface, t, hit_flag);
+    o_square = o_combined * o_combined;
+#if PASSES
+    o_scatter = vec4(scatter, 0.0);
+    o_surface = vec4(t * surface, 0.0);
+    o_transmittance = vec4(t, 0.0);
+#endif
+}
+#endif

@@ -2,19 +2,16 @@
 // TOP_ROW_FIRST: rows written in the order an image is stored (read back without a flip).
 // ACCUMULATE: the sample is added (blending ONE, ONE) into a frame's sums instead: the combined
 // image, its square and, with PASSES, the three passes (surfaces already times transmittance).
+#ifdef ACCUMULATE
+#define SAMPLE_SUMS 1
+#endif
 #include "compose.glsl"
 uniform sampler2D u_gb1;          // normal, hit (1 solid, 2 holdout)
 uniform sampler2D u_scatter;
 uniform sampler2D u_surface;
 uniform sampler2D u_transmittance;
+#ifndef ACCUMULATE
 layout(location = 0) out vec4 o_combined;
-#ifdef ACCUMULATE
-layout(location = 1) out vec4 o_square;
-#if PASSES
-layout(location = 2) out vec4 o_scatter;
-layout(location = 3) out vec4 o_surface;
-layout(location = 4) out vec4 o_transmittance;
-#endif
 #endif
 void main() {
     ivec2 px = ivec2(gl_FragCoord.xy);
@@ -25,13 +22,9 @@ void main() {
     vec3 t = texelFetch(u_transmittance, px, 0).rgb;
     vec3 scatter = texelFetch(u_scatter, px, 0).rgb;
     vec3 surface = texelFetch(u_surface, px, 0).rgb;
-    o_combined = combined_pixel(scatter, surface, t, texelFetch(u_gb1, px, 0).w);
 #ifdef ACCUMULATE
-    o_square = o_combined * o_combined;
-#if PASSES
-    o_scatter = vec4(scatter, 0.0);
-    o_surface = vec4(t * surface, 0.0);
-    o_transmittance = vec4(t, 0.0);
-#endif
+    add_to_sums(scatter, surface, t, texelFetch(u_gb1, px, 0).w);
+#else
+    o_combined = combined_pixel(scatter, surface, t, texelFetch(u_gb1, px, 0).w);
 #endif
 }

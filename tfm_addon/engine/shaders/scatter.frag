@@ -23,17 +23,10 @@ uniform int u_view_steps;
 uniform int u_light_in_medium;
 uniform float u_view_jitter;   // < 0: march at step midpoints; else this sample's start offset
 #if SUMS
-// A lone light pass of an antialiasing sample adds the sample straight into the frame's sums
-// (blending ONE, ONE; passes/accumulate.py), as composite.frag's ACCUMULATE would: the combined
-// pixel, its square and, with PASSES, the three passes (surfaces times the view transmittance).
+// A lone light pass of an antialiasing sample adds the sample straight into the frame's sums, as
+// composite.frag's ACCUMULATE would (compose.glsl's SAMPLE_SUMS outputs).
+#define SAMPLE_SUMS 1
 #include "compose.glsl"
-layout(location = 0) out vec4 o_combined;
-layout(location = 1) out vec4 o_square;
-#if PASSES
-layout(location = 2) out vec4 o_scatter;
-layout(location = 3) out vec4 o_surface;
-layout(location = 4) out vec4 o_transmittance;
-#endif
 #else
 layout(location = 0) out vec4 o_scatter;
 layout(location = 1) out vec4 o_surface;
@@ -326,13 +319,7 @@ void main() {
 #endif
 
 #if SUMS
-    o_combined = combined_pixel(scatter, surface, transmittance, g1.w);
-    o_square = o_combined * o_combined;
-#if PASSES
-    o_scatter = vec4(scatter, 0.0);
-    o_surface = vec4(transmittance * surface, 0.0);
-    o_transmittance = vec4(transmittance, 0.0);
-#endif
+    add_to_sums(scatter, surface, transmittance, g1.w);
 #else
 #if FIRST_PASS
     o_transmittance = vec4(transmittance, 1.0);
