@@ -128,8 +128,15 @@ def test_the_packed_values_are_the_density_texture_and_the_attributes():
             stored = bindings.stored_grid(grid.density, np.uint16, density.density_scale) / 65535.0
             assert gpu.packed == emission.PACKED_ATTRS_R
             assert np.abs(data[..., 0] - stored).max() <= 1e-7
+            # The blackbody grid's emission is combined with its tint at the first bind (combine).
+            assert gpu.combined and gpu.grids_read() == 4
+            gpu.combine(m)
+            data = np.frombuffer(gpu.attrs.read(), np.float32).reshape(nz, ny, nx, 4)
             padded = np.pad(prepared.scalars, ((1, 1), (1, 1), (1, 1), (0, 0))).transpose(2, 1, 0, 3)
-            assert np.array_equal(data[..., 1:], padded[..., 1:])
+            want = padded[..., 1:] * np.asarray(m.blackbody_tint, np.float32)
+            assert float(want.max()) > 0.1
+            assert np.abs(data[..., 1:] - want).max() <= 1e-6 * float(want.max())
+            assert np.abs(data[..., 0] - stored).max() <= 1e-7
             assert float(stored.max()) == 1.0
         finally:
             gpu.release()
@@ -145,12 +152,13 @@ def test_the_packed_values_are_the_density_texture_and_the_attributes():
         r.release()
 
 
-@pytest.mark.parametrize("grids", [1, 2, 3, 4])
-def test_the_emission_compiled_for_its_grids_matches_the_reference(fresh, monkeypatch, grids):
+@pytest.mark.parametrize("case", ["strength", "blackbody apart", "both apart", "both", "blackbody"])
+def test_the_emission_compiled_for_its_grids_matches_the_reference(fresh, monkeypatch, case):
     """The emission compiled for the grids its texture holds (EMISSION_GRIDS: 1 strength, 2
-    blackbody, 3 both apart, 4 both combined per voxel), with constant parts beside a grid (a
-    strength offset, a blackbody term without grid) summed into one uniform, against the numpy
-    reference."""
+    blackbody, 3 both apart, 4 a blackbody grid's emission combined per voxel, with the strength
+    grid's or alone), with constant parts beside a grid (a strength offset, a blackbody term
+    without grid) summed into one uniform, against the numpy reference."""
+    grids = {"strength": 1, "blackbody apart": 2, "both apart": 3}.get(case, 4)
     from tfm_addon.engine import metrics
     from tfm_addon.engine.reference import render_reference
 
@@ -160,8 +168,10 @@ def test_the_emission_compiled_for_its_grids_matches_the_reference(fresh, monkey
         m = dataclasses.replace(m, emission_strength=GridValue("flame", 4.0, 0.05),
                                 temperature=GridValue(offset=1800.0),
                                 blackbody_intensity=GridValue(offset=0.3))
-    elif grids == 2:    # the blackbody grid, a constant strength
-        m = dataclasses.replace(m, emission_strength=GridValue(offset=0.1))
+    elif case.startswith("blackbody"):    # the blackbody grid, a constant strength
+        m = dataclasses.replace(m, emission_strength=GridValue(offset=0.1), blackbody_tint=(1.0, 0.8, 0.6))
+        if grids == 2:
+            monkeypatch.setattr(emission, "COMBINE_EMISSION", False)
     elif grids == 3:    # both grids kept apart (the path before they were combined)
         monkeypatch.setattr(emission, "COMBINE_EMISSION", False)
     else:               # both grids combined, the strength with an offset
@@ -172,21 +182,28 @@ def test_the_emission_compiled_for_its_grids_matches_the_reference(fresh, monkey
     assert compiled == {grids}
     ref = render_reference(scene, view_steps=96, light_steps=96).combined[..., :3]
     ratio = out.sum(axis=(0, 1)) / ref.sum(axis=(0, 1))
-    print(f"EMISSION_GRIDS {grids}: SSIM {metrics.ssim(out, ref):.5f}, brightness {np.round(ratio, 4)}")
+    print(f"{case}, EMISSION_GRIDS {grids}: SSIM {metrics.ssim(out, ref):.5f}, "
+          f"brightness {np.round(ratio, 4)}")
     assert ref.max() > 0.05
     assert np.all(np.abs(ratio - 1.0) <= 0.01), ratio
     assert metrics.ssim(out, ref) >= 0.99
 
 
-def test_both_grids_combined_per_voxel_give_the_two_grid_frame(fresh, monkeypatch):
-    """The fire whose emission reads a strength and a blackbody grid: its emission combined per voxel
-    (one fetch a sample, beside the density) gives the frame of the two grids kept apart and
-    combined per sample (COMBINE_EMISSION and PACK_DENSITY off: two fetches), before and after
-    colour, strength and tint edits. The edits upload no grid and build no map; each recomputes the
-    combination once (``combines``), and a frame with nothing edited recomputes nothing."""
-    scene = scenes.fire_scene(64, 36, 24, kind="FIRE", with_light=True, with_occluder=True)
-    edits = [dict(emission_color=(0.2, 0.9, 0.3)), dict(emission_strength=GridValue("flame", 9.0, 0.0)),
-             dict(emission_strength=GridValue("flame", 4.0, 0.2)), dict(blackbody_tint=(0.5, 0.7, 1.0))]
+@pytest.mark.parametrize("kind", ["FIRE", "QUICK_FIRE"])
+def test_grids_combined_per_voxel_give_the_frame_of_the_grids_apart(fresh, monkeypatch, kind):
+    """The fire whose emission reads a strength and a blackbody grid (FIRE), or a blackbody grid
+    alone (QUICK_FIRE, Blender's Quick Smoke fire): its emission combined per voxel (one fetch a
+    sample, beside the density) gives the frame of the grids kept apart and combined per sample
+    (COMBINE_EMISSION and PACK_DENSITY off), before and after colour, strength and tint edits.
+    The edits upload no grid and build no map; each recomputes the combination once
+    (``combines``), and a frame with nothing edited recomputes nothing."""
+    scene = scenes.fire_scene(64, 36, 24, kind=kind, with_light=True, with_occluder=True)
+    if kind == "FIRE":
+        edits = [dict(emission_color=(0.2, 0.9, 0.3)), dict(emission_strength=GridValue("flame", 9.0, 0.0)),
+                 dict(emission_strength=GridValue("flame", 4.0, 0.2)), dict(blackbody_tint=(0.5, 0.7, 1.0))]
+    else:       # a constant strength: its part stays a uniform, the tint is combined
+        edits = [dict(blackbody_tint=(0.5, 0.7, 1.0)), dict(emission_strength=GridValue(offset=0.2)),
+                 dict(emission_color=(0.2, 0.9, 0.3)), dict(blackbody_tint=(1.0, 0.4, 0.2))]
     apart = Renderer(gl=fresh.gl)
     monkeypatch.setattr(emission, "COMBINE_EMISSION", False)
     monkeypatch.setattr(emission, "PACK_DENSITY", False)
@@ -197,7 +214,7 @@ def test_both_grids_combined_per_voxel_give_the_two_grid_frame(fresh, monkeypatc
             edited = dataclasses.replace(edited, medium=dataclasses.replace(edited.medium, **change))
             expected.append(apart.render(edited, SETTINGS).combined[..., :3])
         (kept,) = apart._attributes.items.values()
-        assert not kept.combined and kept.packed == 0 and kept.grids_read() == 3
+        assert not kept.combined and kept.packed == 0 and kept.grids_read() == (3 if kind == "FIRE" else 2)
     finally:
         apart.clear_maps()
     monkeypatch.undo()

@@ -2,10 +2,11 @@
 
 The textures hold the attribute grids as read (no emission constant is baked in), so changing an
 emission colour, strength or tint changes uniforms only, with one exception: a medium whose
-emission reads both a strength and a blackbody grid would need five values a sample besides its
-density, so its texture holds the emission those grids give, combined per voxel
-(``combined``: colour x strength + tint x blackbody, less the part that reads no grid), and an
-edit of its colour, strength or tint recomputes that combination over the voxels that can emit
+emission reads a blackbody grid (and maybe a strength grid, which would need five values a sample
+besides its density) has its texture hold the emission those grids give, combined per voxel
+(``combined``: colour x strength + tint x blackbody, less the part that reads no grid; the view
+march adds it with no arithmetic of its own), and an edit of its colour, strength or tint
+recomputes that combination over the voxels that can emit
 (a CPU pass over the emission's box, counted in ``combines``; no grid is prepared again and no
 map is built). With the attributes comes an occupancy grid of the emitting medium (R: the
 density's, G: where its grids can emit), through which its march skips the cells where it
@@ -14,10 +15,10 @@ neither absorbs nor glows.
 Where the emitting medium's density and the values a sample reads besides it fit in four channels
 on the density's lattice, the density is packed into the same texture (``packing``), so that its
 view march makes one texture fetch per sample instead of two: into the attributes' free channel
-(a blackbody grid alone: density, blackbody RGB; a strength grid alone: strength, density), or
-into the colour grid's fourth channel, and beside the combined emission of a strength and a
-blackbody grid (density, emission RGB). The packed density is the density texture's own values
-(read back from it), so both paths march the same density.
+(a strength grid alone: strength, density), into the colour grid's fourth channel, or beside the
+combined emission of a blackbody grid, with or without a strength grid (density, emission RGB).
+The packed density is the density texture's own values (read back from it), so both paths march
+the same density.
 
 Combining per voxel is what Cycles converges to: it looks a volume's attributes up stochastically
 (one voxel drawn with the trilinear weights) and evaluates the shader on that voxel's values, so a
@@ -48,8 +49,9 @@ PACK_DENSITY = True
 """Pack the emitting medium's density beside its attributes where they fit (tests and the
 benchmark turn it off to compare with the two-fetch march)."""
 COMBINE_EMISSION = True
-"""Combine a strength and a blackbody grid's emission per voxel (off: the two grids apart and the
-density in its own texture, two fetches a sample: what tests and the benchmark compare with)."""
+"""Combine a blackbody grid's emission (and a strength grid's, where there is one) per voxel (off:
+the grids apart and the tint applied per sample; with both grids the density then comes in its own
+texture, two fetches a sample: what tests and the benchmark compare with)."""
 PACKED_ATTRS_R, PACKED_ATTRS_G, PACKED_COLOR_A = 1, 2, 3
 """The march's PACKED_DENSITY define: where it reads the first medium's density (0: u_density)."""
 
@@ -83,8 +85,9 @@ class AttributesGPU:
         self.warnings = list(prepared.warnings) if prepared is not None else []
         scalars = prepared.scalars if prepared is not None else None
         self.reads_grid = scalars is not None
-        # Both grids: the texture holds (density or 0, emission RGB) combined per voxel (combine).
-        self.combined = COMBINE_EMISSION and self.strength_grid and self.blackbody_grid
+        # A blackbody grid: the texture holds (density or 0, emission RGB) combined per voxel
+        # (combine), with the strength grid's part where there is one.
+        self.combined = COMBINE_EMISSION and self.blackbody_grid
         self.combines = 0                   # how often the combined emission was computed
         self._combined_for = None           # the uniforms it was computed for
         color = prepared.color if prepared is not None else None
@@ -160,8 +163,8 @@ class AttributesGPU:
         return 3 if constant_emits(medium) else 2
 
     def grids_read(self) -> int:
-        """The march's EMISSION_GRIDS define: bit 0 a strength grid, bit 1 a blackbody grid, 4
-        both, combined per voxel in gba."""
+        """The march's EMISSION_GRIDS define: bit 0 a strength grid, bit 1 a blackbody grid (both
+        kept apart), 4 a blackbody grid's emission, with the strength grid's, combined per voxel in gba."""
         if self.combined:
             return 4
         return int(self.strength_grid) | 2 * int(self.blackbody_grid)

@@ -27,11 +27,16 @@ vec2 emission_interval(vec3 ob, vec3 db) {
 }
 
 // Emitted radiance per metre for the attribute values a (grid channels). EMISSION_GRIDS (bit 0:
-// a strength grid in r, bit 1: the blackbody term in gba, 4: both, combined in gba) is fixed with
+// a strength grid in r, bit 1: the blackbody term in gba, 4: a blackbody grid's emission and a
+// strength grid's where there is one, combined in gba) is fixed with
 // the attribute texture; the parts that read no grid come summed in one uniform
 // (passes/emission.AttributesGPU.bind).
 vec3 emission_of(vec4 a) {
+#if EMISSION == 2
+    vec3 e = vec3(0.0);     // no part that reads no grid (AttributesGPU.program_kind)
+#else
     vec3 e = u_emission_const;
+#endif
 #if EMISSION_GRIDS & 4
     e += a.gba;             // both grids' emission, combined per voxel (AttributesGPU.combine)
 #endif

@@ -156,6 +156,7 @@ void main() {
         vec3 db = (u_world_to_box * vec4(d, 0.0)).xyz;
 #if EMISSION
         vec2 emit = emission_interval(ob, db);
+        vec3 glow = vec3(0.0);      // the emission's sum over samples, each times its transmittance
 #endif
         float t_stop = seg.y;       // past it this pass adds nothing
 #if HAS_LIGHT
@@ -201,11 +202,12 @@ void main() {
             }
 #if EMISSION
             vec3 tv_e = EXP_RGB(-(tau + 0.5 * st * dt));     // for this sample and those it skips
-            if (t >= emit.x && t <= emit.y)
-#if PACKED_DENSITY == 1 || PACKED_DENSITY == 2
-                scatter += tv_e * emission_of(pk) * dt;
+#if (PACKED_DENSITY == 1 || PACKED_DENSITY == 2) && EMISSION == 2
+            glow += tv_e * emission_of(pk);     // 0 outside the emitting voxels' box: no constant part
+#elif PACKED_DENSITY == 1 || PACKED_DENSITY == 2
+            if (t >= emit.x && t <= emit.y) glow += tv_e * emission_of(pk);
 #else
-                scatter += tv_e * emission_at_index(ob + db * t) * dt;
+            if (t >= emit.x && t <= emit.y) glow += tv_e * emission_at_index(ob + db * t);
 #endif
 #endif
 #if N_MEDIA == 1
@@ -214,8 +216,8 @@ void main() {
 #if EMISSION && EMISSION != 2
                 // The samples skipped (no density, no emitting voxel near) glow with the constant
                 // part of the emission alone, under this sample's transmittance (st is 0).
-                scatter += float(samples_within(emit, i + 1, min(next, u_view_steps), seg.x, dt, step_at))
-                    * tv_e * emission_constant() * dt;
+                glow += float(samples_within(emit, i + 1, min(next, u_view_steps), seg.x, dt, step_at))
+                    * tv_e * emission_constant();
 #endif
                 i = next - 1;
             }
@@ -260,6 +262,9 @@ void main() {
             }
         }
         transmittance = EXP_RGB(-tau);
+#if EMISSION
+        scatter += glow * dt;
+#endif
 #else
         // Homogeneous: analytic transmittance and ambient term.
         float len = seg.y - seg.x;
