@@ -37,8 +37,9 @@ def _instanced(scene: Scene) -> Scene:
 
 
 def _scene(case: str) -> Scene:
-    kind = {"quick fire": "QUICK_FIRE", "strength": "EMISSION", "fire": "FIRE", "colour": "COLOR",
-            "quick fire instanced": "QUICK_FIRE"}.get(case.replace(" + colour grid", ""), "FIRE")
+    kind = {"quick fire": "QUICK_FIRE", "strength": "EMISSION", "strength apart": "EMISSION",
+            "fire": "FIRE", "colour": "COLOR", "quick fire instanced": "QUICK_FIRE"}
+    kind = kind.get(case.replace(" + colour grid", ""), "FIRE")
     scene = scenes.fire_scene(64, 36, 24, kind=kind, with_light=True, with_occluder=True)
     if case.endswith("+ colour grid"):
         scene = _colored(scene)
@@ -59,15 +60,17 @@ def _render(gl, scene: Scene, pack: bool, monkeypatch) -> tuple[np.ndarray, list
         r.clear_maps()
 
 
-# Where each case reads its density: 1 the attributes' R (a blackbody grid alone, as Blender's
-# Quick Smoke fire material, or both grids' emission combined per voxel), 2 their G (a strength
-# grid alone), 3 the colour grid's A.
-CASES = {"quick fire": [1], "strength": [2], "fire": [1], "colour": [3], "fire + colour grid": [3],
-         "quick fire + colour grid": [3], "quick fire instanced": [1]}
+# Where each case reads its density: 1 the attributes' R (beside the emission of a blackbody grid,
+# as Blender's Quick Smoke fire material, of a strength grid, or of both, combined per voxel), 2
+# their G (a strength grid kept apart), 3 the colour grid's A.
+CASES = {"quick fire": [1], "strength": [1], "strength apart": [2], "fire": [1], "colour": [3],
+         "fire + colour grid": [3], "quick fire + colour grid": [3], "quick fire instanced": [1]}
 
 
 @pytest.mark.parametrize("case", list(CASES))
 def test_the_packed_density_gives_the_two_fetch_frame(fresh, monkeypatch, case):
+    if case == "strength apart":        # kept apart from its colour: (strength, density)
+        monkeypatch.setattr(emission, "COMBINE_EMISSION", False)
     scene = _scene(case)
     packed, where = _render(fresh.gl, scene, True, monkeypatch)
     apart, where_apart = _render(fresh.gl, scene, False, monkeypatch)
@@ -107,8 +110,7 @@ def test_emission_edits_of_a_packed_fire_upload_nothing(fresh):
             assert np.abs(out - again).max() <= 1e-6 * max(float(again.max()), 1.0), (kind, change)
             first = out
         (attributes,) = [a for a in fresh._attributes.items.values() if a.packed]
-        packed = emission.PACKED_ATTRS_R if kind == "QUICK_FIRE" else emission.PACKED_ATTRS_G
-        assert attributes.packed == packed
+        assert attributes.packed == emission.PACKED_ATTRS_R and attributes.combined
 
 
 def test_the_packed_values_are_the_density_texture_and_the_attributes():
@@ -152,22 +154,25 @@ def test_the_packed_values_are_the_density_texture_and_the_attributes():
         r.release()
 
 
-@pytest.mark.parametrize("case", ["strength", "blackbody apart", "both apart", "both", "blackbody"])
+@pytest.mark.parametrize("case", ["strength apart", "blackbody apart", "both apart", "both", "blackbody",
+                                  "strength"])
 def test_the_emission_compiled_for_its_grids_matches_the_reference(fresh, monkeypatch, case):
     """The emission compiled for the grids its texture holds (EMISSION_GRIDS: 1 strength, 2
     blackbody, 3 both apart, 4 a blackbody grid's emission combined per voxel, with the strength
     grid's or alone), with constant parts beside a grid (a strength offset, a blackbody term
     without grid) summed into one uniform, against the numpy reference."""
-    grids = {"strength": 1, "blackbody apart": 2, "both apart": 3}.get(case, 4)
+    grids = {"strength apart": 1, "blackbody apart": 2, "both apart": 3}.get(case, 4)
     from tfm_addon.engine import metrics
     from tfm_addon.engine.reference import render_reference
 
     scene = scenes.fire_scene(64, 36, 24, kind="FIRE")
     m = scene.medium
-    if grids == 1:      # the strength grid with an offset, a constant blackbody term (1800 K)
+    if case.startswith("strength"):     # the strength grid with an offset, a constant blackbody (1800 K)
         m = dataclasses.replace(m, emission_strength=GridValue("flame", 4.0, 0.05),
                                 temperature=GridValue(offset=1800.0),
                                 blackbody_intensity=GridValue(offset=0.3))
+        if grids == 1:
+            monkeypatch.setattr(emission, "COMBINE_EMISSION", False)
     elif case.startswith("blackbody"):    # the blackbody grid, a constant strength
         m = dataclasses.replace(m, emission_strength=GridValue(offset=0.1), blackbody_tint=(1.0, 0.8, 0.6))
         if grids == 2:
@@ -189,18 +194,21 @@ def test_the_emission_compiled_for_its_grids_matches_the_reference(fresh, monkey
     assert metrics.ssim(out, ref) >= 0.99
 
 
-@pytest.mark.parametrize("kind", ["FIRE", "QUICK_FIRE"])
+@pytest.mark.parametrize("kind", ["FIRE", "QUICK_FIRE", "EMISSION"])
 def test_grids_combined_per_voxel_give_the_frame_of_the_grids_apart(fresh, monkeypatch, kind):
     """The fire whose emission reads a strength and a blackbody grid (FIRE), or a blackbody grid
-    alone (QUICK_FIRE, Blender's Quick Smoke fire): its emission combined per voxel (one fetch a
-    sample, beside the density) gives the frame of the grids kept apart and combined per sample
-    (COMBINE_EMISSION and PACK_DENSITY off), before and after colour, strength and tint edits.
+    alone (QUICK_FIRE, Blender's Quick Smoke fire), or a strength grid alone (EMISSION): its
+    emission combined per voxel (one fetch a sample, beside the density) gives the frame of the
+    grids kept apart and combined per sample (COMBINE_EMISSION and PACK_DENSITY off), before
+    and after colour, strength and tint edits.
     The edits upload no grid and build no map; each recomputes the combination once
     (``combines``), and a frame with nothing edited recomputes nothing."""
     scene = scenes.fire_scene(64, 36, 24, kind=kind, with_light=True, with_occluder=True)
-    if kind == "FIRE":
+    if kind != "QUICK_FIRE":
         edits = [dict(emission_color=(0.2, 0.9, 0.3)), dict(emission_strength=GridValue("flame", 9.0, 0.0)),
-                 dict(emission_strength=GridValue("flame", 4.0, 0.2)), dict(blackbody_tint=(0.5, 0.7, 1.0))]
+                 dict(emission_strength=GridValue("flame", 4.0, 0.2)),
+                 dict(blackbody_tint=(0.5, 0.7, 1.0)) if kind == "FIRE"
+                 else dict(emission_strength=GridValue("flame", 6.0, 0.1))]
     else:       # a constant strength: its part stays a uniform, the tint is combined
         edits = [dict(blackbody_tint=(0.5, 0.7, 1.0)), dict(emission_strength=GridValue(offset=0.2)),
                  dict(emission_color=(0.2, 0.9, 0.3)), dict(blackbody_tint=(1.0, 0.4, 0.2))]
@@ -214,7 +222,8 @@ def test_grids_combined_per_voxel_give_the_frame_of_the_grids_apart(fresh, monke
             edited = dataclasses.replace(edited, medium=dataclasses.replace(edited.medium, **change))
             expected.append(apart.render(edited, SETTINGS).combined[..., :3])
         (kept,) = apart._attributes.items.values()
-        assert not kept.combined and kept.packed == 0 and kept.grids_read() == (3 if kind == "FIRE" else 2)
+        assert not kept.combined and kept.packed == 0
+        assert kept.grids_read() == {"FIRE": 3, "QUICK_FIRE": 2, "EMISSION": 1}[kind]
     finally:
         apart.clear_maps()
     monkeypatch.undo()

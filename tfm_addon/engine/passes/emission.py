@@ -2,7 +2,7 @@
 
 The textures hold the attribute grids as read (no emission constant is baked in), so changing an
 emission colour, strength or tint changes uniforms only, with one exception: a medium whose
-emission reads a blackbody grid (and maybe a strength grid, which would need five values a sample
+emission reads a blackbody grid, a strength grid or both (which would need five values a sample
 besides its density) has its texture hold the emission those grids give, combined per voxel
 (``combined``: colour x strength + tint x blackbody, less the part that reads no grid; the view
 march adds it with no arithmetic of its own), and an edit of its colour, strength or tint
@@ -15,8 +15,10 @@ neither absorbs nor glows.
 Where the emitting medium's density and the values a sample reads besides it fit in four channels
 on the density's lattice, the density is packed into the same texture (``packing``), so that its
 view march makes one texture fetch per sample instead of two: into the attributes' free channel
-(a strength grid alone: strength, density), into the colour grid's fourth channel, or beside the
-combined emission of a blackbody grid, with or without a strength grid (density, emission RGB).
+beside the combined emission of a blackbody grid, a strength grid or both (density, emission RGB),
+or into the colour grid's fourth channel; with the combination off (COMBINE_EMISSION) into the
+attributes' free channel (a blackbody grid alone: density, blackbody RGB; a strength grid alone:
+strength, density).
 The packed density is the density texture's own values (read back from it), so both paths march
 the same density.
 
@@ -49,8 +51,8 @@ PACK_DENSITY = True
 """Pack the emitting medium's density beside its attributes where they fit (tests and the
 benchmark turn it off to compare with the two-fetch march)."""
 COMBINE_EMISSION = True
-"""Combine a blackbody grid's emission (and a strength grid's, where there is one) per voxel (off:
-the grids apart and the tint applied per sample; with both grids the density then comes in its own
+"""Combine the emission of a blackbody grid, a strength grid or both per voxel (off: the grids apart,
+colour, strength and tint applied per sample; with both grids the density then comes in its own
 texture, two fetches a sample: what tests and the benchmark compare with)."""
 PACKED_ATTRS_R, PACKED_ATTRS_G, PACKED_COLOR_A = 1, 2, 3
 """The march's PACKED_DENSITY define: where it reads the first medium's density (0: u_density)."""
@@ -85,9 +87,8 @@ class AttributesGPU:
         self.warnings = list(prepared.warnings) if prepared is not None else []
         scalars = prepared.scalars if prepared is not None else None
         self.reads_grid = scalars is not None
-        # A blackbody grid: the texture holds (density or 0, emission RGB) combined per voxel
-        # (combine), with the strength grid's part where there is one.
-        self.combined = COMBINE_EMISSION and self.blackbody_grid
+        # Grids: the texture holds (density or 0, emission RGB) combined per voxel (combine).
+        self.combined = COMBINE_EMISSION and (self.blackbody_grid or self.strength_grid)
         self.combines = 0                   # how often the combined emission was computed
         self._combined_for = None           # the uniforms it was computed for
         color = prepared.color if prepared is not None else None
@@ -101,7 +102,7 @@ class AttributesGPU:
                 self.packed = PACKED_COLOR_A
             elif (scalars is not None and (self.strength_grid != self.blackbody_grid or self.combined)
                   and tuple(int(n) + 2 for n in scalars.shape[:3]) == lattice):
-                strength_alone = self.strength_grid and not self.blackbody_grid
+                strength_alone = self.strength_grid and not self.blackbody_grid and not self.combined
                 self.packed = PACKED_ATTRS_G if strength_alone else PACKED_ATTRS_R
         stored = stored_density(density) if self.packed else None
         if scalars is None:
@@ -190,8 +191,9 @@ class AttributesGPU:
         data[..., STRENGTH:] = 0.0
 
     def combine(self, medium: Medium) -> None:
-        """Make the texture's gba ``medium``'s combined emission, per voxel (where both grids are
-        read): colour x (max(scale x strength + offset, 0) - max(offset, 0)) + tint x blackbody.
+        """Make the texture's gba ``medium``'s combined emission, per voxel (where it reads a
+        strength or a blackbody grid): colour x (max(scale x strength + offset, 0) - max(offset, 0))
+        + tint x blackbody.
         The part that reads no grid, colour x max(offset, 0), stays a uniform, so that the voxels
         that cannot emit hold 0 whatever the uniforms are and only the emission's box is
         recomputed and written. Nothing is done when the uniforms are those of the last call."""

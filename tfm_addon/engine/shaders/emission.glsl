@@ -3,9 +3,9 @@
 // evaluated per voxel on the CPU (engine/blackbody.py). EMISSION 1: a constant, 2: read from grids,
 // 3: from grids plus a constant part (passes/emission.AttributesGPU.program_kind).
 // PACKED_DENSITY (AttributesGPU.packing): the first medium's density is read from the texture
-// whose values the sample reads anyway, one fetch instead of two: 1 u_attrs' r (beside a blackbody
-// grid, or both grids' combined emission, in gba), 2 u_attrs' g (beside a strength grid in r),
-// 3 u_color_grid's a; 0 u_density.
+// whose values the sample reads anyway, one fetch instead of two: 1 u_attrs' r (beside the grids'
+// combined emission in gba, or a blackbody grid's term kept apart), 2 u_attrs' g (beside a strength
+// grid kept apart in r), 3 u_color_grid's a; 0 u_density.
 #if EMISSION
 uniform sampler3D u_attrs;       // up to four attribute grids (padded like the density), or 1 voxel
 uniform vec3 u_attrs_size;       // padded texture size, voxels
