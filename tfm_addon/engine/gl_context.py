@@ -42,32 +42,42 @@ def create_context():
         + "; ".join(errors) + f"). To fix: {hint}.")
 
 
-_FINISH: list = []
+_GL_FUNCTIONS: dict = {}
+GL_TEXTURE_3D, GL_TEXTURE_BASE_LEVEL, GL_TEXTURE_MAX_LEVEL = 0x806F, 0x813C, 0x813D
+SCRATCH_UNIT = 31   # the texture unit build_level1 binds on (above passes/bindings.UNIT: none reads it)
 
 
-def _gil_free_finish():
-    """The platform's glFinish through ctypes (which releases the GIL around the call), or None.
-    Core OpenGL 1.0 entry points are exported by the system GL library (GLVND's libGL/libOpenGL
-    on Linux, which dispatches to the context current on the thread, EGL's included)."""
-    if not _FINISH:
+def _gl_function(name: str, argtypes: tuple = ()):
+    """The platform's GL entry point ``name`` through ctypes (which releases the GIL around the
+    call) with ``argtypes`` (ctypes types: every argument must be declared, or a pointer would be
+    passed as a C int), or None where the system GL library does not export it. GLVND's libGL/libOpenGL on
+    Linux export every core entry point and dispatch to the context current on the thread, EGL's
+    included; Windows' opengl32 exports OpenGL 1.1 only."""
+    key = (name, tuple(argtypes))
+    if key not in _GL_FUNCTIONS:
         import ctypes
         import ctypes.util
 
         names = {"win32": ["opengl32"], "darwin": ["/System/Library/Frameworks/OpenGL.framework/OpenGL"]}.get(
             sys.platform, ["libGL.so.1", "libOpenGL.so.0", ctypes.util.find_library("GL")])
         fn = None
-        for name in names:
-            if not name:
+        for lib_name in names:
+            if not lib_name:
                 continue
             try:
-                lib = ctypes.WinDLL(name) if sys.platform == "win32" else ctypes.CDLL(name)
-                fn = lib.glFinish
+                lib = ctypes.WinDLL(lib_name) if sys.platform == "win32" else ctypes.CDLL(lib_name)
+                fn = lib[name]          # a new function object: its argtypes are this key's alone
             except (OSError, AttributeError):
                 continue
-            fn.restype, fn.argtypes = None, []
+            fn.restype, fn.argtypes = None, list(argtypes)
             break
-        _FINISH.append(fn)
-    return _FINISH[0]
+        _GL_FUNCTIONS[key] = fn
+    return _GL_FUNCTIONS[key]
+
+
+def _gil_free_finish():
+    """glFinish through ctypes, or None (``_gl_function``)."""
+    return _gl_function("glFinish")
 
 
 def shader_source(name: str) -> str:
@@ -124,6 +134,26 @@ class GLContext:
             self.ctx.finish()
         else:
             gl_finish()  # a ctypes call: the GIL is released while it waits
+
+    def build_level1(self, texture) -> bool:
+        """Give the 3D ``texture`` its level 1 (the GL's means of 2x2x2 texels), with Python's
+        GIL released while the GL makes it (moderngl's build_mipmaps keeps the GIL: 30-50 ms on
+        llvmpipe for a 256^3 grid, during which the host's UI thread could not run). The texture's
+        filters are the caller's to set. True when made through ctypes, False through moderngl
+        (the platform's GL library does not export the entry points)."""
+        import ctypes
+
+        args = (ctypes.c_uint, ctypes.c_uint, ctypes.c_int)
+        parameter = _gl_function("glTexParameteri", args)
+        generate = _gl_function("glGenerateMipmap", args[:1])
+        if parameter is None or generate is None:
+            texture.build_mipmaps(0, 1)
+            return False
+        texture.use(SCRATCH_UNIT)      # bound to GL_TEXTURE_3D on the active unit
+        parameter(GL_TEXTURE_3D, GL_TEXTURE_BASE_LEVEL, 0)
+        parameter(GL_TEXTURE_3D, GL_TEXTURE_MAX_LEVEL, 1)
+        generate(GL_TEXTURE_3D)
+        return True
 
     def draw_fullscreen(self, prog) -> None:
         """Run ``prog`` over the bound framebuffer with one triangle (fullscreen.vert)."""

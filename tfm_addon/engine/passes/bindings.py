@@ -126,7 +126,7 @@ class MediumGPU:
         voxel-scale pattern on a 63^3 grid by 5 %; its light marches read level 0."""
         if self.texture is None or self.has_level1 or any(int(s) % 2 for s in self.grid_size):
             return False
-        self.texture.build_mipmaps(0, 1)
+        self._gl.build_level1(self.texture)       # the GIL released meanwhile
         self.texture.filter = (self._gl.ctx.LINEAR_MIPMAP_NEAREST, self._gl.ctx.LINEAR)
         self.has_level1 = True
         # The level's occupancy from the level 0's cells (their small texture read back).

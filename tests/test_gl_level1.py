@@ -1,0 +1,91 @@
+"""The density's level 1 (the means of 2x2x2 voxels the light marches read) made with Python's
+GIL released (GLContext.build_level1 through ctypes): the same texels as moderngl's
+build_mipmaps, the 2x2x2 means of the grid, and another Python thread keeps running meanwhile."""
+
+import ctypes
+import threading
+import time
+
+import numpy as np
+
+from tfm_addon.engine import gl_context
+from tfm_addon.engine.gl_context import GLContext
+
+_GET_ARGS = (ctypes.c_uint, ctypes.c_int, ctypes.c_uint, ctypes.c_uint, ctypes.c_void_p)
+
+
+def _read_level1(tex, shape) -> np.ndarray:
+    """Level 1 of the R16 3D texture ``tex`` (moderngl reads level 0 only): glGetTexImage."""
+    get = gl_context._gl_function("glGetTexImage", _GET_ARGS)
+    store = gl_context._gl_function("glPixelStorei", (ctypes.c_uint, ctypes.c_int))
+    out = np.zeros(shape, np.uint16)
+    tex.use(gl_context.SCRATCH_UNIT)
+    store(0x0D05, 1)                                    # GL_PACK_ALIGNMENT
+    get(gl_context.GL_TEXTURE_3D, 1, 0x1903, 0x1403, out.ctypes.data)     # GL_RED, GL_UNSIGNED_SHORT
+    return out.astype(np.float64)
+
+
+def _level1(gl: GLContext, data: np.ndarray, through_ctypes: bool) -> tuple[np.ndarray, bool]:
+    n = data.shape[::-1]
+    tex = gl.ctx.texture3d(n, 1, data.tobytes(), dtype="nu2")
+    try:
+        made = gl.build_level1(tex) if through_ctypes else (tex.build_mipmaps(0, 1), False)[1]
+        return _read_level1(tex, tuple(k // 2 for k in data.shape)), made
+    finally:
+        tex.release()
+
+
+def test_level1_is_the_means_of_2x2x2_voxels_and_the_moderngl_one():
+    gl = GLContext()
+    try:
+        if gl_context._gl_function("glGetTexImage", _GET_ARGS) is None:
+            return      # no way to read the level back on this platform's GL library
+        rng = np.random.default_rng(3)
+        data = (rng.random((12, 10, 14)) * 65535).astype(np.uint16)      # z, y, x
+        ours, made = _level1(gl, data, True)
+        theirs, _ = _level1(gl, data, False)
+        means = data.astype(np.float64).reshape(6, 2, 5, 2, 7, 2).mean(axis=(1, 3, 5))
+        assert made == (gl_context._gl_function("glGenerateMipmap", (ctypes.c_uint,)) is not None)
+        assert np.array_equal(ours, theirs)
+        assert np.abs(ours - means).max() <= 1.0        # one 16-bit step of rounding
+        assert np.abs(ours - data[::2, ::2, ::2]).max() > 1000     # not a copy of every other voxel
+    finally:
+        gl.release()
+
+
+def test_another_thread_runs_while_the_level_is_made():
+    """A 256^3 grid's level took 30-50 ms inside moderngl's build_mipmaps on llvmpipe, with the
+    GIL held; through ctypes a thread that wakes every millisecond is not held up for the whole
+    call. Asserted loosely (the gap against the call's own duration), never on wall-clock limits."""
+    gl = GLContext()
+    try:
+        if gl_context._gl_function("glGenerateMipmap", (ctypes.c_uint,)) is None:
+            return      # this platform's GL library has no such export: moderngl's path only
+        data = (np.random.default_rng(4).random((192, 192, 192)) * 65535).astype(np.uint16)
+        tex = gl.ctx.texture3d((192, 192, 192), 1, data.tobytes(), dtype="nu2")
+        gl.finish()
+        gaps, running = [], [True]
+
+        def ticker():
+            last = time.perf_counter()
+            while running[0]:
+                time.sleep(0.001)
+                now = time.perf_counter()
+                gaps.append(now - last)
+                last = now
+        th = threading.Thread(target=ticker)
+        th.start()
+        time.sleep(0.02)
+        t0 = time.perf_counter()
+        assert gl.build_level1(tex)
+        gl.finish()
+        call = time.perf_counter() - t0
+        time.sleep(0.02)
+        running[0] = False
+        th.join()
+        tex.release()
+        print(f"level 1 of 192^3: {1e3 * call:.1f} ms; other thread's longest gap {1e3 * max(gaps):.1f} ms")
+        if call > 0.02:     # only a call long enough to tell
+            assert max(gaps) < 0.75 * call
+    finally:
+        gl.release()
