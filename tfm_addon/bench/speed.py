@@ -3,6 +3,7 @@
     python -m tfm_addon.bench.speed [--scenes demo smoke ...] [--repeats 3] [--reference]
     python tfm_addon/bench/speed.py --demo-only      # also runs on an older checkout (PYTHONPATH)
     python -m tfm_addon.bench.speed --ab --clock cpu  # this round's light-side switches, one process
+    python -m tfm_addon.bench.speed --pixels --clock cpu   # cost against pixels, 160x90 .. 1280x720
 
 Per scene, frames are timed as if the light moved (maps rebuilt each frame, the density texture
 kept), the contenders interleaved, medians of ``--repeats``: 'AUTO', the floor with AUTO's steps
@@ -206,6 +207,32 @@ def run_scene(renderer, name, scene, repeats, reference=None, clock="wall"):
     return row
 
 
+PIXEL_SIZES = ((160, 90), (320, 180), (640, 360), (1280, 720))
+
+
+def run_pixels(renderer, sizes=PIXEL_SIZES, repeats=3, clock="cpu", grid=128) -> list[dict]:
+    """How a frame's cost grows with its pixels (issue 8: linearly): AUTO on the paper smoke at
+    each of ``sizes``, after a camera move (the maps kept) and after a light move (the maps
+    rebuilt: their cost does not depend on the image), all interleaved; per size the ms and the
+    ms per pixel relative to the first size's."""
+    contenders = {}
+    for w, h in sizes:
+        scene = scenes.paper_smoke_scene(w, h, grid)
+        auto = RenderSettings(map_resolution=512, view_steps=100, light_steps=100, quality="AUTO")
+        contenders[(w, h, "camera move")] = contender(renderer, scene, auto, _moved_camera)
+        contenders[(w, h, "light move")] = contender(renderer, scene, auto)
+    times = time_side_by_side(contenders, repeats, CLOCKS[clock])
+    rows = []
+    for kind in ("camera move", "light move"):
+        base = None
+        for w, h in sizes:
+            per_pixel = times[(w, h, kind)] / (w * h)
+            base = per_pixel if base is None else base
+            rows.append({"frame": kind, "size": f"{w}x{h}", "clock": clock,
+                         "ms": {kind: 1000 * times[(w, h, kind)]}, "per pixel / first": per_pixel / base})
+    return rows
+
+
 def reference_image(scene, cache_dir="out/bench/cache"):
     from pathlib import Path
 
@@ -244,8 +271,17 @@ def main(argv=None) -> int:
     p.add_argument("--json", help="write the rows here")
     p.add_argument("--ab", action="store_true",
                    help="the light side's switches A/B'd in one process (AB_CONFIGS), no floor")
+    p.add_argument("--pixels", action="store_true",
+                   help="AUTO on the paper smoke at 160x90 .. 1280x720: cost against pixels")
     args = p.parse_args(argv)
     renderer = Renderer()
+    if args.pixels:
+        rows = run_pixels(renderer, repeats=args.repeats, clock=args.clock)
+        for row in rows:
+            (ms,) = row["ms"].values()
+            print(f"  {row['frame']:12s} {row['size']:>9s} {ms:8.1f} ms  per pixel / 160x90's "
+                  f"{row['per pixel / first']:5.2f}", file=sys.stderr)
+        return _finish(renderer, rows, args.json)
     if args.ab:
         rows = []
         for name, scene in bench_scenes(args.scenes).items():
