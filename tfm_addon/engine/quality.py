@@ -7,14 +7,14 @@ The rule and the sweeps it comes from are written down in ``docs/benchmark.md``:
   the probe's largest density integral below: no GPU pass, no read-back); the coefficient count
   from the largest optical depth tau along the lights' rays (``AUTO_COEFFICIENTS``: 2
   coefficients, beside the K range in one texture, where tau <= 2, 6 in two textures where
-  tau <= 8, 10 in three where tau <= 16; a smooth density reads the table at
-  ``SMOOTH_DEPTH_SCALE`` tau); view and light steps from the number of voxels the
-  longest view / light ray crosses through the non-zero density, times the steps per voxel the
-  density's sharpness asks for (``sharpness``: one step per "feature", the distance over which
-  the density changes by its maximum, clamped to ``STEPS_PER_VOXEL`` for the view,
-  ``LIGHT_STEPS_PER_VOXEL`` for the TFM build, whose cosines smooth the light ray anyway, and
-  for a smooth density at most ``SMOOTH_LIGHT_STEPS_PER_COEFFICIENT`` per coefficient),
-  clamped to ``MIN_STEPS``..``MAX_STEPS``;
+  tau <= 8, 10 in three where tau <= 16; a smooth density reads ``AUTO_COEFFICIENTS_SMOOTH``:
+  2 where tau <= 5, 6 where tau <= 40, 10 where tau <= 80); view and light steps from the
+  number of voxels the longest view / light ray crosses through the non-zero density, times
+  the steps per voxel the density's sharpness asks for (``sharpness``: one step per "feature",
+  the distance over which the density changes by its maximum, clamped to ``STEPS_PER_VOXEL``
+  for the view, ``LIGHT_STEPS_PER_VOXEL`` for the TFM build, whose cosines smooth the light ray
+  anyway, and for a smooth density at most ``SMOOTH_LIGHT_STEPS_PER_COEFFICIENT`` per
+  coefficient), clamped to ``MIN_STEPS``..``MAX_STEPS``;
 - homogeneous medium: no TFM (analytic transmittance), projective-space sampling,
   ``HOMOGENEOUS_VIEW_STEPS`` view steps;
 - the TFM filter: 'LINEAR' (as accurate as 'EXACT' on every benchmark scene, SSIM within 1e-4,
@@ -45,8 +45,12 @@ from .scene import RenderSettings, Scene
 # The counts are those that fill the textures a lookup fetches (passes/tfm.coefficient_textures:
 # 2 in one texture, 6 in two, 10 in three), so each row reads the most for its fetches.
 AUTO_COEFFICIENTS: tuple[tuple[float, int], ...] = ((2.0, 2), (8.0, 6), (16.0, 10), (math.inf, 16))
+# The same for a smooth density (sharpness < SHARP_FOOTPRINT), whose transmittance has no steps for
+# the cosines to ring on: measured on the smoke with sigma scaled (docs/benchmark.md, session 6),
+# 2 coefficients keep SSIM >= 0.995 to tau ~ 5 (0.9965 at 4, 0.9950 at 6, 0.9933 at 8), 6 to
+# beyond 40 (0.9975 at 40).
+AUTO_COEFFICIENTS_SMOOTH: tuple[tuple[float, int], ...] = ((5.0, 2), (40.0, 6), (80.0, 10), (math.inf, 16))
 SHARP_FOOTPRINT = 0.5               # sharpness from which the TFM keeps one texel per voxel
-SMOOTH_DEPTH_SCALE = 0.25           # a smooth density's optical depth, as the coefficient table reads it
 STEPS_PER_VOXEL = (0.1, 0.5)        # the range the sharpness may ask for
 MIN_STEPS = 32
 LIGHT_STEPS_PER_VOXEL = (0.1, 0.2)  # the TFM build: its cosines smooth the transmittance along the ray
@@ -426,15 +430,14 @@ def _jumps(d: np.ndarray) -> np.ndarray:
 
 
 def auto_coefficients(optical_depth: float, sharpness: float = 1.0) -> int:
-    """The coefficient count for the largest optical depth along the lights' rays; a smooth
-    density (sharpness < SHARP_FOOTPRINT) reads the table at SMOOTH_DEPTH_SCALE times its depth:
-    its transmittance has no steps for the cosines to ring on (docs/benchmark.md)."""
-    if sharpness < SHARP_FOOTPRINT:
-        optical_depth *= SMOOTH_DEPTH_SCALE
-    for depth, n in AUTO_COEFFICIENTS:
+    """The coefficient count for the largest optical depth along the lights' rays: the first row of
+    AUTO_COEFFICIENTS (a smooth density, sharpness < SHARP_FOOTPRINT: AUTO_COEFFICIENTS_SMOOTH)
+    whose depth is at least it (docs/benchmark.md)."""
+    table = AUTO_COEFFICIENTS_SMOOTH if sharpness < SHARP_FOOTPRINT else AUTO_COEFFICIENTS
+    for depth, n in table:
         if optical_depth <= depth:
             return n
-    return AUTO_COEFFICIENTS[-1][1]
+    return table[-1][1]
 
 
 def auto_steps(voxels: float, sharpness: float, per_voxel_range: tuple[float, float] = STEPS_PER_VOXEL,
