@@ -181,7 +181,7 @@ def test_auto_rule_follows_optical_depth_sharpness_and_medium_kind():
     assert medium_stats(dense).optical_depth == pytest.approx(30 * medium_stats(thin).optical_depth, rel=1e-6)
     base = RenderSettings(map_resolution=64, quality="AUTO")
     a_thin, a_dense = auto_settings(thin, base), auto_settings(dense, base)
-    assert (a_thin.coefficients, a_dense.coefficients) == (2, 10)    # tau 1.4 and 42, smooth (0.40)
+    assert (a_thin.coefficients, a_dense.coefficients) == (2, 16)    # tau 1.4, 42; smooth (g 0.40): 0.6, 17
     assert a_thin.density_weight is None and a_dense.density_weight is None
     assert a_thin.map_resolution == 64 and a_thin == auto_settings(thin, base)      # pure, repeatable
 

@@ -7,9 +7,10 @@ The rule and the sweeps it comes from are written down in ``docs/benchmark.md``:
   the probe's largest density integral below: no GPU pass, no read-back); the coefficient count
   from the largest optical depth tau along the lights' rays (``AUTO_COEFFICIENTS``: 2
   coefficients, beside the K range in one texture, where tau <= 2, 6 in two textures where
-  tau <= 8, 10 in three where tau <= 16; a smooth density reads ``AUTO_COEFFICIENTS_SMOOTH``:
-  2 where tau <= 5, 6 where tau <= 40, 10 where tau <= 80); view and light steps from the
-  number of voxels the longest view / light ray crosses through the non-zero density, times
+  tau <= 8, 10 in three where tau <= 16; a smooth density of sharpness g reads
+  ``AUTO_COEFFICIENTS_SMOOTH`` at tau x g: 2 where it is <= 0.625, 6 to 5, 10 to 10); view and
+  light steps from the number of voxels the longest view / light ray crosses through the
+  non-zero density, times
   the steps per voxel the density's sharpness asks for (``sharpness``: one step per "feature",
   the distance over which the density changes by its maximum, clamped to ``STEPS_PER_VOXEL``
   for the view, ``LIGHT_STEPS_PER_VOXEL`` for the TFM build, whose cosines smooth the light ray
@@ -46,11 +47,14 @@ from .scene import RenderSettings, Scene
 # The counts are those that fill the textures a lookup fetches (passes/tfm.coefficient_textures:
 # 2 in one texture, 6 in two, 10 in three), so each row reads the most for its fetches.
 AUTO_COEFFICIENTS: tuple[tuple[float, int], ...] = ((2.0, 2), (8.0, 6), (16.0, 10), (math.inf, 16))
-# The same for a smooth density (sharpness < SHARP_FOOTPRINT), whose transmittance has no steps for
-# the cosines to ring on: measured on the smoke with sigma scaled (docs/benchmark.md, session 6),
-# 2 coefficients keep SSIM >= 0.995 to tau ~ 5 (0.9965 at 4, 0.9950 at 6, 0.9933 at 8), 6 to
-# beyond 40 (0.9975 at 40).
-AUTO_COEFFICIENTS_SMOOTH: tuple[tuple[float, int], ...] = ((5.0, 2), (40.0, 6), (80.0, 10), (math.inf, 16))
+# The same for a smooth density (sharpness g < SHARP_FOOTPRINT), whose transmittance has no steps
+# for the cosines to ring on, read at tau x max(g, SMOOTH_SHARPNESS_FLOOR): the depth per "feature"
+# of the density. Measured with sigma scaled (docs/benchmark.md, session 6), SSIM >= 0.995 against
+# the numpy ground truth: 2 coefficients on the smoke (g 0.125) to tau ~ 5 (0.9950 at 6, 0.9933
+# at 8); 6 on the dense smoke to 40 (0.9975), on the cloud (g 0.185) to ~28 (0.9958 at 24,
+# 0.9949 at 30).
+AUTO_COEFFICIENTS_SMOOTH: tuple[tuple[float, int], ...] = ((0.625, 2), (5.0, 6), (10.0, 10), (math.inf, 16))
+SMOOTH_SHARPNESS_FLOOR = 0.1
 SHARP_FOOTPRINT = 0.5               # sharpness from which the TFM keeps one texel per voxel
 THICK_SHARP_DEPTH = 8.0             # a sharp density deeper than this gets up to twice the steps
 STEPS_PER_VOXEL = (0.1, 0.5)        # the range the sharpness may ask for
@@ -433,9 +437,13 @@ def _jumps(d: np.ndarray) -> np.ndarray:
 
 def auto_coefficients(optical_depth: float, sharpness: float = 1.0) -> int:
     """The coefficient count for the largest optical depth along the lights' rays: the first row of
-    AUTO_COEFFICIENTS (a smooth density, sharpness < SHARP_FOOTPRINT: AUTO_COEFFICIENTS_SMOOTH)
-    whose depth is at least it (docs/benchmark.md)."""
-    table = AUTO_COEFFICIENTS_SMOOTH if sharpness < SHARP_FOOTPRINT else AUTO_COEFFICIENTS
+    AUTO_COEFFICIENTS whose depth is at least it; for a smooth density (sharpness <
+    SHARP_FOOTPRINT) of AUTO_COEFFICIENTS_SMOOTH, read at the depth times the sharpness
+    (docs/benchmark.md)."""
+    table = AUTO_COEFFICIENTS
+    if sharpness < SHARP_FOOTPRINT:
+        table = AUTO_COEFFICIENTS_SMOOTH
+        optical_depth *= max(sharpness, SMOOTH_SHARPNESS_FLOOR)
     for depth, n in table:
         if optical_depth <= depth:
             return n
