@@ -275,3 +275,48 @@ def test_a_blackbody_grid_alone_combined_against_the_reference(fresh, monkeypatc
         assert float(ref.max()) > 0.05, name
         assert np.all(np.abs(ratio - 1.0) <= 0.008) and ssim >= 0.999 and diff <= 0.015, name
         assert rel <= 1e-5, name
+
+
+OFF_AND_ON = {
+    "EMISSION": [dict(emission_strength=GridValue("flame", 0.0, 0.0)), {},
+                 dict(emission_color=(0.0, 0.0, 0.0)), dict(emission_strength=GridValue("flame", 6.0, -0.2)),
+                 dict(emission_strength=GridValue("flame", -2.0, 0.0)), {}],
+    "QUICK_FIRE": [dict(blackbody_tint=(0.0, 0.0, 0.0)), dict(blackbody_tint=(0.5, 0.7, 1.0)),
+                   dict(blackbody_tint=(0.0, 0.0, 0.0), emission_strength=GridValue(offset=0.2)), {}],
+}
+
+
+@pytest.mark.parametrize("colored", [False, True])
+@pytest.mark.parametrize("kind", list(OFF_AND_ON))
+def test_an_emission_turned_off_and_on_again_uploads_nothing(fresh, kind, colored):
+    """A colour, strength scale or tint at 0 (the medium emits nothing: has_emission False) and
+    back, in one renderer (a viewport's edits), with or without a colour grid: no grid or attribute
+    texture is uploaded again and no map is built; each frame is a fresh renderer's (within 1e-6
+    of its peak), the emission gone where it is off and back where it is on."""
+    scene = scenes.fire_scene(48, 27, 24, kind=kind, with_light=True)
+    if colored:
+        m = scene.medium
+        scene = _with(scene, grids={**m.grids, "color": scenes.color_grid_for(m.density)}, color_grid="color")
+    first = fresh.render(scene, SETTINGS).combined[..., :3]
+    dark = fresh.render(_with(scene, emission_color=(0.0, 0.0, 0.0), blackbody_tint=(0.0, 0.0, 0.0)),
+                        SETTINGS).combined[..., :3]
+    assert float(np.abs(first - dark).max()) > 0.1 * float(first.max())
+    for change in OFF_AND_ON[kind]:
+        edited = _with(scene, **change)
+        before = dict(fresh.counters)
+        out = fresh.render(edited, SETTINGS).combined[..., :3]
+        for counter in COUNTERS:
+            assert fresh.counters.get(counter, 0) == before.get(counter, 0), (change, counter)
+        want = _fresh_frame(fresh, edited)
+        diff = float(np.abs(out - want).max())
+        assert diff <= 1e-6 * float(want.max()), change
+        if not edited.medium.has_emission:
+            assert float(np.abs(out - dark).max()) <= 1e-6 * float(dark.max()), change
+
+
+def _fresh_frame(renderer, scene):
+    other = Renderer(gl=renderer.gl)
+    try:
+        return other.render(scene, SETTINGS).combined[..., :3]
+    finally:
+        other.clear_maps()

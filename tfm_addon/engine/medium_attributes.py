@@ -32,8 +32,11 @@ class PreparedAttributes:
 
 
 def uses_blackbody_grid(medium: Medium) -> bool:
-    return medium.has_emission and (medium.blackbody_intensity.grid is not None
-                                    or medium.temperature.grid is not None) and not (
+    return medium.has_emission and _reads_blackbody_grid(medium)
+
+
+def _reads_blackbody_grid(medium: Medium) -> bool:
+    return (medium.blackbody_intensity.grid is not None or medium.temperature.grid is not None) and not (
         medium.blackbody_intensity.grid is None and medium.blackbody_intensity.offset <= 0.0)
 
 
@@ -41,10 +44,13 @@ def uses_strength_grid(medium: Medium) -> bool:
     return medium.has_emission and medium.emission_strength.grid is not None
 
 
-def key(medium: Medium) -> tuple:
-    """What the prepared textures depend on besides the grids' content and lattice."""
-    bb = (medium.blackbody_intensity, medium.temperature) if uses_blackbody_grid(medium) else None
-    strength = medium.emission_strength.grid if uses_strength_grid(medium) else None
+def key(medium: Medium, emitting: bool = False) -> tuple:
+    """What the prepared textures depend on besides the grids' content and lattice; ``emitting``:
+    the key of those the medium has while it emits, whether it emits now or not (a colour, strength
+    or tint at 0 keeps them: Renderer._medium_attributes)."""
+    on = emitting or medium.has_emission
+    bb = (medium.blackbody_intensity, medium.temperature) if on and _reads_blackbody_grid(medium) else None
+    strength = medium.emission_strength.grid if on else None
     return (strength, bb, medium.color_grid)
 
 
