@@ -320,3 +320,93 @@ def _fresh_frame(renderer, scene):
         return other.render(scene, SETTINGS).combined[..., :3]
     finally:
         other.clear_maps()
+
+
+def _boxed_fire(kind):
+    """The fire with its emitting voxels in one block (the emission's box a small part of the grid),
+    negative strength voxels everywhere else, and an instance of its density beside it that emits
+    nothing (rays through it sample the packed texture outside the fire's box)."""
+    scene = scenes.fire_scene(48, 27, 24, kind=kind, with_light=True, with_occluder=True)
+    m = scene.medium
+    rng = np.random.default_rng(3)
+    flame = -(0.2 + 0.8 * rng.random(m.density.shape)).astype(np.float32)
+    flame[8:16, 8:16, 4:14] = 0.3 + 0.7 * rng.random((8, 8, 10))
+    temperature = np.zeros(m.density.shape, np.float32)
+    temperature[8:16, 8:16, 4:14] = 1.5 + 1.5 * rng.random((8, 8, 10))
+    m = dataclasses.replace(m, grids={"flame": flame, "temperature": temperature})
+    placed = m.index_to_world.copy()
+    placed[0, 3] += 1.4
+    dark = dict(emission_strength=GridValue(offset=0.0), blackbody_intensity=GridValue(offset=0.0),
+                temperature=GridValue(offset=1000.0))
+    twin = dataclasses.replace(m, name="Twin", index_to_world=placed, grids={}, **dark)
+    return dataclasses.replace(scene, medium=None, media=(m, twin))
+
+
+SHORTCUT = {
+    "strength": ("EMISSION", dict(emission_strength=GridValue("flame", 4.0, -0.1)), True, 1),
+    "strength apart": ("EMISSION", dict(emission_strength=GridValue("flame", 4.0, -0.1)), False, 2),
+    "blackbody": ("QUICK_FIRE", {}, True, 1),
+    "blackbody apart": ("QUICK_FIRE", {}, False, 1),
+    "both, a negative scale": ("FIRE", dict(emission_strength=GridValue("flame", -4.0, 0.0)), True, 1),
+}
+
+
+@pytest.mark.parametrize("case", list(SHORTCUT))
+def test_emission_2_adds_a_packed_sample_without_the_box_test(fresh, monkeypatch, case):
+    """With no constant part (EMISSION 2) the packed march adds each sample's emission without
+    testing the emission's box: for a strength grid negative outside its emitting block (a negative
+    offset), a blackbody grid in a block, both grids under a negative scale, combined or kept apart
+    (PACKED_DENSITY 1, or 2 for the strength grid apart), beside an instance whose rays sample the
+    texture outside the fire's box, the frame is the one whose march tests the box (the density in
+    its own texture, PACK_DENSITY off) within 1e-5 of the peak."""
+    kind, change, combine, packed = SHORTCUT[case]
+    scene = _boxed_fire(kind)
+    scene = dataclasses.replace(scene, media=(dataclasses.replace(scene.media[0], **change), scene.media[1]))
+    monkeypatch.setattr(emission, "COMBINE_EMISSION", combine)
+    out = fresh.render(scene, SETTINGS).combined[..., :3]
+    compiled = {(dict(k[2]).get("EMISSION"), dict(k[2]).get("PACKED_DENSITY"))
+                for k in fresh.gl._programs if k[1] == "scatter.frag" and dict(k[2]).get("EMISSION")}
+    assert compiled == {(2, packed)}
+    monkeypatch.setattr(emission, "PACK_DENSITY", False)
+    boxed = _fresh_frame(fresh, scene)
+    peak = float(boxed.max())
+    diff = float(np.abs(out - boxed).max())
+    print(f"{case}: {compiled}, peak {peak:.4f}, {diff / peak:.1e} of it from the boxed march")
+    assert peak > 0.05 and diff <= 1e-5 * peak
+
+
+ACROSS = {
+    "EMISSION": [GridValue("flame", 4.0, -0.2), GridValue("flame", 4.0, 0.2), GridValue("flame", 4.0, -0.2),
+                 GridValue("flame", 4.0, 0.0), GridValue("flame", -4.0, 0.5), GridValue("flame", 4.0, 0.3),
+                 GridValue("flame", 4.0, 0.0)],
+    "QUICK_FIRE": [GridValue(offset=0.2), GridValue(offset=0.0), GridValue(offset=0.3),
+                   GridValue(offset=-0.1), GridValue(offset=0.2)],
+}
+
+
+@pytest.mark.parametrize("kind", list(ACROSS))
+def test_a_strength_offset_across_0_in_one_renderer(fresh, monkeypatch, kind):
+    """A lone grid's strength offset edited across 0 and back in one renderer (EMISSION 2 <-> 3,
+    the constant part a uniform added once: by the skipped samples and the others): every frame is a
+    fresh renderer's within 1e-6 of its peak and, where the per-voxel clamp is the blend's (offset
+    and scale not negative), the grid kept apart's within 1e-5; no grid is uploaded, no map built."""
+    scene = scenes.fire_scene(48, 27, 24, kind=kind, with_light=True, with_occluder=True)
+    fresh.render(scene, SETTINGS)
+    for strength in ACROSS[kind]:
+        edited = _with(scene, emission_strength=strength)
+        fresh.gl._programs.clear()
+        before = dict(fresh.counters)
+        out = fresh.render(edited, SETTINGS).combined[..., :3]
+        for counter in COUNTERS:
+            assert fresh.counters.get(counter, 0) == before.get(counter, 0), (strength, counter)
+        compiled = {dict(k[2]).get("EMISSION") for k in fresh.gl._programs if k[1] == "scatter.frag"} - {0}
+        assert compiled == {3 if strength.offset > 0.0 else 2}, strength
+        want = _fresh_frame(fresh, edited)
+        peak = float(want.max())
+        assert float(np.abs(out - want).max()) <= 1e-6 * peak, strength
+        if strength.offset >= 0.0 and strength.scale >= 0.0:
+            apart = _frame(fresh, edited, False, monkeypatch)
+            diff = float(np.abs(out - apart).max())
+            print(f"{kind}, {strength}: EMISSION {compiled}, {diff / peak:.1e} of the peak from the grid "
+                  "apart")
+            assert diff <= 1e-5 * peak, strength
