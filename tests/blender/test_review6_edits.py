@@ -1,0 +1,121 @@
+"""Emission edits of a lone grid's material in Blender's viewport (review 6): a strength grid alone
+and Blender's Quick Smoke fire (a blackbody grid alone), each edit a real depsgraph update of the
+material's nodes, rendered by the viewport session on the add-on's GL worker."""
+
+import importlib
+
+import bpy
+import numpy as np
+import pytest
+from blender_helpers import MODULE, SETTINGS, render_passes
+
+from tfm_addon import scenes
+
+COUNTERS = ("attribute_uploads", "grid_uploads", "shadow_maps", "tfms")
+
+
+def _mod(name):
+    return importlib.import_module(f"{MODULE}.tfm_addon.blender.{name}")
+
+
+def _counters():
+    return dict(_mod("render_worker").get_worker().counters)
+
+
+@pytest.fixture
+def flags_of_next_update():
+    """The change flags the add-on derives from the depsgraph updates of the next view-layer update."""
+    changes = _mod("changes")
+    seen = []
+
+    def handler(scene, depsgraph):
+        seen.append(changes.changes_from_depsgraph(depsgraph))
+
+    bpy.app.handlers.depsgraph_update_post.append(handler)
+
+    def collect():
+        seen.clear()
+        bpy.context.view_layer.update()
+        flags = changes.Change.NONE
+        for f in seen:
+            flags |= f
+        return flags
+
+    yield collect
+    bpy.app.handlers.depsgraph_update_post.remove(handler)
+
+
+def _view_camera(dg, width, height):
+    ob = bpy.context.scene.camera.evaluated_get(dg)
+    view = np.linalg.inv(_mod("camera").without_scale(ob.matrix_world))
+    projection = np.array(ob.calc_matrix_camera(dg, x=width, y=height))
+    return _mod("camera").camera_from_view(view, projection, width, height)
+
+
+def _edits(nodes, kind):
+    """(name, edit of the material's nodes, the emission strength or tint extracted after it)."""
+    pv = next(n for n in nodes if n.bl_idname == 'ShaderNodeVolumePrincipled')
+    color = tuple(pv.inputs["Emission Color"].default_value)
+    if kind == "EMISSION":
+        math = pv.inputs["Emission Strength"].links[0].from_node
+
+        def strength(k, v):
+            return lambda: setattr(math.inputs[k], "default_value", v)
+
+        def colour(c):
+            return lambda: setattr(pv.inputs["Emission Color"], "default_value", c)
+
+        return [("scale 9", strength(1, 9.0), ("flame", 9.0, 0.0)),
+                ("offset 0.2", strength(2, 0.2), ("flame", 9.0, 0.2)),
+                ("offset -0.2", strength(2, -0.2), ("flame", 9.0, -0.2)),
+                ("colour black (no emission)", colour((0.0, 0.0, 0.0, 1.0)), ("flame", 9.0, -0.2)),
+                ("colour back", colour(color), ("flame", 9.0, -0.2))]
+
+    def tint(c):
+        return lambda: setattr(pv.inputs["Blackbody Tint"], "default_value", c)
+
+    def strength(v):
+        return lambda: setattr(pv.inputs["Emission Strength"], "default_value", v)
+
+    return [("tint", tint((0.5, 0.7, 1.0, 1.0)), (None, 1.0, 0.0)),
+            ("strength 0.2", strength(0.2), (None, 1.0, 0.2)),
+            ("tint black, strength 0 (no emission)", lambda: (tint((0.0, 0.0, 0.0, 1.0))(), strength(0.0)()),
+             (None, 1.0, 0.0)),
+            ("tint back", tint((1.0, 0.4, 0.2, 1.0)), (None, 1.0, 0.0))]
+
+
+@pytest.mark.parametrize("kind", ["EMISSION", "QUICK_FIRE"])
+def test_an_emission_edit_in_the_viewport_uploads_nothing(blank, tmp_path, flags_of_next_update, kind):
+    """Strength scale and offset (across 0) edits of a strength grid alone, tint and strength edits
+    of Quick Fire's blackbody grid, and the emission turned off (colour or tint black) and on again:
+    each is a MEDIUM change whose viewport frame shows it and uploads no grid or attribute texture
+    and builds no map; the last frame is Blender's final render of the edited scene."""
+    changes = _mod("changes")
+    made = _mod("scene_builder").build(scenes.fire_scene(48, 27, 24, kind=kind, with_light=True),
+                                       str(tmp_path), settings=SETTINGS)
+    nodes = made["medium"].data.materials[0].node_tree.nodes
+    session = _mod("viewport").ViewportSession()
+    session.update(bpy.context.evaluated_depsgraph_get())
+    camera = _view_camera(bpy.context.evaluated_depsgraph_get(), 48, 27)
+    image = session.render(camera).combined
+    assert session.extraction.medium.has_emission
+    for name, edit, strength in _edits(nodes, kind):
+        edit()
+        flags = flags_of_next_update()
+        assert changes.Change.MEDIUM in flags and changes.Change.CAMERA not in flags, name
+        session.update(bpy.context.evaluated_depsgraph_get(), flags)
+        before = _counters()
+        out = session.render(camera).combined
+        after = _counters()
+        medium = session.extraction.medium
+        v = medium.emission_strength
+        print(f"{kind}, {name}: strength {v}, emits {medium.has_emission}, "
+              f"{float(np.abs(out - image).max()):.3f} from the frame before")
+        assert v.grid == strength[0] and (v.scale, v.offset) == pytest.approx(strength[1:]), name
+        for counter in COUNTERS:
+            assert after.get(counter, 0) == before.get(counter, 0), (name, counter)
+        assert float(np.abs(out - image).max()) > 1e-3, name      # the edit shows
+        image = out
+    final = render_passes(tmp_path)["Combined"]
+    assert float(np.abs(image - final).max()) <= 1e-4
+    session.close()
