@@ -410,3 +410,54 @@ def test_a_strength_offset_across_0_in_one_renderer(fresh, monkeypatch, kind):
             print(f"{kind}, {strength}: EMISSION {compiled}, {diff / peak:.1e} of the peak from the grid "
                   "apart")
             assert diff <= 1e-5 * peak, strength
+
+
+def test_the_progressive_viewport_through_a_lone_grid_s_emission_edits():
+    """The progressive viewport on the GL worker (engine/worker.py) through a strength grid's edits
+    (scale, an offset across 0, the colour black and back): each converged image is the final
+    render of its edit at that sample count (within 1e-4), each edit shows, and the edits upload
+    no grid or attribute texture and build no map."""
+    from tfm_addon.engine.progressive import ProgressiveView
+    from tfm_addon.engine.sampling import render_samples
+    from tfm_addon.engine.worker import RenderWorker
+
+    settings = RenderSettings(view_steps=48, light_steps=32, map_resolution=64, coefficients=4)
+    scene = scenes.fire_scene(48, 27, 24, kind="EMISSION", with_light=True)
+    edits = [scene, _with(scene, emission_strength=GridValue("flame", 9.0, 0.0)),
+             _with(scene, emission_strength=GridValue("flame", 9.0, 0.2)),
+             _with(scene, emission_strength=GridValue("flame", 9.0, -0.2)),
+             _with(scene, emission_strength=GridValue("flame", 9.0, -0.2), emission_color=(0.0, 0.0, 0.0)),
+             _with(scene, emission_strength=GridValue("flame", 9.0, -0.2))]
+    worker = RenderWorker()
+    try:
+        view = ProgressiveView(worker)
+        converged = []
+        for k, edited in enumerate(edits):
+            if k == 1:
+                before = worker.counters
+            view.request(k + 1, edited, settings, 3)
+            for _ in range(6000):
+                frame = view.frame()
+                if frame is not None and frame.generation == k + 1 and view.state == "idle":
+                    break
+                threading_wait(0.01)
+            else:
+                raise AssertionError(f"not converged: {view.state}, {view.counters}")
+            final = worker.call(lambda r, s=edited: render_samples(r, s, settings, 3, passes=False))
+            diff = float(np.abs(frame.image - final.combined).max())
+            print(f"edit {k}: {diff:.2e} from its final render")
+            assert diff <= 1e-4 * max(float(final.combined.max()), 1.0)
+            converged.append(frame.image)
+        after = worker.counters
+        for counter in COUNTERS:
+            assert after.get(counter, 0) == before.get(counter, 0), counter
+        for x, y in zip(converged, converged[1:], strict=False):
+            assert float(np.abs(x - y).max()) > 1e-3          # each edit shows
+    finally:
+        assert worker.close(10)
+
+
+def threading_wait(seconds):
+    import threading
+
+    threading.Event().wait(seconds)
