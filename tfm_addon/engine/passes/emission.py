@@ -165,7 +165,8 @@ class AttributesGPU:
 
     def grids_read(self) -> int:
         """The march's EMISSION_GRIDS define: bit 0 a strength grid, bit 1 a blackbody grid (both
-        kept apart), 4 a blackbody grid's emission, with the strength grid's, combined per voxel in gba."""
+        kept apart), 4 the emission of a strength grid, a blackbody grid or both, combined per voxel
+        in gba."""
         if self.combined:
             return 4
         return int(self.strength_grid) | 2 * int(self.blackbody_grid)
