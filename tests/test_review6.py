@@ -461,3 +461,34 @@ def threading_wait(seconds):
     import threading
 
     threading.Event().wait(seconds)
+
+
+@pytest.mark.parametrize("kind", ["EMISSION", "QUICK_FIRE"])
+def test_a_downsampled_lone_grid_is_combined_on_the_density_lattice(fresh, monkeypatch, kind):
+    """A lone strength or blackbody grid over a memory budget that halves its density: the grid is
+    downsampled with it (the density's lattice), combined and packed, and its frame is that of the
+    grid kept apart beside the density in its own texture within 1e-5 of the peak, with an offset
+    above 0 too (EMISSION 3)."""
+    scene = scenes.fire_scene(48, 27, 24, kind=kind, with_light=True, with_occluder=True)
+    settings = dataclasses.replace(SETTINGS, max_grid_bytes=scene.medium.density.size * 4 // 5)
+    offset = GridValue("flame", 4.0, 0.2) if kind == "EMISSION" else GridValue(offset=0.2)
+    for s in (scene, _with(scene, emission_strength=offset)):
+        out = fresh.render(s, settings)
+        assert any("downsampled by 2" in w for w in out.warnings), out.warnings
+        (attributes,) = fresh._attributes.items.values()
+        assert attributes.combined and attributes.packed == emission.PACKED_ATTRS_R
+        assert attributes.attrs_size == tuple(-(-n // 2) + 2 for n in scene.medium.density.shape)
+        monkeypatch.setattr(emission, "COMBINE_EMISSION", False)
+        monkeypatch.setattr(emission, "PACK_DENSITY", False)
+        try:
+            other = Renderer(gl=fresh.gl)
+            try:
+                apart = other.render(s, settings).combined[..., :3]
+            finally:
+                other.clear_maps()
+        finally:
+            monkeypatch.undo()
+        peak = float(apart.max())
+        diff = float(np.abs(out.combined[..., :3] - apart).max())
+        print(f"{kind}, {s.medium.emission_strength}: {diff / peak:.1e} of the peak from the grid apart")
+        assert peak > 0.05 and diff <= 1e-5 * peak
