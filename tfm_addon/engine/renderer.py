@@ -537,7 +537,8 @@ class Renderer:
         None when it has neither. Keyed by the grids, the lattice they are uploaded on and, for
         the blackbody term evaluated per voxel, the temperature and intensity; not by the
         placement, nor the emission colour, strength or tint. (Only the first medium emits or
-        reads a colour grid: the others are named.)"""
+        reads a colour grid: the others are named.) While the emission is off, the textures of the
+        medium emitting are kept (and serve their colour grid), so that it comes back uploading nothing."""
         if medium is None or medium_gpu.kind == MEDIUM_NONE:
             return None
         first = medium_gpu.slots[0].grid if medium_gpu.kind == MEDIUM_GRID else None
