@@ -152,7 +152,7 @@ def _frame(renderer, scene, combine=True, monkeypatch=None):
         try:
             out = other.render(scene, SETTINGS).combined[..., :3]
             (attributes,) = other._attributes.items.values()
-            assert attributes.combined == combine
+            assert attributes.combined == (combine and not attributes.intensity_grid)
             return out
         finally:
             other.clear_maps()
@@ -261,11 +261,16 @@ def test_a_strength_grid_alone_combined_against_the_reference(fresh, monkeypatch
 
 def test_a_blackbody_grid_alone_combined_against_the_reference(fresh, monkeypatch):
     """Quick Fire's blackbody grid alone combined per voxel (tint edits, a constant strength offset:
-    EMISSION 3, an intensity grid, a colour grid: PACKED_DENSITY 3 and the combined emission read
-    through emission_at_index) against the numpy reference, and within 1e-5 of the peak of the grid
-    kept apart (COMBINE_EMISSION off, the tint applied per sample)."""
+    EMISSION 3, a colour grid: PACKED_DENSITY 3 and the combined emission read through
+    emission_at_index) against the numpy reference, and within 1e-5 of the peak of the grid kept
+    apart (COMBINE_EMISSION off, the tint applied per sample); with an intensity grid beside the
+    temperature grid, the blend of the intensity times that of the term (EMISSION_GRIDS 8, not
+    combined), against the reference too."""
     for name, scene in _quick_fire_cases():
+        fresh.gl._programs.clear()
         out = _frame(fresh, scene)
+        grids = {dict(k[2]).get("EMISSION_GRIDS") for k in fresh.gl._programs if k[1] == "scatter.frag"}
+        assert grids - {0} == {8 if "intensity grid" in name else 4}, name
         ref = _ref(scene)
         apart = _frame(fresh, scene, False, monkeypatch)
         ratio, ssim, diff = _agree(out, ref)
@@ -492,3 +497,16 @@ def test_a_downsampled_lone_grid_is_combined_on_the_density_lattice(fresh, monke
         diff = float(np.abs(out.combined[..., :3] - apart).max())
         print(f"{kind}, {s.medium.emission_strength}: {diff / peak:.1e} of the peak from the grid apart")
         assert peak > 0.05 and diff <= 1e-5 * peak
+
+
+def test_an_intensity_grid_beside_a_strength_grid_is_said_in_the_report(fresh):
+    """The fire whose blackbody intensity and temperature both read grids beside a strength grid
+    (five values a sample): the intensity is multiplied per voxel, which the render report says once;
+    Quick Fire's intensity grid alone is rendered as Cycles does it and says nothing."""
+    fire = scenes.fire_scene(32, 18, 16, kind="FIRE")
+    fire = _with(fire, blackbody_intensity=GridValue("flame", 1.0, 0.0))
+    said = [w for w in fresh.render(fire, SETTINGS).warnings if "intensity grid 'flame'" in w]
+    assert len(said) == 1 and "per voxel" in said[0]
+    quick = scenes.fire_scene(32, 18, 16, kind="QUICK_FIRE")
+    quick = _with(quick, blackbody_intensity=GridValue("flame", 1.0, 0.0))
+    assert not [w for w in fresh.render(quick, SETTINGS).warnings if "intensity" in w]

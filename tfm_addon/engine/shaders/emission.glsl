@@ -28,7 +28,8 @@ vec2 emission_interval(vec3 ob, vec3 db) {
 
 // Emitted radiance per metre for the attribute values a (grid channels). EMISSION_GRIDS (bit 0:
 // a strength grid in r, bit 1: the blackbody term in gba, 4: the emission of a strength grid, a
-// blackbody grid or both, combined in gba) is fixed with
+// blackbody grid or both, combined in gba, 8: a blackbody intensity grid in r times the term at
+// intensity 1 in gba) is fixed with
 // the attribute texture; the parts that read no grid come summed in one uniform
 // (passes/emission.AttributesGPU.bind).
 vec3 emission_of(vec4 a) {
@@ -45,6 +46,9 @@ vec3 emission_of(vec4 a) {
 #endif
 #if EMISSION_GRIDS & 2
     e += u_bb_tint * a.gba;
+#endif
+#if EMISSION_GRIDS & 8
+    e += u_bb_tint * (a.r * a.gba);     // an intensity grid's blend times the term's (medium_attributes)
 #endif
     return e;
 }
