@@ -20,7 +20,9 @@ class PreparedAttributes:
     """``scalars``: (nx, ny, nz, 4) float32, channel 0 the emission-strength grid, 1-3 the
     blackbody radiance before its tint (W/(sr m^2) per metre), or None when the emission reads no
     grid; ``strength_grid``/``blackbody_grid``: which of those it holds; ``color``: (nx, ny, nz, 3)
-    or None. Everything finite, on the prepared density's lattice."""
+    or None. Everything finite, on the prepared density's lattice. ``intensity_grid``: the blackbody
+    intensity and temperature both read grids (and no strength grid): channel 0 holds max(b, 0), 1-3
+    the term at intensity 1, to be multiplied after blending (``prepare_attributes`` says why)."""
 
     scalars: np.ndarray | None
     strength_grid: bool
@@ -28,12 +30,16 @@ class PreparedAttributes:
     color: np.ndarray | None
     warnings: list[str] = field(default_factory=list)
     emission_box: tuple[tuple[float, ...], tuple[float, ...]] | None = None  # where grids emit, index space
+    intensity_grid: bool = False
 
 
 
 def uses_blackbody_grid(medium: Medium) -> bool:
-    return medium.has_emission and (medium.blackbody_intensity.grid is not None
-                                    or medium.temperature.grid is not None) and not (
+    return medium.has_emission and _reads_blackbody_grid(medium)
+
+
+def _reads_blackbody_grid(medium: Medium) -> bool:
+    return (medium.blackbody_intensity.grid is not None or medium.temperature.grid is not None) and not (
         medium.blackbody_intensity.grid is None and medium.blackbody_intensity.offset <= 0.0)
 
 
@@ -41,10 +47,13 @@ def uses_strength_grid(medium: Medium) -> bool:
     return medium.has_emission and medium.emission_strength.grid is not None
 
 
-def key(medium: Medium) -> tuple:
-    """What the prepared textures depend on besides the grids' content and lattice."""
-    bb = (medium.blackbody_intensity, medium.temperature) if uses_blackbody_grid(medium) else None
-    strength = medium.emission_strength.grid if uses_strength_grid(medium) else None
+def key(medium: Medium, emitting: bool = False) -> tuple:
+    """What the prepared textures depend on besides the grids' content and lattice; ``emitting``:
+    the key of those the medium has while it emits, whether it emits now or not (a colour, strength
+    or tint at 0 keeps them: Renderer._medium_attributes)."""
+    on = emitting or medium.has_emission
+    bb = (medium.blackbody_intensity, medium.temperature) if on and _reads_blackbody_grid(medium) else None
+    strength = medium.emission_strength.grid if on else None
     return (strength, bb, medium.color_grid)
 
 
@@ -78,6 +87,7 @@ def prepare_attributes(medium: Medium, factor: int) -> PreparedAttributes:
     """The grids ``medium`` needs besides the density, downsampled by ``factor`` like it."""
     warnings: list[str] = []
     strength, bb = uses_strength_grid(medium), uses_blackbody_grid(medium)
+    intensity = bb and medium.blackbody_intensity.grid is not None and medium.temperature.grid is not None
     scalars = None
     if strength or bb:
         shape = medium.density.shape
@@ -91,7 +101,18 @@ def prepare_attributes(medium: Medium, factor: int) -> PreparedAttributes:
             t, b = np.broadcast_arrays(np.asarray(t, np.float64), np.asarray(b, np.float64))
             if t.shape != shape:
                 t, b = np.broadcast_to(t, shape), np.broadcast_to(b, shape)
-            rgb = blackbody.radiance(t, b)
+            if intensity and not strength:
+                # Cycles draws a voxel for each attribute on its own: the term, (1 - b) K(T) + b K(T) T^4
+                # where b > 0, converges to the blend of max(b, 0) times that of the term at b = 1 (the
+                # blend of the other part, at most 1/T^4 of it, is left out).
+                channels[STRENGTH] = np.maximum(b, 0.0).astype(np.float32)
+                rgb = blackbody.radiance(t, np.ones_like(t))
+            else:
+                rgb = blackbody.radiance(t, b)
+                if intensity:
+                    warnings.append(f"The blackbody intensity grid '{medium.blackbody_intensity.grid}' "
+                                    "is multiplied by the temperature's term per voxel beside an emission "
+                                    "strength grid (Cycles multiplies their blends: its fire is darker).")
             for k in range(3):
                 channels[BLACKBODY + k] = rgb[..., k].astype(np.float32)
         scalars = np.stack([_down(c, factor) for c in channels], axis=-1)
@@ -99,7 +120,8 @@ def prepare_attributes(medium: Medium, factor: int) -> PreparedAttributes:
     if medium.color_grid is not None:
         c = _clean(np.asarray(medium.grids[medium.color_grid], np.float32), medium.color_grid, warnings)
         color = np.stack([_down(c[..., k], factor) for k in range(3)], axis=-1)
-    return PreparedAttributes(scalars, strength, bb, color, warnings, _emission_box(medium, scalars))
+    return PreparedAttributes(scalars, strength, bb, color, warnings, _emission_box(medium, scalars),
+                              intensity and not strength)
 
 
 def emitting_voxels(scalars: np.ndarray, strength_grid: bool, blackbody_grid: bool) -> np.ndarray:

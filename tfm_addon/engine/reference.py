@@ -31,7 +31,10 @@ The model (units: metres, watts, radians; colours are scene-linear RGB):
   ``L_e = emission_color * max(strength, 0) + tint * B``, B the blackbody term
   ``1e-6 sigma_SB / pi * ((1 - b) + b T^4) * bb(T)`` where the intensity b > 0 (Cycles' Principled
   Volume); each grid-driven quantity is ``scale * max(G, 0) + offset``, strength trilinear in G,
-  B evaluated per voxel and blended trilinearly (what Cycles' stochastic look-ups converge to).
+  B evaluated per voxel and blended trilinearly (what Cycles' stochastic look-ups converge to);
+  where b and T both read grids, Cycles draws a voxel for each on its own, so B is the blend of
+  ``1{b > 0} (1 - b)`` times that of its T-only part, plus the blend of ``max(b, 0)`` times that
+  of its ``T^4`` part.
 """
 
 from __future__ import annotations
@@ -350,13 +353,32 @@ class _Field:
                 out += tint * _blackbody_term(np.array([max(t.offset, 0.0)]), np.array([bb.offset]))[0]
             return out
         # Cycles reads the attributes stochastically (one voxel with trilinear odds): it converges
-        # to the trilinear blend of each voxel's blackbody term.
+        # to the trilinear blend of each voxel's blackbody term. Each attribute is drawn on its own,
+        # so where both the intensity b and the temperature T read grids the term, 1{b > 0} (1 - b)
+        # K(T) + max(b, 0) K(T) T^4, converges to the blends of its two weights times those of
+        # K(T) and K(T) T^4 (K = 1e-6 sigma / pi bb(T)).
         if "__blackbody" not in self.attributes:
             shape = medium.density.shape
             b_vox = np.broadcast_to(self._voxel_value(medium, bb), shape).reshape(-1)
             t_vox = np.broadcast_to(np.maximum(self._voxel_value(medium, t), 0.0), shape).reshape(-1)
-            term = _blackbody_term(t_vox, b_vox).reshape(*shape, 3)
-            self.attributes["__blackbody"] = np.pad(term, [(1, 1)] * 3 + [(0, 0)])
+            pad = [(1, 1)] * 3 + [(0, 0)]
+            if bb.grid is not None and t.grid is not None:
+                k = _STEFAN_BOLTZMANN * 1e-6 / math.pi * blackbody_rec709(t_vox)
+                w = np.stack([np.where(b_vox > 0, 1.0 - b_vox, 0.0), np.maximum(b_vox, 0.0)], axis=-1)
+                self.attributes["__bb_weights"] = np.pad(w.reshape(*shape, 2), pad)
+                self.attributes["__bb_k0"] = np.pad(k.reshape(*shape, 3), pad)
+                self.attributes["__bb_k4"] = np.pad((k * t_vox[:, None] ** 4).reshape(*shape, 3), pad)
+                self.attributes["__blackbody"] = None
+            else:
+                term = _blackbody_term(t_vox, b_vox).reshape(*shape, 3)
+                self.attributes["__blackbody"] = np.pad(term, pad)
+        if self.attributes["__blackbody"] is None:
+            g = self.attributes["__bb_weights"]
+            idx = (self._points_local(p) + 1.0).T
+            w0, w1 = (ndimage.map_coordinates(g[..., j], idx, order=1, mode="constant", cval=0.0,
+                                              output=np.float64) for j in range(2))
+            return out + tint * (w0[:, None] * self.attribute("__bb_k0", p)
+                                 + w1[:, None] * self.attribute("__bb_k4", p))
         return out + tint * self.attribute("__blackbody", p)
 
     @staticmethod

@@ -99,6 +99,14 @@ class _Cache:
             return item, True
         return self.items[key], False
 
+    def keep(self, key):
+        """The item stored under ``key``, kept by this frame as ``get`` keeps it, or None (nothing
+        is built)."""
+        if key not in self.items:
+            return None
+        self.used.add(key)
+        return self.items[key]
+
     def drop_fresh(self) -> None:
         for key in self.fresh:
             item = self.items.pop(key, None)
@@ -529,21 +537,32 @@ class Renderer:
         None when it has neither. Keyed by the grids, the lattice they are uploaded on and, for
         the blackbody term evaluated per voxel, the temperature and intensity; not by the
         placement, nor the emission colour, strength or tint. (Only the first medium emits or
-        reads a colour grid: the others are named.)"""
+        reads a colour grid: the others are named.) While the emission is off, the textures of the
+        medium emitting are kept (and serve their colour grid), so that it comes back uploading nothing."""
         if medium is None or medium_gpu.kind == MEDIUM_NONE:
             return None
-        if not medium.has_emission and medium.color_grid is None:
-            return None
+        first = medium_gpu.slots[0].grid if medium_gpu.kind == MEDIUM_GRID else None
+
+        def key_of(emitting=False):
+            # Not by the placement: moving the medium re-uploads nothing (the lattice is first.key's).
+            content = (medium.grids_key if medium.source_key is None
+                       else ("source", medium.source_key, tuple(sorted(medium.grids))))
+            return (content, first.key, medium_attributes.key(medium, emitting))
+
+        lit = None
+        if (first is not None and not medium.has_emission
+                and medium_attributes.key(medium, emitting=True)[:2] != (None, None)):
+            # The emission off (a colour, strength or tint at 0): the textures it had while it
+            # emitted stay, so that turning it on again uploads nothing (their colour grid serves).
+            lit = self._attributes.keep(key_of(emitting=True))
+        if not medium.has_emission and (medium.color_grid is None or lit is not None):
+            return lit if medium.color_grid is not None else None
         if medium_gpu.kind != MEDIUM_GRID:
             return self._attributes.get(("constant",), lambda: AttributesGPU(self.gl, None))[0]
-        first = medium_gpu.slots[0].grid
         if first is None:        # a homogeneous box marched with grids: it glows in its [-1, 1] box
             return self._attributes.get(("constant", "box"),
                                         lambda: AttributesGPU(self.gl, None, (3, 3, 3)))[0]
-        # Not by the placement: moving the medium re-uploads nothing (the lattice is first.key's).
-        content = (medium.grids_key if medium.source_key is None
-                   else ("source", medium.source_key, tuple(sorted(medium.grids))))
-        key = (content, first.key, medium_attributes.key(medium))
+        key = key_of()
 
         def build():
             self.counters["attribute_uploads"] += 1

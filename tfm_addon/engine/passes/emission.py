@@ -87,8 +87,11 @@ class AttributesGPU:
         self.warnings = list(prepared.warnings) if prepared is not None else []
         scalars = prepared.scalars if prepared is not None else None
         self.reads_grid = scalars is not None
+        # The blackbody intensity's blend times that of the term at intensity 1: not combinable.
+        self.intensity_grid = prepared is not None and prepared.intensity_grid
         # Grids: the texture holds (density or 0, emission RGB) combined per voxel (combine).
-        self.combined = COMBINE_EMISSION and (self.blackbody_grid or self.strength_grid)
+        self.combined = (COMBINE_EMISSION and (self.blackbody_grid or self.strength_grid)
+                         and not self.intensity_grid)
         self.combines = 0                   # how often the combined emission was computed
         self._combined_for = None           # the uniforms it was computed for
         color = prepared.color if prepared is not None else None
@@ -101,7 +104,7 @@ class AttributesGPU:
             if color is not None and tuple(int(n) + 2 for n in color.shape[:3]) == lattice:
                 self.packed = PACKED_COLOR_A
             elif (scalars is not None and (self.strength_grid != self.blackbody_grid or self.combined)
-                  and tuple(int(n) + 2 for n in scalars.shape[:3]) == lattice):
+                  and not self.intensity_grid and tuple(int(n) + 2 for n in scalars.shape[:3]) == lattice):
                 strength_alone = self.strength_grid and not self.blackbody_grid and not self.combined
                 self.packed = PACKED_ATTRS_G if strength_alone else PACKED_ATTRS_R
         stored = stored_density(density) if self.packed else None
@@ -165,9 +168,12 @@ class AttributesGPU:
 
     def grids_read(self) -> int:
         """The march's EMISSION_GRIDS define: bit 0 a strength grid, bit 1 a blackbody grid (both
-        kept apart), 4 a blackbody grid's emission, with the strength grid's, combined per voxel in gba."""
+        kept apart), 4 the emission of a strength grid, a blackbody grid or both, combined per voxel
+        in gba, 8 a blackbody intensity grid in r times the blackbody term in gba."""
         if self.combined:
             return 4
+        if self.intensity_grid:
+            return 8        # the intensity in r times the blackbody term in gba, each blended
         return int(self.strength_grid) | 2 * int(self.blackbody_grid)
 
     def _keep_sources(self, data: np.ndarray, box) -> None:

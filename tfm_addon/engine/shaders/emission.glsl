@@ -27,8 +27,9 @@ vec2 emission_interval(vec3 ob, vec3 db) {
 }
 
 // Emitted radiance per metre for the attribute values a (grid channels). EMISSION_GRIDS (bit 0:
-// a strength grid in r, bit 1: the blackbody term in gba, 4: a blackbody grid's emission and a
-// strength grid's where there is one, combined in gba) is fixed with
+// a strength grid in r, bit 1: the blackbody term in gba, 4: the emission of a strength grid, a
+// blackbody grid or both, combined in gba, 8: a blackbody intensity grid in r times the term at
+// intensity 1 in gba) is fixed with
 // the attribute texture; the parts that read no grid come summed in one uniform
 // (passes/emission.AttributesGPU.bind).
 vec3 emission_of(vec4 a) {
@@ -38,13 +39,16 @@ vec3 emission_of(vec4 a) {
     vec3 e = u_emission_const;
 #endif
 #if EMISSION_GRIDS & 4
-    e += a.gba;             // both grids' emission, combined per voxel (AttributesGPU.combine)
+    e += a.gba;             // the grids' emission, combined per voxel (AttributesGPU.combine)
 #endif
 #if EMISSION_GRIDS & 1
     e += u_emission_color * max(u_strength.x * max(a.r, 0.0) + u_strength.y, 0.0);
 #endif
 #if EMISSION_GRIDS & 2
     e += u_bb_tint * a.gba;
+#endif
+#if EMISSION_GRIDS & 8
+    e += u_bb_tint * (a.r * a.gba);     // an intensity grid's blend times the term's (medium_attributes)
 #endif
     return e;
 }
