@@ -12,8 +12,9 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from ..engine import mesh_volume
+from ..engine.medium_attributes import constant_emits
 from ..engine.medium_grid import downsample
-from ..engine.scene import Camera, GridValue, Medium, Mesh, RenderSettings, Scene, SpotLight
+from ..engine.scene import Camera, GlowBlocks, GridValue, Medium, Mesh, RenderSettings, Scene, SpotLight
 from ..engine.scene import _digest as digest
 from . import fluid, materials, meshes
 from . import lights as lights_module
@@ -166,6 +167,7 @@ def clear_simplified() -> None:
     """Drop the kept simplified grids (on unregister)."""
     _simplified.clear()
     _simplified_extras.clear()
+    _glow_blocks.clear()
 
 
 def simplify_grid(density: np.ndarray, index_to_object: np.ndarray, level: int):
@@ -435,9 +437,62 @@ def _grid_medium(matrix_world, grid, read: dict, label: str, notes: list[str], s
     density, index_to_object = simplify_grid(grid.density, grid.index_to_object, simplify)
     if simplify > 0:
         extras = _simplify_extras(extras, simplify)
-    return Medium(density=density, index_to_world=matrix_world @ index_to_object, grids=extras,
-                  clipping=clipping,
-                  source_key=digest(grid.key, sorted(extras), simplify) if grid.key else None, **fields)
+    medium = Medium(density=density, index_to_world=matrix_world @ index_to_object, grids=extras,
+                    clipping=clipping,
+                    source_key=digest(grid.key, sorted(extras), simplify) if grid.key else None, **fields)
+    if constant_emits(medium):     # it glows where there is no density: over Cycles' volume mesh
+        glow = glow_blocks(grid, tuple(extras), clipping)
+        if glow is not None and simplify > 0:   # simplified block i's centre: i f + (f - 1) / 2
+            f = 2.0 ** simplify
+            glow = GlowBlocks(tuple((x - (f - 1.0) / 2.0) / f for x in glow.origin), glow.side / f, glow.mask)
+        medium = replace(medium, glow=glow)
+    return medium
+
+
+LEAF = 8        # OpenVDB's leaf nodes: 8³ voxels, at indices that are multiples of 8
+_glow_blocks: dict = {}
+
+
+def glow_blocks(grid, extras: tuple[str, ...] = (), clipping: float = 0.0):
+    """Where Cycles' volume mesh puts a volume, as GlowBlocks in the grid's array index space
+    (voxel centres at integers): the 8³ leaf blocks, aligned on the file's voxel indices
+    (``grid.first_index``), that hold an active voxel of the density or of the ``extras`` grids
+    the material reads once the active voxels have grown by one to their face neighbours (Cycles
+    pads the topology by a voxel for linear interpolation, then meshes the faces of the leaves
+    that hold any: intern/cycles/scene/volume.cpp). A voxel is active where it is not 0 (the
+    density: at least ``clipping``), as in files written from dense arrays. None when none is.
+    The last result is kept, like simplify_grid's."""
+    key = (id(grid.density), grid.key, tuple(extras), float(clipping))
+    hit = _glow_blocks.get(key)
+    if hit is not None and hit[0] is grid.density:
+        return hit[1]
+    active = np.asarray(grid.density) != 0.0
+    if clipping > 0.0:
+        active &= np.asarray(grid.density) >= clipping
+    for name in extras:
+        a = np.asarray(grid.extras[name])
+        active |= (a != 0.0).any(axis=-1) if a.ndim == 4 else a != 0.0
+    result = None
+    if active.any():
+        grown = np.pad(active, 1)                   # array index -1 at 0
+        core = grown.copy()
+        for axis in range(3):
+            lead = [slice(None)] * 3
+            lag = [slice(None)] * 3
+            lead[axis], lag[axis] = slice(1, None), slice(None, -1)
+            grown[tuple(lead)] |= core[tuple(lag)]
+            grown[tuple(lag)] |= core[tuple(lead)]
+        origin = np.asarray(grid.first_index, np.int64) - 1     # the file index of grown[0, 0, 0]
+        before = origin % LEAF
+        after = (-(before + np.asarray(grown.shape))) % LEAF
+        aligned = np.pad(grown, [(int(b), int(a)) for b, a in zip(before, after, strict=True)])
+        n = [s // LEAF for s in aligned.shape]
+        blocks = aligned.reshape(n[0], LEAF, n[1], LEAF, n[2], LEAF).any(axis=(1, 3, 5))
+        start = origin - before - np.asarray(grid.first_index)    # block (0, 0, 0) in array indices
+        result = GlowBlocks(tuple(float(x) for x in start), float(LEAF), blocks)
+    _glow_blocks.clear()
+    _glow_blocks[key] = (grid.density, result)
+    return result
 
 
 def _simplify_extras(extras: dict, level: int) -> dict:

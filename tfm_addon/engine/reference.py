@@ -299,6 +299,13 @@ class _Field:
             self.to_local = np.linalg.inv(np.asarray(medium.index_to_world, np.float64))
             self.lo = np.full(3, -1.0)
             self.hi = np.asarray(grid.shape, dtype=np.float64)
+            self.glow = None
+            if medium.glow is not None and medium.has_emission:
+                # It emits only in its glow blocks, which may reach beyond the grid (scene.Medium).
+                self.glow = medium.glow
+                lo, hi = medium.glow.box
+                self.lo = np.minimum(self.lo, lo)
+                self.hi = np.maximum(self.hi, hi)
         elif medium.box_to_world is not None:
             self.to_local = np.linalg.inv(np.asarray(medium.box_to_world, np.float64))
             self.lo = np.full(3, -1.0)
@@ -343,7 +350,14 @@ class _Field:
         return v.scale * np.maximum(self.attribute(v.grid, p), 0.0) + v.offset
 
     def emission(self, medium: Medium, p: np.ndarray) -> np.ndarray:
-        """Emitted radiance per metre (n, 3), W/(sr m^3), at the points p (n, 3)."""
+        """Emitted radiance per metre (n, 3), W/(sr m^3), at the points p (n, 3); 0 outside the
+        medium's glow blocks where it has them."""
+        out = self._emission(medium, p)
+        if getattr(self, "glow", None) is not None:
+            out[~self.glow.contains(self._points_local(p))] = 0.0
+        return out
+
+    def _emission(self, medium: Medium, p: np.ndarray) -> np.ndarray:
         out = np.maximum(self.value(medium.emission_strength, p), 0.0)[:, None] * \
             np.asarray(medium.emission_color, np.float64)
         tint = np.asarray(medium.blackbody_tint, np.float64)

@@ -197,6 +197,42 @@ class GridValue:
 
 
 @dataclass(frozen=True, eq=False)
+class GlowBlocks:
+    """Blocks of a grid's index space, cubes of ``side`` voxels: block (i, j, k) spans
+    ``origin + side * (i, j, k)`` to ``origin + side * (i + 1, j + 1, k + 1)`` and is in where
+    ``mask[i, j, k]``."""
+
+    origin: tuple[float, float, float]
+    side: float
+    mask: np.ndarray
+
+    def __post_init__(self):
+        m = np.ascontiguousarray(self.mask, dtype=bool)
+        if m.ndim != 3 or not m.any() or float(self.side) <= 0.0 or len(self.origin) != 3:
+            raise ValueError("GlowBlocks needs a 3D mask with a block in, a side > 0 and a 3D origin")
+        m.setflags(write=False)
+        object.__setattr__(self, "mask", m)
+        object.__setattr__(self, "origin", tuple(float(x) for x in self.origin))
+        object.__setattr__(self, "side", float(self.side))
+
+    @property
+    def box(self) -> tuple[tuple[float, ...], tuple[float, ...]]:
+        """The index-space box of the blocks that are in."""
+        where = np.argwhere(self.mask)
+        lo = np.asarray(self.origin) + self.side * where.min(axis=0)
+        hi = np.asarray(self.origin) + self.side * (where.max(axis=0) + 1)
+        return tuple(float(x) for x in lo), tuple(float(x) for x in hi)
+
+    def contains(self, idx: np.ndarray) -> np.ndarray:
+        """Whether the index-space points (n, 3) lie in a block that is in."""
+        b = np.floor((np.asarray(idx, np.float64) - np.asarray(self.origin)) / self.side).astype(np.int64)
+        ok = np.all((b >= 0) & (b < np.asarray(self.mask.shape)), axis=1)
+        out = np.zeros(len(b), bool)
+        out[ok] = self.mask[tuple(b[ok].T)]
+        return out
+
+
+@dataclass(frozen=True, eq=False)
 class Medium:
     """A participating medium of one material at varying density D.
 
@@ -230,6 +266,11 @@ class Medium:
     ``source_key``: when given, a key that changes whenever ``density``, ``index_to_world`` or
     ``grids`` change (the file, frame and grid names they were read from); the arrays are then
     not hashed for the cache keys.
+
+    ``glow``: where the medium emits when a part of its emission reads no grid and so glows where
+    there is no density (a constant Emission Strength): Cycles glows over the volume's mesh, the
+    8³ leaf blocks of its grids' active voxels (blender/extract.glow_blocks), ``GlowBlocks`` in
+    the density's index space. None: the grid's box one voxel wider, [-1, n].
     """
 
     sigma_a: RGB = (0.1, 0.1, 0.1)
@@ -248,6 +289,7 @@ class Medium:
     blackbody_tint: RGB = (1.0, 1.0, 1.0)
     temperature: GridValue = field(default_factory=lambda: GridValue(offset=1000.0))
     source_key: str | None = None
+    glow: GlowBlocks | None = None
 
     def __post_init__(self):
         if self.density is not None:
@@ -260,6 +302,7 @@ class Medium:
             object.__setattr__(self, "index_to_world", _matrix(m))
         if self.box_to_world is not None:
             object.__setattr__(self, "box_to_world", _matrix(self.box_to_world))
+
         grids = {}
         for name, g in dict(self.grids).items():
             a = np.ascontiguousarray(g, dtype=np.float32)
@@ -290,7 +333,8 @@ class Medium:
     def emission_key(self) -> str:
         """What the emission term depends on besides the grids (no light map depends on it)."""
         return _digest(self.emission_color, self.emission_strength, self.blackbody_intensity,
-                       self.blackbody_tint, self.temperature)
+                       self.blackbody_tint, self.temperature,
+                       None if self.glow is None else (self.glow.origin, self.glow.side, self.glow.mask))
 
     @cached_property
     def grids_key(self) -> str:

@@ -82,6 +82,8 @@ class AttributesGPU:
         ``density``: that grid's texture, packed beside the attributes where they fit (None: not
         packed)."""
         ctx = gl.ctx
+        self._gl = gl
+        self._glow = None                   # (mask, texture) of the glow blocks (_glow_texture)
         self.strength_grid = prepared is not None and prepared.strength_grid
         self.blackbody_grid = prepared is not None and prepared.blackbody_grid
         self.warnings = list(prepared.warnings) if prepared is not None else []
@@ -155,6 +157,12 @@ class AttributesGPU:
     def emission_box(self, medium: Medium) -> tuple[tuple[float, ...], tuple[float, ...]]:
         """Index-space box outside which ``medium`` (these grids' medium) emits nothing: the
         grids' emitting voxels, or the whole grid box where a constant part glows."""
+        if constant_emits(medium) and medium.glow is not None:
+            lo, hi = medium.glow.box        # where Cycles' volume mesh is (scene.Medium.glow)
+            if self.grids_box is not None:  # which holds the grids' emitting voxels: made sure of
+                lo = tuple(min(a, b) for a, b in zip(lo, self.grids_box[0], strict=True))
+                hi = tuple(max(a, b) for a, b in zip(hi, self.grids_box[1], strict=True))
+            return lo, hi
         if self.grids_box is None or constant_emits(medium):
             return self.grid_box
         return self.grids_box
@@ -263,11 +271,36 @@ class AttributesGPU:
                      u_emit_lo=lo, u_emit_hi=hi)
         if emits and self.cells is not None:
             self.cells.use(UNIT["u_occupancy"])
+        glow = self.glow_blocks(medium)
+        if emits and glow is not None:
+            self._glow_texture(glow).use(UNIT["u_glow"])
+            set_uniforms(prog, u_glow=UNIT["u_glow"], u_glow_origin=glow.origin, u_glow_side=glow.side)
         if self.color is not None:
             self.color.use(UNIT_COLOR)
             set_uniforms(prog, u_color_grid=UNIT_COLOR)
+
+    @staticmethod
+    def glow_blocks(medium: Medium):
+        """The blocks outside which ``medium``'s constant emission does not glow (the march's
+        GLOW_BLOCKS), or None: where it has them and such a part."""
+        return medium.glow if medium.glow is not None and constant_emits(medium) else None
+
+    def _glow_texture(self, glow):
+        """The blocks as an R8 texture (nearest), made once per mask."""
+        if getattr(self, "_glow", None) is None or self._glow[0] is not glow.mask:
+            if getattr(self, "_glow", None) is not None:
+                self._glow[1].release()
+            m = np.ascontiguousarray(glow.mask.transpose(2, 1, 0), dtype=np.uint8) * np.uint8(255)
+            tex = self._gl.ctx.texture3d(glow.mask.shape, 1, m.tobytes(), dtype="f1")
+            tex.filter = (self._gl.ctx.NEAREST, self._gl.ctx.NEAREST)
+            tex.repeat_x = tex.repeat_y = tex.repeat_z = False
+            self._glow = (glow.mask, tex)
+        return self._glow[1]
 
     def release(self) -> None:
         for tex in (self.attrs, self.color, self.cells):
             if tex is not None:
                 tex.release()
+        if getattr(self, "_glow", None) is not None:
+            self._glow[1].release()
+            self._glow = None

@@ -156,6 +156,8 @@ def run_light_pass(gl: GLContext, *, camera: Camera, plane: ViewPlane, medium: M
                if attributes is not None else 0,
                "EMISSION_GRIDS": attributes.grids_read() if emits else 0,
                "GREY_EXTINCTION": int(grey_extinction(medium, medium_gpu, tfm_sigma_t))}
+    if emits and medium_kind == MEDIUM_GRID and attributes.glow_blocks(medium) is not None:
+        defines["GLOW_BLOCKS"] = 1      # the constant emission glows in these blocks only
     if active is not None:
         defines["RECTS"] = 1
     if light is not None:

@@ -33,8 +33,9 @@ vec2 emission_interval(vec3 ob, vec3 db) {
 // the attribute texture; the parts that read no grid come summed in one uniform
 // (passes/emission.AttributesGPU.bind).
 vec3 emission_of(vec4 a) {
-#if EMISSION == 2
-    vec3 e = vec3(0.0);     // no part that reads no grid (AttributesGPU.program_kind)
+#if EMISSION == 2 || GLOW_BLOCKS
+    vec3 e = vec3(0.0);     // no part that reads no grid (AttributesGPU.program_kind), or one the
+                            // march adds where the glow blocks say (glow_at)
 #else
     vec3 e = u_emission_const;
 #endif
@@ -52,6 +53,19 @@ vec3 emission_of(vec4 a) {
 #endif
     return e;
 }
+
+#if GLOW_BLOCKS
+// The blocks of the grid's index space where the constant part glows (scene.GlowBlocks: Cycles'
+// volume mesh): 1 in one, else 0.
+uniform sampler3D u_glow;
+uniform vec3 u_glow_origin;
+uniform float u_glow_side;
+float glow_at(vec3 idx) {
+    ivec3 b = ivec3(floor((idx - u_glow_origin) / u_glow_side));
+    if (any(lessThan(b, ivec3(0))) || any(greaterThanEqual(b, textureSize(u_glow, 0)))) return 0.0;
+    return texelFetch(u_glow, b, 0).r;
+}
+#endif
 
 // Emitted radiance per metre at a point in box (grid index) space.
 vec3 emission_at_index(vec3 idx) {

@@ -209,9 +209,17 @@ void main() {
 #else
             if (t >= emit.x && t <= emit.y) glow += tv_e * emission_at_index(ob + db * t);
 #endif
+#if GLOW_BLOCKS
+            // The constant part, where Cycles' volume mesh is (the march skips no cell: below).
+            if (t >= emit.x && t <= emit.y) glow += tv_e * u_emission_const * glow_at(ob + db * t);
+#endif
 #endif
 #if N_MEDIA == 1
+#if GLOW_BLOCKS
+            if (false) {      // the constant part glows by blocks the occupancy cells do not follow
+#else
             if (!any_d) {     // in an empty occupancy cell: on to the first sample past it (at step_at)
+#endif
                 int next = max(i + 1, int(ceil((skip_empty(ob, db, t) - seg.x) / dt - step_at - 0.001)));
 #if EMISSION && EMISSION != 2
                 // The samples skipped (no density, no emitting voxel near) glow with the constant
