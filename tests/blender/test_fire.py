@@ -86,7 +86,7 @@ def test_a_constant_emission_glows_where_cycles_puts_the_volume(blank, tmp_path)
     assert np.all(np.abs(ratio - 1.0) <= 0.03)
 
 
-def test_glow_blocks_are_the_file_s_leaves_around_the_active_voxels():
+def test_glow_blocks_are_the_file_s_leaves_around_the_active_voxels(blank):
     """extract.glow_blocks: 8³ blocks aligned on the file's voxel indices, in where an active
     voxel (the density at least the clipping, an extra grid not 0) lies once grown by one voxel."""
     volumes = _mod("volumes")
@@ -98,7 +98,7 @@ def test_glow_blocks_are_the_file_s_leaves_around_the_active_voxels():
     grid = volumes.DensityGrid(density=d, index_to_object=np.eye(4), grid_name="density",
                                extras={"flame": flame}, key="k", first_index=(5, 5, 5))
     glow = _mod("extract").glow_blocks(grid, ("flame",), clipping=0.001)
-    assert glow.side == 8.0
+    assert glow.side == (8.0, 8.0, 8.0)
     assert all((o + 5) % 8 == 0 for o in glow.origin)           # on the file's leaves
     inside = glow.contains(np.array([[5.0, 5.0, 5.0], [5.0, 5.0, 13.0], [12.0, 5.0, 5.0], [3.0, 3.0, 3.0],
                                      [2.5, 5.0, 5.0]]))

@@ -128,6 +128,13 @@ def test_domain_voxels_sit_where_blender_puts_them_and_a_missing_frame_names_the
         result["grids"] = sorted(m.grids)
         result["emits"] = m.has_emission
         result["t_max"] = float(m.grids["temperature"].max())
+        # Where a constant emission would glow: the domain's cube, as Cycles draws a domain.
+        from tfm_addon.blender import fluid, volumes
+        ob = [o for o in bpy.data.objects if fluid.domain_modifier(o) is not None][0]
+        g, _a, _w = fluid.read_domain(ob, 1, volumes.grid_cache, (), "domain")
+        corners = np.array([v.co[:] for v in ob.data.vertices])
+        result["cube"] = [corners.min(axis=0).tolist(), corners.max(axis=0).tolist()]
+        result["bounds"] = [(g.index_to_object @ np.array([*c, 1.0]))[:3].tolist() for c in g.bounds]
         s.frame_set(2)
         ex = extract.extract(bpy.context.evaluated_depsgraph_get())
         result["missing_medium"] = ex.medium is None
@@ -146,6 +153,7 @@ def test_domain_voxels_sit_where_blender_puts_them_and_a_missing_frame_names_the
     assert r["shape"][2] <= N[2] and r["emits"] and r["grids"] == ["flame", "temperature"]
     # Blender's temperature attribute: ignition 1.5 + flame * (3 - 1.5), in units of 1000 K.
     assert 2.9 < r["t_max"] <= 3.0
+    np.testing.assert_allclose(r["bounds"], r["cube"], atol=1e-6)     # the glow region of a domain
     assert r["missing_medium"]
     notes = [w for w in r["missing_warnings"] if "frame 2" in w]
     assert len(notes) == 1 and cache in notes[0], r["missing_warnings"]

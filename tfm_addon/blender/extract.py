@@ -441,10 +441,15 @@ def _grid_medium(matrix_world, grid, read: dict, label: str, notes: list[str], s
                     clipping=clipping,
                     source_key=digest(grid.key, sorted(extras), simplify) if grid.key else None, **fields)
     if constant_emits(medium):     # it glows where there is no density: over Cycles' volume mesh
-        glow = glow_blocks(grid, tuple(extras), clipping)
+        if grid.bounds is not None:         # drawn by its object's mesh (a fluid domain's cube)
+            lo, hi = (np.asarray(c, np.float64) for c in grid.bounds)
+            glow = GlowBlocks(tuple(lo), tuple(hi - lo), np.ones((1, 1, 1), bool))
+        else:
+            glow = glow_blocks(grid, tuple(extras), clipping)
         if glow is not None and simplify > 0:   # simplified block i's centre: i f + (f - 1) / 2
             f = 2.0 ** simplify
-            glow = GlowBlocks(tuple((x - (f - 1.0) / 2.0) / f for x in glow.origin), glow.side / f, glow.mask)
+            glow = GlowBlocks(tuple((x - (f - 1.0) / 2.0) / f for x in glow.origin),
+                              tuple(x / f for x in glow.side), glow.mask)
         medium = replace(medium, glow=glow)
     return medium
 

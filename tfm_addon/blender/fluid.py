@@ -127,8 +127,12 @@ def read_domain(ob, frame: int, cache: GridCache, wanted: tuple[str, ...], label
     shift[:3, 3] = grid.first_index
     attributes = render_attributes(grid.extras, grid.density, float(settings.flame_ignition),
                                    float(settings.flame_max_temp))
+    # Cycles draws a domain by its cube: voxels 0 .. res - 1 of the domain, centres at integers.
+    res = base_resolution(corners.max(axis=0) - corners.min(axis=0), settings.resolution_max)
+    first = np.asarray(grid.first_index, np.float64)
+    bounds = (tuple(-0.5 - first), tuple(np.asarray(res, np.float64) - 0.5 - first))
     placed = DensityGrid(density=grid.density, index_to_object=to_object @ shift, grid_name="density",
                          extras={k: v for k, v in attributes.items() if k in wanted},
                          key=grid.key + f"|fluid {settings.flame_ignition} {settings.flame_max_temp}",
-                         warnings=grid.warnings, first_index=grid.first_index)
+                         warnings=grid.warnings, first_index=grid.first_index, bounds=bounds)
     return placed, attributes, warnings

@@ -47,6 +47,9 @@ class DensityGrid:
     key: str = ""
     warnings: tuple[str, ...] = ()
     first_index: tuple[int, int, int] = (0, 0, 0)  # the file's voxel index of array index 0
+    # (lo, hi) in array indices where Cycles draws the volume when it draws it by its object's mesh
+    # (a fluid domain's cube); None: by the grids' leaf nodes (extract.glow_blocks)
+    bounds: tuple | None = None
 
 
 def choose_grid(available: list[tuple[str, str]], preferred: str, label: str) -> tuple[str, str | None]:

@@ -198,34 +198,36 @@ class GridValue:
 
 @dataclass(frozen=True, eq=False)
 class GlowBlocks:
-    """Blocks of a grid's index space, cubes of ``side`` voxels: block (i, j, k) spans
-    ``origin + side * (i, j, k)`` to ``origin + side * (i + 1, j + 1, k + 1)`` and is in where
-    ``mask[i, j, k]``."""
+    """Blocks of a grid's index space, boxes of ``side`` voxels (a number, or one per axis): block
+    (i, j, k) spans ``origin + side * (i, j, k)`` to ``origin + side * (i + 1, j + 1, k + 1)``
+    and is in where ``mask[i, j, k]``."""
 
     origin: tuple[float, float, float]
-    side: float
+    side: tuple[float, float, float]
     mask: np.ndarray
 
     def __post_init__(self):
         m = np.ascontiguousarray(self.mask, dtype=bool)
-        if m.ndim != 3 or not m.any() or float(self.side) <= 0.0 or len(self.origin) != 3:
-            raise ValueError("GlowBlocks needs a 3D mask with a block in, a side > 0 and a 3D origin")
+        side = tuple(float(x) for x in np.broadcast_to(np.asarray(self.side, np.float64), (3,)))
+        if m.ndim != 3 or not m.any() or min(side) <= 0.0 or len(self.origin) != 3:
+            raise ValueError("GlowBlocks needs a 3D mask with a block in, sides > 0 and a 3D origin")
         m.setflags(write=False)
         object.__setattr__(self, "mask", m)
         object.__setattr__(self, "origin", tuple(float(x) for x in self.origin))
-        object.__setattr__(self, "side", float(self.side))
+        object.__setattr__(self, "side", side)
 
     @property
     def box(self) -> tuple[tuple[float, ...], tuple[float, ...]]:
         """The index-space box of the blocks that are in."""
         where = np.argwhere(self.mask)
-        lo = np.asarray(self.origin) + self.side * where.min(axis=0)
-        hi = np.asarray(self.origin) + self.side * (where.max(axis=0) + 1)
+        lo = np.asarray(self.origin) + np.asarray(self.side) * where.min(axis=0)
+        hi = np.asarray(self.origin) + np.asarray(self.side) * (where.max(axis=0) + 1)
         return tuple(float(x) for x in lo), tuple(float(x) for x in hi)
 
     def contains(self, idx: np.ndarray) -> np.ndarray:
         """Whether the index-space points (n, 3) lie in a block that is in."""
-        b = np.floor((np.asarray(idx, np.float64) - np.asarray(self.origin)) / self.side).astype(np.int64)
+        b = np.floor((np.asarray(idx, np.float64) - np.asarray(self.origin)) / np.asarray(self.side))
+        b = b.astype(np.int64)
         ok = np.all((b >= 0) & (b < np.asarray(self.mask.shape)), axis=1)
         out = np.zeros(len(b), bool)
         out[ok] = self.mask[tuple(b[ok].T)]

@@ -59,7 +59,7 @@ vec3 emission_of(vec4 a) {
 // volume mesh): 1 in one, else 0.
 uniform sampler3D u_glow;
 uniform vec3 u_glow_origin;
-uniform float u_glow_side;
+uniform vec3 u_glow_side;
 float glow_at(vec3 idx) {
     ivec3 b = ivec3(floor((idx - u_glow_origin) / u_glow_side));
     if (any(lessThan(b, ivec3(0))) || any(greaterThanEqual(b, textureSize(u_glow, 0)))) return 0.0;
