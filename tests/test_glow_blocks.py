@@ -54,3 +54,17 @@ def test_a_constant_emission_glows_in_its_blocks_as_the_reference(fresh, with_li
     assert metrics.ssim(out, ref) >= 0.99
     assert np.all(np.abs(ratio - 1.0) <= 0.01)
     assert abs(plain.sum() / ref.sum() - 1.0) > 0.05        # the blocks change the image
+
+
+def test_a_gl_with_16_texture_units_glows_over_the_grid_s_box_and_says_so(fresh):
+    """The glow blocks' unit is above the 16 GL guarantees: with 16 the constant emission glows
+    over the grid's box (no GLOW_BLOCKS program), which the report says once."""
+    scene, _glow = _glowing(False)
+    fresh.gl.ctx.info["GL_MAX_TEXTURE_IMAGE_UNITS"] = 16      # moderngl keeps this dict
+    out = fresh.render(scene, SETTINGS)
+    plain = fresh.render(dataclasses.replace(scene, medium=dataclasses.replace(scene.medium, glow=None)),
+                         SETTINGS)
+    compiled = {dict(k[2]).get("GLOW_BLOCKS") for k in fresh.gl._programs if k[1] == "scatter.frag"}
+    assert 1 not in compiled
+    assert sum("too few texture units" in w for w in out.warnings) == 1, out.warnings
+    assert np.abs(out.combined - plain.combined).max() <= 1e-6

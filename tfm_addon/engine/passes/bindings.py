@@ -41,6 +41,12 @@ GRID_UNITS = tuple(UNIT[name] for name in ("u_density", "u_density1", "u_density
 MAX_GRIDS = len(GRID_UNITS)
 
 
+def has_glow_unit(gl: GLContext) -> bool:
+    """Whether this GL has the texture unit of the glow blocks (u_glow, above the 16 that GL 3.3
+    guarantees: a constant emission then glows over the grid's box, said in the report)."""
+    return UNIT["u_glow"] < int(gl.ctx.info.get("GL_MAX_TEXTURE_IMAGE_UNITS", 16))
+
+
 def max_grids(gl: GLContext) -> int:
     """Distinct density grids one pass can read on this GL: 4, or 3 with 16 texture units."""
     units = int(gl.ctx.info.get("GL_MAX_TEXTURE_IMAGE_UNITS", 16))

@@ -43,7 +43,7 @@ from ..medium_attributes import (
     padded_xyz_fastest,
 )
 from ..scene import Medium
-from .bindings import GRID_FORMATS, OCCUPANCY_BLOCK, UNIT, MediumGPU, occupancy
+from .bindings import GRID_FORMATS, OCCUPANCY_BLOCK, UNIT, MediumGPU, has_glow_unit, occupancy
 
 UNIT_ATTRS, UNIT_COLOR = UNIT["u_attrs"], UNIT["u_color_grid"]
 
@@ -157,7 +157,7 @@ class AttributesGPU:
     def emission_box(self, medium: Medium) -> tuple[tuple[float, ...], tuple[float, ...]]:
         """Index-space box outside which ``medium`` (these grids' medium) emits nothing: the
         grids' emitting voxels, or the whole grid box where a constant part glows."""
-        if constant_emits(medium) and medium.glow is not None:
+        if self.glow_blocks(medium) is not None:
             lo, hi = medium.glow.box        # where Cycles' volume mesh is (scene.Medium.glow)
             if self.grids_box is not None:  # which holds the grids' emitting voxels: made sure of
                 lo = tuple(min(a, b) for a, b in zip(lo, self.grids_box[0], strict=True))
@@ -279,11 +279,20 @@ class AttributesGPU:
             self.color.use(UNIT_COLOR)
             set_uniforms(prog, u_color_grid=UNIT_COLOR)
 
-    @staticmethod
-    def glow_blocks(medium: Medium):
+    def glow_blocks(self, medium: Medium):
         """The blocks outside which ``medium``'s constant emission does not glow (the march's
-        GLOW_BLOCKS), or None: where it has them and such a part."""
-        return medium.glow if medium.glow is not None and constant_emits(medium) else None
+        GLOW_BLOCKS), or None: where it has them and such a part, and the GL the unit for them
+        (bindings.has_glow_unit; without it the grid's box, ``glow_note``)."""
+        if medium.glow is None or not constant_emits(medium) or not has_glow_unit(self._gl):
+            return None
+        return medium.glow
+
+    def glow_note(self, medium: Medium) -> str | None:
+        """The report's line where ``medium`` has glow blocks this GL cannot read."""
+        if medium.glow is None or not constant_emits(medium) or has_glow_unit(self._gl):
+            return None
+        return (f"'{medium.name}': its constant emission glows over the grid's box, not over the "
+                f"blocks where Cycles puts the volume (this GL has too few texture units)")
 
     def _glow_texture(self, glow):
         """The blocks as an R8 texture (nearest), made once per mask."""
