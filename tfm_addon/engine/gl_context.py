@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import ctypes
 import sys
 import threading
 from pathlib import Path
@@ -55,7 +56,6 @@ def _gl_function(name: str, argtypes: tuple = ()):
     included; Windows' opengl32 exports OpenGL 1.1 only."""
     key = (name, tuple(argtypes))
     if key not in _GL_FUNCTIONS:
-        import ctypes
         import ctypes.util
 
         names = {"win32": ["opengl32"], "darwin": ["/System/Library/Frameworks/OpenGL.framework/OpenGL"]}.get(
@@ -141,8 +141,6 @@ class GLContext:
         llvmpipe for a 256^3 grid, during which the host's UI thread could not run). The texture's
         filters are the caller's to set. True when made through ctypes, False through moderngl
         (the platform's GL library does not export the entry points)."""
-        import ctypes
-
         args = (ctypes.c_uint, ctypes.c_uint, ctypes.c_int)
         parameter = _gl_function("glTexParameteri", args)
         generate = _gl_function("glGenerateMipmap", args[:1])
@@ -160,7 +158,7 @@ class GLContext:
         vao = self._fullscreen.get(id(prog))
         if vao is None:
             vao = self._fullscreen[id(prog)] = self.ctx.vertex_array(prog, [])
-        vao.render(vertices=3)
+        _draw_triangles(vao, 3)
 
     def draw_rects(self, prog, vbo, vertices: int) -> None:
         """Run ``prog`` (fullscreen.vert with RECTS) over the triangles of ``vbo`` (2 floats a
@@ -171,7 +169,7 @@ class GLContext:
             entry = self._rects[key] = (vbo, self.ctx.vertex_array(prog, [(vbo, "2f", "in_px")]))
             while len(self._rects) > RECT_ARRAYS:   # an adaptive frame's rectangles change twice
                 self._rects.pop(next(iter(self._rects)))[1].release()
-        entry[1].render(vertices=vertices)
+        _draw_triangles(entry[1], vertices)
 
     def release(self) -> None:
         for _, vao in self._rects.values():
@@ -184,6 +182,24 @@ class GLContext:
         self._programs.clear()
         self.ctx.release()
         GLContext.live -= 1
+
+
+GL_TRIANGLES = 0x0004
+_DRAW_ARGS = (ctypes.c_uint, ctypes.c_int, ctypes.c_int)       # glDrawArrays(mode, first, count)
+
+
+def _draw_triangles(vao, vertices: int) -> None:
+    """Draw ``vertices`` of ``vao`` as triangles with Python's GIL released while the GL works:
+    llvmpipe compiles a program's machine code at its first draw (~250 ms for a new variant of the
+    light pass), which inside moderngl's render would stop the host's UI thread that long. moderngl
+    binds the program and the vertex array (a draw of no vertices); glDrawArrays through ctypes
+    draws. Where the platform's GL library does not export it, moderngl draws."""
+    draw = _gl_function("glDrawArrays", _DRAW_ARGS)
+    if draw is None:
+        vao.render(vertices=vertices)
+        return
+    vao.render(vertices=0)          # binds, draws nothing
+    draw(GL_TRIANGLES, 0, int(vertices))
 
 
 def set_uniforms(prog, **values) -> None:
