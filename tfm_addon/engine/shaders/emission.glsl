@@ -65,6 +65,14 @@ float glow_at(vec3 idx) {
     if (any(lessThan(b, ivec3(0))) || any(greaterThanEqual(b, textureSize(u_glow, 0)))) return 0.0;
     return texelFetch(u_glow, b, 0).r;
 }
+
+// Where the ray ob + db t (grid index space) leaves the glow block holding its point at t.
+float glow_exit(vec3 ob, vec3 db, float t) {
+    vec3 b = floor((ob + db * t - u_glow_origin) / u_glow_side);
+    db = mix(db, vec3(1e-12), lessThan(abs(db), vec3(1e-12)));
+    vec3 tb = (u_glow_origin + (b + step(0.0, db)) * u_glow_side - ob) / db;
+    return max(t, min(min(tb.x, tb.y), tb.z));
+}
 #endif
 
 // Emitted radiance per metre at a point in box (grid index) space.

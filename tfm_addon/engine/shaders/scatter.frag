@@ -210,18 +210,23 @@ void main() {
             if (t >= emit.x && t <= emit.y) glow += tv_e * emission_at_index(ob + db * t);
 #endif
 #if GLOW_BLOCKS
-            // The constant part, where Cycles' volume mesh is (the march skips no cell: below).
-            if (t >= emit.x && t <= emit.y) glow += tv_e * u_emission_const * glow_at(ob + db * t);
+            // The constant part, where Cycles' volume mesh is (emission.glsl glow_at).
+            float in_glow = glow_at(ob + db * t);
+            glow += tv_e * u_emission_const * in_glow;
 #endif
 #endif
 #if N_MEDIA == 1
-#if GLOW_BLOCKS
-            if (false) {      // the constant part glows by blocks the occupancy cells do not follow
-#else
             if (!any_d) {     // in an empty occupancy cell: on to the first sample past it (at step_at)
-#endif
+#if GLOW_BLOCKS
+                // ... or past this glow block, whichever comes first: the samples skipped then all
+                // lie in this sample's block and glow as it does.
+                float t_skip = min(skip_empty(ob, db, t), glow_exit(ob, db, t));
+                int next = max(i + 1, int(ceil((t_skip - seg.x) / dt - step_at - 0.001)));
+                glow += float(min(next, u_view_steps) - i - 1) * tv_e * u_emission_const * in_glow;
+#else
                 int next = max(i + 1, int(ceil((skip_empty(ob, db, t) - seg.x) / dt - step_at - 0.001)));
-#if EMISSION && EMISSION != 2
+#endif
+#if EMISSION && EMISSION != 2 && !GLOW_BLOCKS
                 // The samples skipped (no density, no emitting voxel near) glow with the constant
                 // part of the emission alone, under this sample's transmittance (st is 0).
                 glow += float(samples_within(emit, i + 1, min(next, u_view_steps), seg.x, dt, step_at))
