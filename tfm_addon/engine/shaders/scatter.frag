@@ -134,6 +134,9 @@ void main() {
     vec2 seg = vec2(t_near, t_end);
 #elif MEDIUM == 3
     vec2 seg = media_interval(o, d);
+#if GLOW_BLOCKS
+    vec2 dens_seg = seg;    // where the density may not be 0: outside it a skip may pass a whole glow block
+#endif
 #if EMISSION
     // The boxes are the densities' non-zero bounds; the first medium's emission may glow outside.
     vec2 emit_seg = emission_interval((u_world_to_box * vec4(o, 1.0)).xyz, (u_world_to_box * vec4(d, 0.0)).xyz);
@@ -220,7 +223,9 @@ void main() {
 #if GLOW_BLOCKS
                 // ... or past this glow block, whichever comes first: the samples skipped then all
                 // lie in this sample's block and glow as it does.
-                float t_skip = min(skip_empty(ob, db, t), glow_exit(ob, db, t));
+                float t_skip = glow_exit(ob, db, t);
+                if (t < dens_seg.x) t_skip = min(t_skip, dens_seg.x);       // before the density's box
+                else if (t <= dens_seg.y) t_skip = min(t_skip, skip_empty(ob, db, t));
                 int next = max(i + 1, int(ceil((t_skip - seg.x) / dt - step_at - 0.001)));
                 glow += float(min(next, u_view_steps) - i - 1) * tv_e * u_emission_const * in_glow;
 #else
