@@ -4,8 +4,6 @@ build_mipmaps, the 2x2x2 means of the grid, and another Python thread keeps runn
 (asserted against the call's own duration, never on wall-clock limits)."""
 
 import ctypes
-import threading
-import time
 
 import numpy as np
 
@@ -39,29 +37,6 @@ def _level1(gl: GLContext, data: np.ndarray, through_ctypes: bool) -> tuple[np.n
         tex.release()
 
 
-def _timed_with_ticker(work) -> tuple[float, float]:
-    """(seconds ``work`` took, the longest gap between the 1 ms wake-ups of another thread)."""
-    gaps, running = [], [True]
-
-    def ticker():
-        last = time.perf_counter()
-        while running[0]:
-            time.sleep(0.001)
-            now = time.perf_counter()
-            gaps.append(now - last)
-            last = now
-    th = threading.Thread(target=ticker)
-    th.start()
-    time.sleep(0.02)
-    t0 = time.perf_counter()
-    work()
-    call = time.perf_counter() - t0
-    time.sleep(0.02)
-    running[0] = False
-    th.join()
-    return call, max(gaps)
-
-
 def test_level1_is_the_means_of_2x2x2_voxels_and_the_moderngl_one():
     gl = GLContext()
     try:
@@ -80,7 +55,7 @@ def test_level1_is_the_means_of_2x2x2_voxels_and_the_moderngl_one():
         gl.release()
 
 
-def test_another_thread_runs_while_the_level_is_made():
+def test_another_thread_runs_while_the_level_is_made(timed_with_ticker):
     """A 256^3 grid's level took 30-50 ms inside moderngl's build_mipmaps on llvmpipe, with the
     GIL held; through ctypes a thread that wakes every millisecond is not held up for the call."""
     gl = GLContext()
@@ -90,7 +65,7 @@ def test_another_thread_runs_while_the_level_is_made():
         data = (np.random.default_rng(4).random((192, 192, 192)) * 65535).astype(np.uint16)
         tex = gl.ctx.texture3d((192, 192, 192), 1, data.tobytes(), dtype="nu2")
         gl.finish()
-        call, gap = _timed_with_ticker(lambda: (gl.build_level1(tex), gl.finish()))
+        call, gap = timed_with_ticker(lambda: (gl.build_level1(tex), gl.finish()))
         tex.release()
         print(f"level 1 of 192^3: {1e3 * call:.1f} ms; other thread's longest gap {1e3 * gap:.1f} ms")
         if call > 0.02:     # only a call long enough to tell

@@ -69,6 +69,30 @@ def addon(extension_zip, tmp_path_factory):
 
 
 @pytest.fixture
+def flags_of_next_update():
+    """The change flags the add-on derives from the real depsgraph updates of the next view-layer
+    update (collect() updates the view layer and ORs them)."""
+    changes = importlib.import_module(MODULE + ".tfm_addon.blender.changes")
+    seen = []
+
+    def handler(scene, depsgraph):
+        seen.append(changes.changes_from_depsgraph(depsgraph))
+
+    bpy.app.handlers.depsgraph_update_post.append(handler)
+
+    def collect():
+        seen.clear()
+        bpy.context.view_layer.update()
+        flags = changes.Change.NONE
+        for f in seen:
+            flags |= f
+        return flags
+
+    yield collect
+    bpy.app.handlers.depsgraph_update_post.remove(handler)
+
+
+@pytest.fixture
 def blank(addon):
     """An empty scene with the add-on enabled."""
     bpy.ops.wm.read_homefile(use_empty=True)

@@ -23,29 +23,6 @@ def _counters():
     return dict(_mod("render_worker").get_worker().counters)
 
 
-@pytest.fixture
-def flags_of_next_update():
-    """The change flags the add-on derives from the depsgraph updates of the next view-layer update."""
-    changes = _mod("changes")
-    seen = []
-
-    def handler(scene, depsgraph):
-        seen.append(changes.changes_from_depsgraph(depsgraph))
-
-    bpy.app.handlers.depsgraph_update_post.append(handler)
-
-    def collect():
-        seen.clear()
-        bpy.context.view_layer.update()
-        flags = changes.Change.NONE
-        for f in seen:
-            flags |= f
-        return flags
-
-    yield collect
-    bpy.app.handlers.depsgraph_update_post.remove(handler)
-
-
 def _view_camera(dg, width, height):
     ob = bpy.context.scene.camera.evaluated_get(dg)
     view = np.linalg.inv(_mod("camera").without_scale(ob.matrix_world))

@@ -6,36 +6,12 @@ import importlib
 
 import bpy
 import numpy as np
-import pytest
 from blender_helpers import MODULE, SETTINGS, render_passes, smoke
 from mathutils import Matrix
 
 
 def _mod(name):
     return importlib.import_module(f"{MODULE}.tfm_addon.blender.{name}")
-
-
-@pytest.fixture
-def flags_of_next_update():
-    """Collect the change flags the add-on derives from real depsgraph updates."""
-    changes = _mod("changes")
-    seen = []
-
-    def handler(scene, depsgraph):
-        seen.append(changes.changes_from_depsgraph(depsgraph))
-
-    bpy.app.handlers.depsgraph_update_post.append(handler)
-
-    def collect():
-        seen.clear()
-        bpy.context.view_layer.update()
-        flags = changes.Change.NONE
-        for f in seen:
-            flags |= f
-        return flags
-
-    yield collect
-    bpy.app.handlers.depsgraph_update_post.remove(handler)
 
 
 def _counters():

@@ -304,8 +304,8 @@ class Renderer:
                 medium = medium_gpu.slots[0].medium if medium_gpu.kind == MEDIUM_GRID else scene.medium
                 attributes = self._medium_attributes(medium, medium_gpu)
                 warnings += attributes.warnings if attributes is not None else []
-                if attributes is not None and medium is not None and attributes.glow_note(medium):
-                    warnings.append(attributes.glow_note(medium))
+                note = attributes.glow_note(medium) if attributes is not None and medium is not None else None
+                warnings += [note] if note else []
                 casters = self._solid_set(scene.shadow_casters)
                 seen = self._solid_set(scene.camera_meshes)
                 step("scene", t0)

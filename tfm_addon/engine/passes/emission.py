@@ -283,33 +283,37 @@ class AttributesGPU:
         """The blocks outside which ``medium``'s constant emission does not glow (the march's
         GLOW_BLOCKS), or None: where it has them and such a part, and the GL the unit for them
         (bindings.has_glow_unit; without it the grid's box, ``glow_note``)."""
-        if medium.glow is None or not constant_emits(medium) or not has_glow_unit(self._gl):
-            return None
-        return medium.glow
+        return medium.glow if self._glows(medium) and has_glow_unit(self._gl) else None
 
     def glow_note(self, medium: Medium) -> str | None:
         """The report's line where ``medium`` has glow blocks this GL cannot read."""
-        if medium.glow is None or not constant_emits(medium) or has_glow_unit(self._gl):
+        if not self._glows(medium) or has_glow_unit(self._gl):
             return None
         return (f"'{medium.name}': its constant emission glows over the grid's box, not over the "
                 f"blocks where Cycles puts the volume (this GL has too few texture units)")
 
+    @staticmethod
+    def _glows(medium: Medium) -> bool:
+        return medium.glow is not None and constant_emits(medium)
+
     def _glow_texture(self, glow):
-        """The blocks as an R8 texture (nearest), made once per mask."""
-        if getattr(self, "_glow", None) is None or self._glow[0] is not glow.mask:
-            if getattr(self, "_glow", None) is not None:
+        """The blocks as an R8 texture (nearest), made again only when the mask changes (a new
+        Medium each depsgraph update brings blocks of the same content)."""
+        m = np.ascontiguousarray(glow.mask.transpose(2, 1, 0), dtype=np.uint8) * np.uint8(255)
+        key = (glow.mask.shape, m.tobytes())
+        if self._glow is None or self._glow[0] != key:
+            if self._glow is not None:
                 self._glow[1].release()
-            m = np.ascontiguousarray(glow.mask.transpose(2, 1, 0), dtype=np.uint8) * np.uint8(255)
-            tex = self._gl.ctx.texture3d(glow.mask.shape, 1, m.tobytes(), dtype="f1")
+            tex = self._gl.ctx.texture3d(glow.mask.shape, 1, key[1], dtype="f1")
             tex.filter = (self._gl.ctx.NEAREST, self._gl.ctx.NEAREST)
             tex.repeat_x = tex.repeat_y = tex.repeat_z = False
-            self._glow = (glow.mask, tex)
+            self._glow = (key, tex)
         return self._glow[1]
 
     def release(self) -> None:
         for tex in (self.attrs, self.color, self.cells):
             if tex is not None:
                 tex.release()
-        if getattr(self, "_glow", None) is not None:
+        if self._glow is not None:
             self._glow[1].release()
             self._glow = None
