@@ -83,7 +83,8 @@ def test_emission_shader_into_volume_output_with_scatter(blank):
     assert sigma.sigma_s == pytest.approx((0.8, 0.8, 0.8))   # Volume Scatter's defaults
 
 
-def test_unreadable_emission_node_falls_back_naming_it_once(blank, tmp_path):
+def test_color_ramp_into_emission_is_evaluated_per_voxel(blank, tmp_path):
+    """A Color Ramp the affine reader cannot fold is evaluated over the lattice (no fallback)."""
     builder = _mod("scene_builder")
     scene = scenes.fire_scene(32, 18, 16, kind="EMISSION")
     made = builder.build(scene, str(tmp_path))
@@ -93,9 +94,29 @@ def test_unreadable_emission_node_falls_back_naming_it_once(blank, tmp_path):
     ramp.name = "Flame Ramp"
     nt.links.new(ramp.outputs["Alpha"], pv.inputs["Emission Strength"])
     ex = _mod("extract").extract(bpy.context.evaluated_depsgraph_get())
-    notes = [w for w in ex.all_warnings if "Flame Ramp" in w]
-    assert len(notes) == 1 and "Color Ramp" in notes[0], ex.all_warnings
-    assert not ex.medium.has_emission      # the panel's settings: no emission by default
+    assert not [w for w in ex.all_warnings if "Flame Ramp" in w], ex.all_warnings
+    assert ex.medium.has_emission and ex.medium.emission_grid is not None
+    # the ramp's alpha at its unlinked factor (0.5) is 1: Emission Color x 1 wherever the volume is
+    e = ex.medium.grids[ex.medium.emission_grid]
+    color = tuple(pv.inputs["Emission Color"].default_value)[:3]
+    assert e.reshape(-1, 3).max(axis=0) == pytest.approx(color, rel=1e-5)
+
+
+def test_unknown_node_is_named_once_and_the_rest_renders(blank, tmp_path):
+    builder = _mod("scene_builder")
+    scene = scenes.fire_scene(32, 18, 16, kind="EMISSION")
+    made = builder.build(scene, str(tmp_path))
+    nt = made["medium"].data.materials[0].node_tree
+    pv = next(n for n in nt.nodes if n.bl_idname == 'ShaderNodeVolumePrincipled')
+    magic = nt.nodes.new('ShaderNodeTexMagic')
+    magic.name = "Swirl"
+    nt.links.new(magic.outputs["Fac"], pv.inputs["Anisotropy"])
+    ramp = nt.nodes.new('ShaderNodeValToRGB')
+    nt.links.new(ramp.outputs["Alpha"], pv.inputs["Emission Strength"])
+    ex = _mod("extract").extract(bpy.context.evaluated_depsgraph_get())
+    notes = [w for w in ex.all_warnings if "Swirl" in w]
+    assert len(notes) == 1 and "Magic Texture" in notes[0], ex.all_warnings
+    assert ex.medium.has_emission and float(ex.medium.density.max()) > 0.0
 
 
 def test_panel_emission_fallback_scales_the_emission_grid(blank, tmp_path):

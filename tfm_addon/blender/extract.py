@@ -11,12 +11,12 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from ..engine import mesh_volume
+from ..engine import mesh_volume, shading
 from ..engine.medium_attributes import constant_emits
 from ..engine.medium_grid import downsample
 from ..engine.scene import Camera, GlowBlocks, GridValue, Medium, Mesh, RenderSettings, Scene, SpotLight
 from ..engine.scene import _digest as digest
-from . import fluid, materials, meshes
+from . import fluid, materials, meshes, node_graph
 from . import lights as lights_module
 from .camera import camera_from_object
 from .changes import Change
@@ -339,8 +339,18 @@ def _sigma(material, settings, label: str, notes: list[str], available=None) -> 
     density 'grid' the material reads (None: constant), 'constant' (the density is constant), and
     'grids' (every grid it reads). ``available``: the volume's grid names (None: unknown)."""
     use_nodes = settings is None or settings.use_node_material
+    if use_nodes and material is None and settings is not None:
+        # Cycles' default volume shader: a Principled Volume at its defaults
+        return dict(fields=dict(sigma_a=(0.5, 0.5, 0.5), sigma_s=(0.5, 0.5, 0.5), anisotropy=0.0),
+                    grid="density", constant=False, grids=("density",))
     if use_nodes and material is not None:
         sigma, reason = materials.read_volume_material(material, available)
+        graph = None if sigma is not None else node_graph.compile_volume(material)
+        if graph is not None and graph.output is not None:
+            # a graph that is not scale x grid + offset: evaluated per voxel (engine/shading.py)
+            notes.extend(f"{label}: {note}" for note in graph.notes)
+            return dict(fields={}, grid=None, constant=False, grids=graph.grids, graph=graph,
+                        from_material=True)
         if sigma is not None:
             notes.extend(f"{label}: {note}" for note in sigma.notes)
             fields = dict(sigma_a=sigma.sigma_a, sigma_s=sigma.sigma_s, anisotropy=sigma.anisotropy,
@@ -348,7 +358,8 @@ def _sigma(material, settings, label: str, notes: list[str], available=None) -> 
                           emission_strength=_grid_value(sigma.emission_strength),
                           blackbody_intensity=_grid_value(sigma.blackbody_intensity),
                           blackbody_tint=sigma.blackbody_tint, temperature=_grid_value(sigma.temperature))
-            return dict(fields=fields, grid=sigma.grid, constant=sigma.grid is None, grids=sigma.grids)
+            return dict(fields=fields, grid=sigma.grid, constant=sigma.grid is None, grids=sigma.grids,
+                        from_material=True)
         notes.append(f"{label}: {reason}")
     if settings is None:
         return dict(fields=dict(sigma_a=(0.1, 0.1, 0.1), sigma_s=(1.0, 1.0, 1.0), anisotropy=0.0),
@@ -414,14 +425,38 @@ def _volume_medium(instance, cache: GridCache, notes: list[str], simplify: int =
     if material_grid and material_grid != grid.grid_name:
         notes.append(f"{label}: the material reads grid '{material_grid}', the density comes from "
                      f"grid '{grid.grid_name}' (set in the volume's TFM panel)")
-    return _grid_medium(np.array(instance.matrix_world), grid, read, label, notes, simplify,
-                        float(getattr(volume.render, "clipping", 0.0)))
+    if read.get("from_material") and not read["grids"] and read["grid"] is None:
+        notes.append(f"{label}: its volume shader reads no grid, so it renders nothing (as in Cycles)")
+        return None
+    matrix = np.array(instance.matrix_world)
+    medium = _grid_medium(matrix, grid, read, label, notes, simplify,
+                          float(getattr(volume.render, "clipping", 0.0)))
+    if getattr(volume.render, "space", 'OBJECT') == 'OBJECT':
+        medium = object_space(medium, matrix)
+    return medium
+
+
+def object_space(medium: Medium, matrix_world: np.ndarray) -> Medium:
+    """Volume ▸ Render ▸ Space Object: Cycles divides the density (and the emission) by the
+    object's scale, the length of its matrix applied to the unit diagonal (1, 1, 1)/sqrt(3), so a
+    volume looks the same however it is scaled (intern/cycles/scene/object.cpp)."""
+    diagonal = np.asarray(matrix_world, np.float64)[:3, :3] @ (np.ones(3) / math.sqrt(3.0))
+    length = float(np.linalg.norm(diagonal))
+    if length <= 0.0 or not math.isfinite(length) or abs(length - 1.0) < 1e-9:
+        return medium
+    f = 1.0 / length
+    return replace(medium, sigma_a=tuple(f * c for c in medium.sigma_a),
+                   sigma_s=tuple(f * c for c in medium.sigma_s),
+                   emission_color=tuple(f * c for c in medium.emission_color),
+                   blackbody_tint=tuple(f * c for c in medium.blackbody_tint))
 
 
 def _grid_medium(matrix_world, grid, read: dict, label: str, notes: list[str], simplify: int = 0,
                  clipping: float = 0.0) -> Medium:
     """The medium of a grid read for an object placed by ``matrix_world``; ``simplify`` halves
     the grids that many times (Simplify's volume resolution), ``clipping`` empties lower densities."""
+    if read.get("graph") is not None:
+        return _graph_medium(matrix_world, grid, read["graph"], label, notes, simplify, clipping)
     fields = read["fields"]
     to_world = matrix_world @ grid.index_to_object
     if read["constant"]:
@@ -429,11 +464,12 @@ def _grid_medium(matrix_world, grid, read: dict, label: str, notes: list[str], s
         box = to_world @ _box_matrix(-0.5 * np.ones(3), n - 0.5)
         fields = _drop_missing(fields, {}, label, notes, "is not rendered with a constant density")
         return Medium(box_to_world=box, **fields)
-    fields = _drop_missing(fields, grid.extras, label, notes)
+    available = {getattr(grid, "grid_name", "density"): grid.density, **grid.extras}   # the density too
+    fields = _drop_missing(fields, available, label, notes)
     used = {v.grid for v in (fields.get("emission_strength"), fields.get("blackbody_intensity"),
                              fields.get("temperature")) if isinstance(v, GridValue) and v.grid}
     used |= {fields["color_grid"]} if fields.get("color_grid") else set()
-    extras = {name: a for name, a in grid.extras.items() if name in used}
+    extras = {name: a for name, a in available.items() if name in used}
     density, index_to_object = simplify_grid(grid.density, grid.index_to_object, simplify)
     if simplify > 0:
         extras = _simplify_extras(extras, simplify)
@@ -452,6 +488,61 @@ def _grid_medium(matrix_world, grid, read: dict, label: str, notes: list[str], s
                               tuple(x / f for x in glow.side), glow.mask)
         medium = replace(medium, glow=glow)
     return medium
+
+
+# The last evaluations of node graphs: (grid key, graph key, simplify, clipping) -> Resolved.
+_resolved: dict = {}
+EVALUATIONS = {"count": 0}      # how many node graphs were evaluated over a lattice (tests)
+
+
+def _graph_medium(matrix_world, grid, graph: shading.ShaderGraph, label: str, notes: list[str],
+                  simplify: int, clipping: float) -> Medium:
+    """The medium of a node graph evaluated per voxel over the grid's lattice: where Cycles' volume
+    mesh is (the grids' leaf blocks, or a fluid domain's cube), every voxel's coefficients and
+    emission; cached by the grids' and the graph's content, so only an edit of either evaluates."""
+    key = (grid.key or id(grid.density), graph.key, simplify, float(clipping))
+    hit = _resolved.get(key)
+    if hit is None:
+        available = {getattr(grid, "grid_name", "density"): grid.density, **grid.extras}
+        grids = {name: available[name] for name in graph.grids if name in available}
+        density, index_to_object = simplify_grid(grid.density, grid.index_to_object, simplify)
+        grids = _simplify_extras(grids, simplify) if simplify > 0 else grids
+        name = getattr(grid, "grid_name", "density")
+        if clipping > 0.0 and name in grids:
+            d = np.asarray(grids[name])
+            grids[name] = np.where(d < clipping, np.float32(0.0), d)
+        mask = _volume_mask(grid, tuple(n for n in graph.grids if n in grid.extras), clipping,
+                            density.shape, simplify)
+        resolved = shading.resolve(graph, grids, density.shape, index_to_object, mask)
+        EVALUATIONS["count"] += 1
+        hit = (resolved, index_to_object)
+        if len(_resolved) >= 8:
+            _resolved.pop(next(iter(_resolved)))
+        _resolved[key] = hit
+    resolved, index_to_object = hit
+    notes.extend(f"{label}: {note}" for note in resolved.notes)
+    grids, fields = {}, {}
+    if resolved.color is not None:
+        grids["__color"] = resolved.color
+        fields["color_grid"] = "__color"
+    if resolved.emission is not None:
+        grids["__emission"] = resolved.emission
+        fields["emission_grid"] = "__emission"
+    return Medium(density=resolved.density, index_to_world=matrix_world @ index_to_object, grids=grids,
+                  sigma_a=resolved.sigma_a, sigma_s=resolved.sigma_s, anisotropy=resolved.anisotropy,
+                  source_key=digest(*key) if grid.key else None, **fields)
+
+
+def _volume_mask(grid, extras: tuple[str, ...], clipping: float, shape, simplify: int):
+    """Where Cycles renders the volume on the (simplified) lattice: inside its glow blocks."""
+    if grid.bounds is not None:
+        return None
+    glow = glow_blocks(grid, extras, clipping)
+    if glow is None:
+        return np.zeros(shape, bool)
+    f = 2 ** simplify
+    idx = np.stack(np.meshgrid(*[np.arange(n) * f + (f - 1) / 2.0 for n in shape], indexing="ij"), -1)
+    return glow.contains(idx.reshape(-1, 3)).reshape(shape)
 
 
 LEAF = 8        # OpenVDB's leaf nodes: 8³ voxels, at indices that are multiples of 8

@@ -39,6 +39,8 @@ def uses_blackbody_grid(medium: Medium) -> bool:
 
 
 def _reads_blackbody_grid(medium: Medium) -> bool:
+    if medium.emission_grid is not None:     # per-voxel emission takes the blackbody term's place
+        return True
     return (medium.blackbody_intensity.grid is not None or medium.temperature.grid is not None) and not (
         medium.blackbody_intensity.grid is None and medium.blackbody_intensity.offset <= 0.0)
 
@@ -52,7 +54,8 @@ def key(medium: Medium, emitting: bool = False) -> tuple:
     the key of those the medium has while it emits, whether it emits now or not (a colour, strength
     or tint at 0 keeps them: Renderer._medium_attributes)."""
     on = emitting or medium.has_emission
-    bb = (medium.blackbody_intensity, medium.temperature) if on and _reads_blackbody_grid(medium) else None
+    bb = ((medium.blackbody_intensity, medium.temperature, medium.emission_grid)
+          if on and _reads_blackbody_grid(medium) else None)
     strength = medium.emission_strength.grid if on else None
     return (strength, bb, medium.color_grid)
 
@@ -87,7 +90,8 @@ def prepare_attributes(medium: Medium, factor: int) -> PreparedAttributes:
     """The grids ``medium`` needs besides the density, downsampled by ``factor`` like it."""
     warnings: list[str] = []
     strength, bb = uses_strength_grid(medium), uses_blackbody_grid(medium)
-    intensity = bb and medium.blackbody_intensity.grid is not None and medium.temperature.grid is not None
+    intensity = (bb and medium.emission_grid is None and medium.blackbody_intensity.grid is not None
+                 and medium.temperature.grid is not None)
     scalars = None
     if strength or bb:
         shape = medium.density.shape
@@ -95,7 +99,12 @@ def prepare_attributes(medium: Medium, factor: int) -> PreparedAttributes:
         if strength:
             name = medium.emission_strength.grid
             channels[STRENGTH] = _clean(np.asarray(medium.grids[name], np.float32), name, warnings)
-        if bb:
+        if bb and medium.emission_grid is not None:
+            rgb = _clean(np.asarray(medium.grids[medium.emission_grid], np.float32), medium.emission_grid,
+                         warnings)
+            for k in range(3):
+                channels[BLACKBODY + k] = rgb[..., k]
+        elif bb:
             t = _value(medium, medium.temperature, warnings)
             b = _value(medium, medium.blackbody_intensity, warnings)
             t, b = np.broadcast_arrays(np.asarray(t, np.float64), np.asarray(b, np.float64))

@@ -361,6 +361,8 @@ class _Field:
         out = np.maximum(self.value(medium.emission_strength, p), 0.0)[:, None] * \
             np.asarray(medium.emission_color, np.float64)
         tint = np.asarray(medium.blackbody_tint, np.float64)
+        if medium.emission_grid is not None:
+            return out + tint * self.attribute(medium.emission_grid, p)
         bb, t = medium.blackbody_intensity, medium.temperature
         if bb.grid is None and t.grid is None:
             if bb.offset > 0:

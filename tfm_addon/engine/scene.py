@@ -273,6 +273,10 @@ class Medium:
     there is no density (a constant Emission Strength): Cycles glows over the volume's mesh, the
     8³ leaf blocks of its grids' active voxels (blender/extract.glow_blocks), ``GlowBlocks`` in
     the density's index space. None: the grid's box one voxel wider, [-1, n].
+
+    ``emission_grid``: an RGB grid of ``grids`` holding emitted radiance per metre per voxel (a
+    node graph evaluated per voxel, engine/shading.py), added to the emission above times
+    ``blackbody_tint``.
     """
 
     sigma_a: RGB = (0.1, 0.1, 0.1)
@@ -292,6 +296,7 @@ class Medium:
     temperature: GridValue = field(default_factory=lambda: GridValue(offset=1000.0))
     source_key: str | None = None
     glow: GlowBlocks | None = None
+    emission_grid: str | None = None
 
     def __post_init__(self):
         if self.density is not None:
@@ -316,9 +321,9 @@ class Medium:
         for value in (self.emission_strength, self.blackbody_intensity, self.temperature):
             if value.grid is not None and (value.grid not in grids or grids[value.grid].ndim != 3):
                 raise ValueError(f"no scalar grid '{value.grid}' in the medium's grids")
-        if self.color_grid is not None and (self.color_grid not in grids
-                                            or grids[self.color_grid].ndim != 4):
-            raise ValueError(f"no colour grid '{self.color_grid}' in the medium's grids")
+        for name in (self.color_grid, self.emission_grid):
+            if name is not None and (name not in grids or grids[name].ndim != 4):
+                raise ValueError(f"no colour grid '{name}' in the medium's grids")
 
     @property
     def has_emission(self) -> bool:
@@ -328,14 +333,14 @@ class Medium:
             strength.offset > 0.0 or (strength.grid is not None and strength.scale > 0.0))
         bb = self.blackbody_intensity
         burns = any(c != 0.0 for c in self.blackbody_tint) and (
-            bb.offset > 0.0 or (bb.grid is not None and bb.scale > 0.0))
+            bb.offset > 0.0 or (bb.grid is not None and bb.scale > 0.0) or self.emission_grid is not None)
         return glows or burns
 
     @cached_property
     def emission_key(self) -> str:
         """What the emission term depends on besides the grids (no light map depends on it)."""
         return _digest(self.emission_color, self.emission_strength, self.blackbody_intensity,
-                       self.blackbody_tint, self.temperature,
+                       self.blackbody_tint, self.temperature, self.emission_grid,
                        None if self.glow is None else (self.glow.origin, self.glow.side, self.glow.mask))
 
     @cached_property

@@ -1,0 +1,214 @@
+"""Volume materials as Cycles reads them, judged by Cycles (single scattering, rendered here):
+node graphs evaluated per voxel (Map Range, Color Ramp, Math, an Attribute reading the density
+grid into Emission Strength), Volume ▸ Render ▸ Space Object on a scaled-down volume, Cycles'
+default volume shader for a volume without a material, and a shader that reads no grid."""
+
+from __future__ import annotations
+
+import importlib
+import os
+import time
+
+import bpy
+import numpy as np
+import pytest
+from blender_helpers import MODULE, render_passes, smoke
+
+from tfm_addon.engine import RenderSettings, metrics
+
+SETTINGS = RenderSettings(view_steps=96, light_steps=96, map_resolution=192, coefficients=12)
+CYCLES_SAMPLES = 512        # 64x48: a few seconds on 2 cores
+
+
+def _builder():
+    return importlib.import_module(MODULE + ".tfm_addon.blender.scene_builder")
+
+
+def _smoke_scene(tmp_path, lights: bool = True):
+    made = _builder().build(smoke(width=64, height=48, n=24), str(tmp_path), settings=SETTINGS, samples=16)
+    if not lights:          # emission alone: no light, no bar
+        for ob in made["lights"] + made["meshes"][:1]:
+            bpy.data.objects.remove(ob)
+    return made["medium"]
+
+
+def _new_material(ob, name="Graph"):
+    mat = bpy.data.materials.new(name)
+    nt = mat.node_tree
+    nt.nodes.clear()
+    ob.data.materials.clear()
+    ob.data.materials.append(mat)
+    return nt, nt.nodes.new('ShaderNodeOutputMaterial')
+
+
+def _compare(tmp_path, *, ssim_min=0.98, tolerance=0.03, per_channel=False):
+    """TFM then Cycles on the context scene, compared; both images."""
+    scene = bpy.context.scene
+    tfm = render_passes(tmp_path, "tfm")["Combined"]
+    _builder().cycles_single_scattering(scene, samples=CYCLES_SAMPLES)
+    t0 = time.perf_counter()
+    cycles = render_passes(tmp_path, "cycles")["Combined"]
+    seconds = time.perf_counter() - t0
+    ssim = metrics.ssim(tfm, cycles)
+    if os.environ.get("TFM_SAVE_COMPARISONS"):
+        np.savez(os.path.join(os.environ["TFM_SAVE_COMPARISONS"], f"{tmp_path.name}.npz"), tfm=tfm,
+                 cycles=cycles)
+    ratios = ([metrics.brightness_ratio(tfm[..., k:k + 1], cycles[..., k:k + 1]) for k in range(3)]
+              if per_channel
+              else [metrics.brightness_ratio(tfm, cycles)])
+    print(f"TFM vs Cycles ({CYCLES_SAMPLES} spp, {seconds:.1f} s): SSIM {ssim:.4f}, brightness "
+          + ", ".join(f"{r:.4f}" for r in ratios))
+    assert float(cycles[..., :3].mean()) > 1e-4, "Cycles rendered nothing: the scene is wrong"
+    assert ssim >= ssim_min
+    for r in ratios:
+        assert abs(r - 1.0) <= tolerance
+    return tfm, cycles
+
+
+def _mod(name):
+    return importlib.import_module(f"{MODULE}.tfm_addon.blender.{name}")
+
+
+def _link(nt, a, b):
+    nt.links.new(a, b)
+
+
+def test_map_range_and_color_ramp_graph_matches_cycles(blank, tmp_path):
+    ob = _smoke_scene(tmp_path)
+    nt, out = _new_material(ob)
+    attr = nt.nodes.new('ShaderNodeAttribute')
+    attr.attribute_name = "density"
+    mr = nt.nodes.new('ShaderNodeMapRange')
+    mr.interpolation_type = 'SMOOTHSTEP'
+    mr.inputs["From Min"].default_value = 0.05
+    mr.inputs["From Max"].default_value = 0.6
+    mr.inputs["To Max"].default_value = 1.0
+    mul = nt.nodes.new('ShaderNodeMath')
+    mul.operation = 'MULTIPLY'
+    mul.inputs[1].default_value = 3.0
+    ramp = nt.nodes.new('ShaderNodeValToRGB')
+    ramp.color_ramp.elements[0].color = (0.9, 0.3, 0.1, 1.0)
+    ramp.color_ramp.elements[1].color = (0.2, 0.5, 0.95, 1.0)
+    pv = nt.nodes.new('ShaderNodeVolumePrincipled')
+    pv.inputs["Density Attribute"].default_value = ""
+    _link(nt, attr.outputs["Fac"], mr.inputs["Value"])
+    _link(nt, mr.outputs["Result"], mul.inputs[0])
+    _link(nt, mul.outputs[0], pv.inputs["Density"])
+    _link(nt, mr.outputs["Result"], ramp.inputs["Fac"])
+    _link(nt, ramp.outputs["Color"], pv.inputs["Color"])
+    _link(nt, pv.outputs[0], out.inputs["Volume"])
+    _compare(tmp_path, per_channel=True)
+
+
+@pytest.mark.xfail(strict=True, reason="emission inside an absorbing medium: TFM and the numpy reference "
+                   "agree (1.0001) and come out 0.928 of Cycles; pure emission matches (1.0004)")
+def test_density_attribute_into_emission_strength_beside_principled_density(blank, tmp_path):
+    """The Attribute node reads the density grid into Emission Strength beside the Principled
+    Volume's own Density Attribute (the grid is found for both)."""
+    ob = _smoke_scene(tmp_path, lights=False)
+    nt, out = _new_material(ob)
+    attr = nt.nodes.new('ShaderNodeAttribute')
+    attr.attribute_name = "density"
+    mul = nt.nodes.new('ShaderNodeMath')
+    mul.operation = 'MULTIPLY'
+    mul.inputs[1].default_value = 4.0
+    pv = nt.nodes.new('ShaderNodeVolumePrincipled')       # its Density Attribute reads "density"
+    pv.inputs["Emission Color"].default_value = (1.0, 0.5, 0.2, 1.0)
+    _link(nt, attr.outputs["Fac"], mul.inputs[0])
+    _link(nt, mul.outputs[0], pv.inputs["Emission Strength"])
+    _link(nt, pv.outputs[0], out.inputs["Volume"])
+    ob.visible_diffuse = ob.visible_volume_scatter = False   # emission lights nothing (see docs)
+    _compare(tmp_path, per_channel=True)
+
+
+@pytest.mark.xfail(strict=True, reason="emission inside an absorbing medium: 1.019/1.037/1.033 of Cycles "
+                   "per channel (SSIM 0.997)")
+def test_fire_colour_from_temperature_ramp(blank, tmp_path):
+    ob = _smoke_scene(tmp_path, lights=False)
+    nt, out = _new_material(ob)
+    attr = nt.nodes.new('ShaderNodeAttribute')
+    attr.attribute_name = "density"
+    mr = nt.nodes.new('ShaderNodeMapRange')
+    mr.inputs["From Min"].default_value = 0.1
+    mr.inputs["From Max"].default_value = 0.8
+    ramp = nt.nodes.new('ShaderNodeValToRGB')
+    ramp.color_ramp.interpolation = 'EASE'
+    ramp.color_ramp.elements[0].color = (0.0, 0.0, 0.0, 1.0)
+    ramp.color_ramp.elements[1].color = (4.0, 1.5, 0.3, 1.0)
+    mid = ramp.color_ramp.elements.new(0.5)
+    mid.color = (1.5, 0.2, 0.05, 1.0)
+    em = nt.nodes.new('ShaderNodeEmission')
+    em.inputs["Strength"].default_value = 2.0
+    _link(nt, attr.outputs["Fac"], mr.inputs["Value"])
+    _link(nt, mr.outputs["Result"], ramp.inputs["Fac"])
+    _link(nt, ramp.outputs["Color"], em.inputs["Color"])
+    add = nt.nodes.new('ShaderNodeAddShader')
+    absorb = nt.nodes.new('ShaderNodeVolumeAbsorption')
+    da = nt.nodes.new('ShaderNodeAttribute')
+    da.attribute_name = "density"
+    _link(nt, da.outputs["Fac"], absorb.inputs["Density"])
+    _link(nt, em.outputs[0], add.inputs[0])
+    _link(nt, absorb.outputs[0], add.inputs[1])
+    _link(nt, add.outputs[0], out.inputs["Volume"])
+    ob.visible_diffuse = ob.visible_volume_scatter = False   # emission lights nothing (see docs)
+    _compare(tmp_path, per_channel=True)
+
+
+def test_space_object_scaled_volume_matches_cycles(blank, tmp_path):
+    """A volume scaled down on import (a .vdb in centimetres at scale 0.02 here, its voxels 50x
+    larger): with Space Object (the default) Cycles divides the density by the scale."""
+    scene = smoke(width=64, height=48, n=24)
+    made = _builder().build(scene, str(tmp_path), settings=SETTINGS, samples=16)
+    ob = made["medium"]
+    assert ob.data.render.space == 'OBJECT'
+    m = np.asarray(scene.medium.index_to_world, np.float64)
+    voxel = float(abs(np.linalg.det(m[:3, :3])) ** (1.0 / 3.0)) * 50.0
+    path = str(tmp_path / "centimetres.vdb")
+    _builder().write_vdb(path, scene.medium.density, voxel)
+    ob.data.filepath = path
+    ob.matrix_world = _builder().to_blender_matrix(m @ np.diag([1.0 / voxel] * 3 + [1.0]))
+    assert ob.scale[0] == pytest.approx(0.02, rel=1e-3)
+    _compare(tmp_path)
+
+
+def test_volume_without_material_renders_cycles_default_shader(blank, tmp_path):
+    ob = _smoke_scene(tmp_path)
+    ob.data.materials.clear()
+    _compare(tmp_path)
+
+
+def test_shader_reading_no_grid_renders_nothing(blank, tmp_path):
+    ob = _smoke_scene(tmp_path)
+    nt, out = _new_material(ob)
+    scatter = nt.nodes.new('ShaderNodeVolumeScatter')
+    _link(nt, scatter.outputs[0], out.inputs["Volume"])
+    extract = _mod("extract")
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    found = extract.extract(depsgraph)
+    assert found.media == ()
+    assert any("reads no grid" in w for w in found.all_warnings)
+
+
+def test_node_edit_reevaluates_once_and_camera_move_not_at_all(blank, tmp_path):
+    ob = _smoke_scene(tmp_path)
+    nt, out = _new_material(ob)
+    attr = nt.nodes.new('ShaderNodeAttribute')
+    attr.attribute_name = "density"
+    mr = nt.nodes.new('ShaderNodeMapRange')
+    pv = nt.nodes.new('ShaderNodeVolumePrincipled')
+    _link(nt, attr.outputs["Fac"], mr.inputs["Value"])
+    _link(nt, mr.outputs["Result"], pv.inputs["Density"])
+    _link(nt, pv.outputs[0], out.inputs["Volume"])
+    extract = _mod("extract")
+    count = extract.EVALUATIONS
+    first = extract.extract(bpy.context.evaluated_depsgraph_get())
+    n0 = count["count"]
+    bpy.context.scene.camera.location.x += 0.3
+    again = extract.extract(bpy.context.evaluated_depsgraph_get())
+    assert count["count"] == n0          # the same graph and grids: nothing evaluated
+    assert again.media[0].density is first.media[0].density
+    mr.inputs["To Max"].default_value = 2.0
+    edited = extract.extract(bpy.context.evaluated_depsgraph_get())
+    assert count["count"] == n0 + 1
+    assert float(edited.media[0].density.max()) == pytest.approx(2.0 * float(first.media[0].density.max()),
+                                                                 rel=1e-4)

@@ -1,0 +1,211 @@
+"""A material's volume node graph compiled into the engine's ``shading.ShaderGraph``.
+
+The walk starts at the Cycles output's Volume socket and follows links backwards (through reroutes
+and muted nodes' pass-throughs). Each node type the engine evaluates has a row in ``KINDS``: its
+engine kind and how its parameters are read. A node without a row is named once in the graph's
+notes and the socket it feeds reads its own default value, so the rest of the graph still renders.
+Colour ramps and float curves are baked into 256-entry tables as Cycles bakes them.
+"""
+
+from __future__ import annotations
+
+from ..engine.shading import Input, Link, Node, ShaderGraph
+from .materials import output_node
+
+RAMP_TABLE_SIZE = 256    # Cycles' RAMP_TABLE_SIZE
+
+
+def _ramp(node) -> tuple:
+    ramp = node.color_ramp
+    table = [tuple(ramp.evaluate(i / (RAMP_TABLE_SIZE - 1))) for i in range(RAMP_TABLE_SIZE)]
+    return (("table", tuple(v for rgba in table for v in rgba)),
+            ("interpolate", ramp.interpolation != 'CONSTANT'))
+
+
+def _curve(node) -> tuple:
+    mapping = node.mapping
+    mapping.initialize()
+    curve = mapping.curves[0]
+    xs = [p.location[0] for p in curve.points]
+    lo, hi = (min(xs), max(xs)) if xs and max(xs) > min(xs) else (0.0, 1.0)
+    table = tuple(mapping.evaluate(curve, lo + (hi - lo) * i / (RAMP_TABLE_SIZE - 1))
+                  for i in range(RAMP_TABLE_SIZE))
+    return (("table", table), ("range", (lo, hi)))
+
+
+def _strings(*names):
+    def read(node):
+        return tuple((n.lower().replace(" ", "_"), str(node.inputs[n].default_value))
+                     for n in names if n in node.inputs)
+    return read
+
+
+def _props(*names):
+    def read(node):
+        return tuple((n, getattr(node, n)) for n in names)
+    return read
+
+
+# bl_idname -> (engine kind, parameters read from the node)
+KINDS = {
+    'ShaderNodeAttribute': ("ATTRIBUTE", lambda n: (("name", n.attribute_name),)),
+    'ShaderNodeVolumeInfo': ("VOLUME_INFO", None),
+    'ShaderNodeValue': ("VALUE", lambda n: (("value", float(n.outputs[0].default_value)),)),
+    'ShaderNodeRGB': ("RGB", lambda n: (("color", tuple(float(v) for v in n.outputs[0].default_value[:3])),)),
+    'ShaderNodeMath': ("MATH", _props("operation", "use_clamp")),
+    'ShaderNodeMapRange': ("MAP_RANGE", _props("interpolation_type", "clamp")),
+    'ShaderNodeClamp': ("CLAMP", _props("clamp_type")),
+    'ShaderNodeValToRGB': ("COLOR_RAMP", _ramp),
+    'ShaderNodeFloatCurve': ("FLOAT_CURVE", _curve),
+    'ShaderNodeMix': ("MIX", _props("data_type", "blend_type", "clamp_factor", "clamp_result")),
+    'ShaderNodeMixRGB': ("MIX", lambda n: (("data_type", "RGBA"), ("blend_type", n.blend_type),
+                                           ("clamp_factor", True), ("clamp_result", n.use_clamp))),
+    'ShaderNodeInvert': ("INVERT", None),
+    'ShaderNodeGamma': ("GAMMA", None),
+    'ShaderNodeRGBToBW': ("RGB_TO_BW", None),
+    'ShaderNodeSeparateColor': ("SEPARATE", None),
+    'ShaderNodeCombineColor': ("COMBINE", None),
+    'ShaderNodeSeparateXYZ': ("SEPARATE", None),
+    'ShaderNodeCombineXYZ': ("COMBINE", None),
+    'ShaderNodeBlackbody': ("BLACKBODY", None),
+    'ShaderNodeTexCoord': ("TEX_COORD", None),
+    'ShaderNodeMapping': ("MAPPING", _props("vector_type")),
+    'ShaderNodeTexNoise': ("TEX_NOISE", _props("noise_type", "normalize")),
+    'ShaderNodeTexGradient': ("TEX_GRADIENT", _props("gradient_type")),
+    'ShaderNodeTexWhiteNoise': ("TEX_WHITE_NOISE", None),
+    'ShaderNodeVolumePrincipled': ("PRINCIPLED_VOLUME",
+                                   _strings("Density Attribute", "Color Attribute", "Temperature Attribute")),
+    'ShaderNodeVolumeScatter': ("VOLUME_SCATTER", None),
+    'ShaderNodeVolumeAbsorption': ("VOLUME_ABSORPTION", None),
+    'ShaderNodeVolumeCoefficients': ("VOLUME_COEFFICIENTS", None),
+    'ShaderNodeEmission': ("EMISSION", None),
+    'ShaderNodeAddShader': ("ADD_SHADER", None),
+    'ShaderNodeMixShader': ("MIX_SHADER", None),
+}
+
+
+def _unsupported_setting(node) -> str | None:
+    """Why a node of a known type cannot be evaluated as set, or None."""
+    kind = node.bl_idname
+    if kind == 'ShaderNodeAttribute' and node.attribute_type != 'GEOMETRY':
+        return f"of type {node.attribute_type}"
+    if kind == 'ShaderNodeMapRange' and node.data_type != 'FLOAT':
+        return "with vector values"
+    if kind in ('ShaderNodeSeparateColor', 'ShaderNodeCombineColor') and node.mode != 'RGB':
+        return f"in {node.mode} mode"
+    if kind in ('ShaderNodeTexNoise', 'ShaderNodeTexWhiteNoise') and node.noise_dimensions != '3D':
+        return f"in {node.noise_dimensions}"
+    if kind == 'ShaderNodeMix' and node.data_type not in ('FLOAT', 'VECTOR', 'RGBA'):
+        return f"with {node.data_type.lower()} values"
+    if kind in ('ShaderNodeMix', 'ShaderNodeMixRGB') and node.blend_type in (
+            'HUE', 'SATURATION', 'VALUE', 'COLOR'):
+        return f"in {node.blend_type.lower()} mode"
+    return None
+
+
+_MIX_SOCKETS = {'FLOAT': ("Factor_Float", "A_Float", "B_Float"),
+                'VECTOR': ("Factor_Float", "A_Vector", "B_Vector"),
+                'RGBA': ("Factor_Float", "A_Color", "B_Color")}
+
+
+def _inputs(node):
+    """(engine socket name, Blender socket) for the node's inputs the engine reads."""
+    kind = node.bl_idname
+    if kind == 'ShaderNodeMath':
+        return list(zip(("A", "B", "C"), node.inputs, strict=False))
+    if kind == 'ShaderNodeMix':
+        f, a, b = _MIX_SOCKETS[node.data_type]
+        if node.data_type == 'VECTOR' and node.factor_mode == 'NON_UNIFORM':
+            f = "Factor_Vector"
+        by_id = {s.identifier: s for s in node.inputs}
+        return [("Factor", by_id[f]), ("A", by_id[a]), ("B", by_id[b])]
+    if kind == 'ShaderNodeMixRGB':
+        return [("Factor", node.inputs["Fac"]), ("A", node.inputs["Color1"]), ("B", node.inputs["Color2"])]
+    return [(s.identifier, s) for s in node.inputs if s.enabled and s.type != 'STRING']
+
+
+def _constant(socket):
+    v = getattr(socket, "default_value", 0.0)
+    if hasattr(v, "__len__"):
+        return tuple(float(x) for x in v[:3])
+    return float(v)
+
+
+class _Compiler:
+    def __init__(self):
+        self.nodes: list[Node] = []
+        self.index: dict = {}        # Blender node -> its number in ``nodes``
+        self.notes: dict[str, None] = {}
+
+    def source(self, socket):
+        """(node, output socket) feeding ``socket``, through reroutes and muted nodes."""
+        while socket.is_linked:
+            link = socket.links[0]
+            if link.is_muted or not link.is_valid:
+                return None, None
+            node, out = link.from_node, link.from_socket
+            if node.bl_idname == 'NodeReroute':
+                socket = node.inputs[0]
+                continue
+            if node.mute:
+                through = [lk.from_socket for lk in node.internal_links if lk.to_socket == out]
+                if not through:
+                    return None, None
+                socket = through[0]
+                continue
+            return node, out
+        return None, None
+
+    def input(self, name: str, socket) -> Input:
+        node, out = self.source(socket)
+        kind = socket.type
+        if node is None:
+            return Input(name, kind, 0.0 if kind == 'SHADER' else _constant(socket))
+        index = self.node(node)
+        if index is None:
+            self.notes.setdefault(f"node '{node.name}' ({node.bl_label}) is not read by the engine; "
+                                  f"'{socket.name}' of '{socket.node.name}' reads its own value", None)
+            return Input(name, kind, 0.0 if kind == 'SHADER' else _constant(socket))
+        return Input(name, kind, Link(index, out.identifier, out.type))
+
+    def node(self, node) -> int | None:
+        key = node.as_pointer()
+        if key in self.index:
+            return self.index[key]
+        row = KINDS.get(node.bl_idname)
+        why = _unsupported_setting(node) if row is not None else None
+        if row is None or why:
+            if why:
+                self.notes.setdefault(f"node '{node.name}' ({node.bl_label}) {why} is not read by the "
+                                      f"engine; what it feeds reads its own value", None)
+            self.index[key] = None
+            return None
+        kind, params = row
+        self.index[key] = None       # a cycle reads defaults (Blender marks such links invalid)
+        phase = getattr(node, "phase", 'HENYEY_GREENSTEIN')
+        if node.bl_idname == 'ShaderNodeVolumeScatter' and phase != 'HENYEY_GREENSTEIN':
+            self.notes.setdefault(f"'{node.name}' uses the {node.phase.replace('_', ' ').title()} phase "
+                                  f"function, rendered as Henyey-Greenstein with its anisotropy", None)
+        inputs = tuple(self.input(name, s) for name, s in _inputs(node))
+        self.nodes.append(Node(kind, params(node) if params else (), inputs, node.name))
+        self.index[key] = len(self.nodes) - 1
+        return self.index[key]
+
+
+def compile_volume(material, texspace=None) -> ShaderGraph | None:
+    """The material's volume shader as a ShaderGraph, or None when its output has no volume
+    shader. ``texspace``: (location, size) of the object's texture space (Generated coordinates)."""
+    out = output_node(material)
+    if out is None:
+        return None
+    c = _Compiler()
+    node, socket = c.source(out.inputs["Volume"])
+    if node is None:
+        return None
+    index = c.node(node)
+    if index is None:
+        c.notes.setdefault(f"node '{node.name}' ({node.bl_label}) is not a volume shader the engine "
+                           f"reads", None)
+    link = None if index is None else Link(index, socket.identifier, socket.type)
+    kw = {} if texspace is None else {"texspace": tuple(tuple(float(x) for x in v) for v in texspace)}
+    return ShaderGraph(tuple(c.nodes), link, tuple(c.notes), **kw)

@@ -1,0 +1,739 @@
+"""Volume shader graphs evaluated per voxel, as Cycles' SVM defines each node.
+
+A material's node graph reaches the engine as a ``ShaderGraph``: plain data (node kinds, constant
+parameters, input sockets that hold a constant or a ``Link`` to another node's output), compiled
+from Blender's nodes by ``blender/node_graph.py``. ``evaluate`` runs it on numpy arrays over every
+voxel of a medium's lattice at once and returns the volume coefficients and emission per voxel
+(``VolumeFields``); ``medium_fields`` turns those into the renderer's ``Medium`` (a density, a
+colour grid when the albedo varies, an emission grid when the emission does).
+
+Cycles 5.0.1 evaluates the graph on the grids' trilinearly interpolated values at each sample
+(measured: a 3D checker of 0/1 voxels whose Emission Strength is density squared renders 0.483 of
+the per-voxel evaluation; trilinear interpolation then squaring predicts 0.485). Evaluating per
+voxel and letting the texture filter blend the results is exact where the graph is affine in the
+grids and an approximation where it is not (Color Ramp, Map Range, powers): its error shrinks
+with the lattice spacing, so ``resolve`` can evaluate on a finer lattice (``supersample``).
+
+Values flow as numpy arrays that broadcast: a float is shaped ``(n,)`` or ``()``, a colour or vector
+``(n, 3)`` or ``(3,)``. Implicit conversions follow Cycles: colour to float is the Rec.709
+luminance, vector to float the mean of its components, float to colour or vector a grey triple.
+
+Each node kind is one function in ``NODES``; ``KINDS`` names them for the documentation table
+(docs/blender.md). A kind the compiler does not know never reaches this module: the compiler
+names it in ``ShaderGraph.notes`` and feeds its consumer the socket's own default value.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from functools import cached_property
+
+import numpy as np
+
+from . import blackbody
+from .scene import _digest
+
+LUMINANCE = np.array([0.2126729, 0.7151522, 0.0721750])   # Cycles' Rec.709 colour -> float
+CUTOFF = 1e-5          # Cycles' CLOSURE_WEIGHT_CUTOFF
+
+
+@dataclass(frozen=True)
+class Link:
+    """The output ``output`` (of socket type ``kind``: VALUE, RGBA, VECTOR, SHADER) of node
+    number ``node`` of the graph."""
+
+    node: int
+    output: str
+    kind: str = "VALUE"
+
+
+@dataclass(frozen=True)
+class Input:
+    """An input socket: ``kind`` its type, ``value`` a constant (float or 3-tuple) or a Link."""
+
+    name: str
+    kind: str
+    value: float | tuple | Link
+
+
+@dataclass(frozen=True)
+class Node:
+    """One node: ``kind`` (a key of NODES), its constant ``params`` as (name, value) pairs, its
+    inputs, and ``label`` (the Blender node's name, for messages)."""
+
+    kind: str
+    params: tuple = ()
+    inputs: tuple[Input, ...] = ()
+    label: str = ""
+
+    def param(self, name: str, default=None):
+        for k, v in self.params:
+            if k == name:
+                return v
+        return default
+
+
+@dataclass(frozen=True)
+class ShaderGraph:
+    """A volume shader: ``nodes`` in any order, ``output`` the Link feeding the material output's
+    Volume socket (None: no volume shader), ``notes`` what was not read (one line per node)."""
+
+    nodes: tuple[Node, ...]
+    output: Link | None
+    notes: tuple[str, ...] = ()
+    texspace: tuple[tuple[float, float, float], tuple[float, float, float]] = ((0.0, 0.0, 0.0),
+                                                                              (1.0, 1.0, 1.0))
+
+    @cached_property
+    def key(self) -> str:
+        return _digest(repr(self.nodes), repr(self.output), self.texspace)
+
+    @cached_property
+    def grids(self) -> tuple[str, ...]:
+        """Every grid the graph reads."""
+        names: list[str] = []
+        for node in self.nodes:
+            if node.kind == "ATTRIBUTE":
+                names.append(node.param("name"))
+            elif node.kind == "VOLUME_INFO":
+                names.extend(VOLUME_INFO.values())
+            elif node.kind == "PRINCIPLED_VOLUME":
+                names.extend(node.param(p) for p in ("density_attribute", "color_attribute",
+                                                     "temperature_attribute"))
+        return tuple(dict.fromkeys(n for n in names if n))
+
+    @cached_property
+    def reads_position(self) -> bool:
+        """Whether the graph needs the voxels' positions (texture coordinates, textures)."""
+        return any(node.kind == "TEX_COORD" or node.kind.startswith("TEX_") for node in self.nodes)
+
+
+VOLUME_INFO = {"Color": "color", "Density": "density", "Flame": "flame", "Temperature": "temperature"}
+
+
+@dataclass
+class Closure:
+    """Volume coefficients (1/m, per channel), emission (W/(sr m^2) per m) and the anisotropy
+    weighted by the mean scattering coefficient, all broadcastable over the voxels."""
+
+    sigma_s: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    sigma_a: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    emission: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    g_weighted: np.ndarray = field(default_factory=lambda: np.zeros(()))
+
+    def scaled(self, f) -> Closure:
+        f = np.asarray(f, np.float64)
+        return Closure(self.sigma_s * f[..., None], self.sigma_a * f[..., None],
+                       self.emission * f[..., None], self.g_weighted * f)
+
+    def __add__(self, other: Closure) -> Closure:
+        return Closure(self.sigma_s + other.sigma_s, self.sigma_a + other.sigma_a,
+                       self.emission + other.emission, self.g_weighted + other.g_weighted)
+
+
+@dataclass(frozen=True)
+class VolumeFields:
+    """A shader evaluated at n points: (n, 3) coefficients and emission, (n,) anisotropy."""
+
+    sigma_s: np.ndarray
+    sigma_a: np.ndarray
+    emission: np.ndarray
+    anisotropy: np.ndarray
+
+
+class _Evaluation:
+    def __init__(self, graph: ShaderGraph, grids: Mapping[str, np.ndarray], n: int,
+                 position: np.ndarray | None):
+        self.graph, self.grids, self.n, self.position = graph, grids, n, position
+        self.memo: dict[int, dict] = {}
+
+    def outputs(self, index: int) -> dict:
+        if index not in self.memo:
+            node = self.graph.nodes[index]
+            ins = {i.name: self.input(i) for i in node.inputs}
+            self.memo[index] = NODES[node.kind](node, ins, self)
+        return self.memo[index]
+
+    def input(self, i: Input):
+        if isinstance(i.value, Link):
+            value = self.outputs(i.value.node).get(i.value.output)
+            if value is None:
+                return _default(i.kind)
+            return convert(value, i.value.kind, i.kind)
+        if i.kind == "SHADER":
+            return None
+        return convert(np.asarray(i.value, np.float64), "RGBA" if np.ndim(i.value) else "VALUE", i.kind)
+
+    def grid(self, name: str) -> np.ndarray | None:
+        g = self.grids.get(name)
+        return None if g is None else np.asarray(g, np.float64)
+
+
+def _default(kind: str):
+    return None if kind == "SHADER" else (np.zeros(3) if kind in ("RGBA", "VECTOR") else np.zeros(()))
+
+
+def convert(value, src: str, dst: str):
+    """A socket value of type ``src`` as type ``dst``, as Cycles converts across a link."""
+    if value is None or dst == "SHADER" or src == "SHADER":
+        return value
+    v = np.asarray(value, np.float64)
+    src_vec = v.ndim >= 1 and v.shape[-1] == 3 and src in ("RGBA", "VECTOR")
+    if dst in ("VALUE", "INT", "BOOLEAN"):
+        if not src_vec:
+            return v
+        return v @ LUMINANCE if src == "RGBA" else v.mean(axis=-1)
+    if src_vec:
+        return v
+    return np.repeat(v[..., None], 3, axis=-1)
+
+
+def evaluate(graph: ShaderGraph, grids: Mapping[str, np.ndarray], n: int,
+             position: np.ndarray | None = None) -> VolumeFields:
+    """The volume shader at ``n`` points: ``grids`` maps names to (n,) or (n, 3) values there
+    (a grid the graph names but ``grids`` lacks reads 0, as in Cycles); ``position`` (n, 3) the
+    points in object space (for Texture Coordinate)."""
+    ev = _Evaluation(graph, grids, n, position)
+    c = None
+    if graph.output is not None:
+        c = ev.outputs(graph.output.node).get(graph.output.output)
+    c = c if c is not None else Closure()
+    shape = (n, 3)
+    s = np.broadcast_to(c.sigma_s, shape).astype(np.float64)
+    a = np.broadcast_to(c.sigma_a, shape).astype(np.float64)
+    e = np.broadcast_to(c.emission, shape).astype(np.float64)
+    mean_s = s.mean(axis=1)
+    g = np.where(mean_s > 0.0, np.broadcast_to(c.g_weighted, (n,)) / np.maximum(mean_s, 1e-30), 0.0)
+    return VolumeFields(s, a, e, np.clip(g, -0.99, 0.99))
+
+
+# ---- value nodes --------------------------------------------------------------------------------
+
+def _attribute(node, ins, ev):
+    name = node.param("name")
+    g = ev.grid(name) if name else None
+    if g is None:
+        zero = np.zeros(())
+        return {"Color": np.zeros(3), "Vector": np.zeros(3), "Fac": zero, "Alpha": zero}
+    if g.ndim >= 2 and g.shape[-1] == 3:
+        return {"Color": g, "Vector": g, "Fac": g.mean(axis=-1), "Alpha": np.ones(())}
+    rgb = np.repeat(g[..., None], 3, axis=-1)
+    return {"Color": rgb, "Vector": rgb, "Fac": g, "Alpha": np.ones(())}
+
+
+def _volume_info(node, ins, ev):
+    out = {}
+    for socket, name in VOLUME_INFO.items():
+        g = ev.grid(name)
+        if socket == "Color":
+            if g is None:
+                out[socket] = np.zeros(3)
+            else:
+                out[socket] = g if g.ndim >= 2 and g.shape[-1] == 3 else np.repeat(g[..., None], 3, -1)
+        else:
+            out[socket] = np.zeros(()) if g is None else (g.mean(axis=-1) if g.ndim >= 2 else g)
+    return out
+
+
+def _value(node, ins, ev):
+    return {"Value": np.asarray(node.param("value"), np.float64)}
+
+
+def _rgb(node, ins, ev):
+    return {"Color": np.asarray(node.param("color"), np.float64)}
+
+
+def _safe_divide(a, b):
+    b = np.asarray(b, np.float64)
+    return np.where(b != 0.0, a / np.where(b != 0.0, b, 1.0), 0.0)
+
+
+def _smoothmin(a, b, c):
+    c = np.asarray(c, np.float64)
+    h = np.maximum(c - np.abs(a - b), 0.0) / np.where(c != 0.0, c, 1.0)
+    return np.where(c != 0.0, np.minimum(a, b) - h * h * h * c * (1.0 / 6.0), np.minimum(a, b))
+
+
+def _wrap(v, hi, lo):
+    r = hi - lo
+    return np.where(r != 0.0, v - r * np.floor((v - lo) / np.where(r != 0.0, r, 1.0)), lo)
+
+
+def _power(a, b):
+    ok = (a >= 0.0) | (np.floor(b) == b)
+    with np.errstate(all="ignore"):
+        out = np.power(a, b)
+    return np.where(ok & np.isfinite(out), out, 0.0)
+
+
+def _log(a, b):
+    ok = (a > 0.0) & (b > 0.0)
+    with np.errstate(all="ignore"):
+        out = np.log(np.where(ok, a, 1.0)) / np.log(np.where(ok, b, 2.0))
+    return np.where(ok & np.isfinite(out), out, 0.0)
+
+
+def _pingpong(a, b):
+    with np.errstate(all="ignore"):
+        x = (a - b) / np.where(b != 0.0, b * 2.0, 1.0)
+        out = np.abs((x - np.floor(x)) * b * 2.0 - b)
+    return np.where(b != 0.0, out, 0.0)
+
+
+# Cycles' svm_math (intern/cycles/kernel/svm/math_util.h), safe versions where it has them.
+MATH: dict[str, Callable] = {
+    'ADD': lambda a, b, c: a + b,
+    'SUBTRACT': lambda a, b, c: a - b,
+    'MULTIPLY': lambda a, b, c: a * b,
+    'DIVIDE': lambda a, b, c: _safe_divide(a, b),
+    'MULTIPLY_ADD': lambda a, b, c: a * b + c,
+    'POWER': lambda a, b, c: _power(a, b),
+    'LOGARITHM': lambda a, b, c: _log(a, b),
+    'SQRT': lambda a, b, c: np.sqrt(np.maximum(a, 0.0)),
+    'INVERSE_SQRT': lambda a, b, c: np.where(a > 0.0, 1.0 / np.sqrt(np.maximum(a, 1e-300)), 0.0),
+    'ABSOLUTE': lambda a, b, c: np.abs(a),
+    'EXPONENT': lambda a, b, c: np.exp(np.minimum(a, 700.0)),
+    'MINIMUM': lambda a, b, c: np.minimum(a, b),
+    'MAXIMUM': lambda a, b, c: np.maximum(a, b),
+    'LESS_THAN': lambda a, b, c: (a < b).astype(np.float64),
+    'GREATER_THAN': lambda a, b, c: (a > b).astype(np.float64),
+    'SIGN': lambda a, b, c: np.sign(a),
+    'COMPARE': lambda a, b, c: (np.abs(a - b) <= np.maximum(c, 1e-5)).astype(np.float64),
+    'SMOOTH_MIN': lambda a, b, c: _smoothmin(a, b, c),
+    'SMOOTH_MAX': lambda a, b, c: -_smoothmin(-a, -b, c),
+    'ROUND': lambda a, b, c: np.floor(a + 0.5),
+    'FLOOR': lambda a, b, c: np.floor(a),
+    'CEIL': lambda a, b, c: np.ceil(a),
+    'TRUNC': lambda a, b, c: np.trunc(a),
+    'FRACT': lambda a, b, c: a - np.floor(a),
+    'MODULO': lambda a, b, c: np.where(b != 0.0, np.fmod(a, np.where(b != 0.0, b, 1.0)), 0.0),
+    'FLOORED_MODULO': lambda a, b, c: np.where(
+        b != 0.0, a - np.floor(a / np.where(b != 0.0, b, 1.0)) * b, 0.0),
+    'WRAP': lambda a, b, c: _wrap(a, b, c),
+    'SNAP': lambda a, b, c: np.where(b != 0.0, np.floor(a / np.where(b != 0.0, b, 1.0)) * b, 0.0),
+    'PINGPONG': lambda a, b, c: _pingpong(a, b),
+    'SINE': lambda a, b, c: np.sin(a),
+    'COSINE': lambda a, b, c: np.cos(a),
+    'TANGENT': lambda a, b, c: np.tan(a),
+    'ARCSINE': lambda a, b, c: np.where(np.abs(a) <= 1.0, np.arcsin(np.clip(a, -1.0, 1.0)), 0.0),
+    'ARCCOSINE': lambda a, b, c: np.where(np.abs(a) <= 1.0, np.arccos(np.clip(a, -1.0, 1.0)), 0.0),
+    'ARCTANGENT': lambda a, b, c: np.arctan(a),
+    'ARCTAN2': lambda a, b, c: np.arctan2(a, b),
+    'SINH': lambda a, b, c: np.sinh(np.clip(a, -700.0, 700.0)),
+    'COSH': lambda a, b, c: np.cosh(np.clip(a, -700.0, 700.0)),
+    'TANH': lambda a, b, c: np.tanh(a),
+    'RADIANS': lambda a, b, c: np.radians(a),
+    'DEGREES': lambda a, b, c: np.degrees(a),
+}
+
+
+def _math(node, ins, ev):
+    a, b, c = (ins.get(k, np.zeros(())) for k in ("A", "B", "C"))
+    out = MATH[node.param("operation")](a, b, c)
+    if node.param("use_clamp"):
+        out = np.clip(out, 0.0, 1.0)
+    return {"Value": out}
+
+
+def _smoothstep(e0, e1, x):
+    t = np.clip(_safe_divide(x - e0, e1 - e0), 0.0, 1.0)
+    return t * t * (3.0 - 2.0 * t)
+
+
+def _smootherstep(e0, e1, x):
+    t = np.clip(_safe_divide(x - e0, e1 - e0), 0.0, 1.0)
+    return t * t * t * (t * (t * 6.0 - 15.0) + 10.0)
+
+
+def _map_range(node, ins, ev):
+    v, fmin, fmax = ins["Value"], ins["From Min"], ins["From Max"]
+    tmin, tmax, steps = ins["To Min"], ins["To Max"], ins.get("Steps", np.asarray(4.0))
+    kind = node.param("interpolation_type", "LINEAR")
+    if kind in ("LINEAR", "STEPPED"):
+        f = _safe_divide(v - fmin, fmax - fmin)
+        if kind == "STEPPED":
+            f = np.where(steps > 0.0, np.floor(f * (steps + 1.0)) / np.where(steps > 0.0, steps, 1.0), 0.0)
+    else:
+        step = _smoothstep if kind == "SMOOTHSTEP" else _smootherstep
+        f = np.where(fmin > fmax, 1.0 - step(fmax, fmin, v), step(fmin, fmax, v))
+    out = np.where(fmax != fmin, tmin + f * (tmax - tmin), 0.0)
+    if node.param("clamp") and kind in ("LINEAR", "STEPPED"):
+        out = np.clip(out, np.minimum(tmin, tmax), np.maximum(tmin, tmax))
+    return {"Result": out}
+
+
+def _clamp(node, ins, ev):
+    v, lo, hi = ins["Value"], ins["Min"], ins["Max"]
+    if node.param("clamp_type", "MINMAX") == "RANGE":
+        lo, hi = np.minimum(lo, hi), np.maximum(lo, hi)
+    return {"Result": np.minimum(np.maximum(v, lo), hi)}
+
+
+def _table_lookup(table: np.ndarray, f, interpolate: bool):
+    """Cycles' rgb_ramp_lookup: ``table`` (size, c) sampled at i / (size - 1), f clamped to [0, 1]."""
+    size = len(table)
+    x = np.clip(np.nan_to_num(np.asarray(f, np.float64)), 0.0, 1.0) * (size - 1)
+    i = np.clip(x.astype(np.int64), 0, size - 1)
+    t = x - i
+    a = table[i]
+    if interpolate:
+        b = table[np.minimum(i + 1, size - 1)]
+        a = np.where((t > 0.0)[..., None], (1.0 - t)[..., None] * a + t[..., None] * b, a)
+    return a
+
+
+def _color_ramp(node, ins, ev):
+    table = np.asarray(node.param("table"), np.float64).reshape(-1, 4)
+    rgba = _table_lookup(table, ins["Fac"], node.param("interpolate", True))
+    return {"Color": rgba[..., :3], "Alpha": rgba[..., 3]}
+
+
+def _float_curve(node, ins, ev):
+    table = np.asarray(node.param("table"), np.float64).reshape(-1, 1)
+    lo, hi = node.param("range", (0.0, 1.0))
+    v, fac = ins["Value"], ins["Factor"]
+    x = _safe_divide(v - lo, hi - lo)
+    y = _table_lookup(table, x, True)[..., 0]
+    # Cycles extrapolates the curve's end slopes beyond its range (float_curve_lookup)
+    n = len(table) - 1
+    d0 = (table[1, 0] - table[0, 0]) * n
+    d1 = (table[n, 0] - table[n - 1, 0]) * n
+    y = np.where(x < 0.0, table[0, 0] + x * d0, np.where(x > 1.0, table[n, 0] + (x - 1.0) * d1, y))
+    return {"Value": (1.0 - fac) * v + fac * y}
+
+
+def _blend(kind: str, f, a, b):
+    """Cycles' svm_mix for colours (a, b: (..., 3); f: (..., 1))."""
+    if kind == "MIX":
+        return a + f * (b - a)
+    if kind == "ADD":
+        return a + f * b
+    if kind == "MULTIPLY":
+        return a * (1.0 - f + f * b)
+    if kind == "SUBTRACT":
+        return a - f * b
+    if kind == "SCREEN":
+        return 1.0 - (1.0 - f + f * (1.0 - b)) * (1.0 - a)
+    if kind == "DIVIDE":
+        return np.where(b != 0.0, (1.0 - f) * a + f * a / np.where(b != 0.0, b, 1.0), a)
+    if kind == "DIFFERENCE":
+        return a + f * (np.abs(a - b) - a)
+    if kind == "EXCLUSION":
+        return np.maximum(a + f * (a + b - 2.0 * a * b - a), 0.0)
+    if kind == "DARKEN":
+        return a + f * (np.minimum(a, b) - a)
+    if kind == "LIGHTEN":
+        return a + f * (np.maximum(a, b) - a)
+    if kind == "OVERLAY":
+        return np.where(a < 0.5, a * (1.0 - f + 2.0 * f * b),
+                        1.0 - (1.0 - f + 2.0 * f * (1.0 - b)) * (1.0 - a))
+    if kind == "LINEAR_LIGHT":
+        return a + f * (2.0 * b - 1.0)
+    if kind == "SOFT_LIGHT":
+        scr = 1.0 - (1.0 - b) * (1.0 - a)
+        return (1.0 - f) * a + f * ((1.0 - a) * b * a + a * scr)
+    if kind == "DODGE":
+        tmp = 1.0 - f * b
+        dodged = np.where(tmp > 0.0, np.minimum(a / np.where(tmp > 0.0, tmp, 1.0), 1.0), 1.0)
+        return np.where(a != 0.0, dodged, a)
+    if kind == "BURN":
+        tmp = (1.0 - f) + f * b
+        out = np.where(tmp > 0.0, 1.0 - (1.0 - a) / np.where(tmp > 0.0, tmp, 1.0), 0.0)
+        return np.clip(out, 0.0, 1.0)
+    raise KeyError(kind)
+
+
+BLENDS = ("MIX", "ADD", "MULTIPLY", "SUBTRACT", "SCREEN", "DIVIDE", "DIFFERENCE", "EXCLUSION",
+          "DARKEN", "LIGHTEN", "OVERLAY", "LINEAR_LIGHT", "SOFT_LIGHT", "DODGE", "BURN")
+
+
+def _mix(node, ins, ev):
+    data = node.param("data_type", "RGBA")
+    f = ins["Factor"]
+    if node.param("clamp_factor", True):
+        f = np.clip(f, 0.0, 1.0)
+    a, b = ins["A"], ins["B"]
+    if data == "FLOAT":
+        return {"Result": a + f * (b - a)}
+    if data == "VECTOR":
+        f = f if np.ndim(f) and np.shape(f)[-1] == 3 else np.asarray(f)[..., None]
+        return {"Result": a + f * (b - a)}
+    out = _blend(node.param("blend_type", "MIX"), np.asarray(f)[..., None], a, b)
+    if node.param("clamp_result"):
+        out = np.clip(out, 0.0, 1.0)
+    return {"Result": out}
+
+
+def _invert(node, ins, ev):
+    f, c = np.asarray(ins["Fac"])[..., None], ins["Color"]
+    return {"Color": c + f * ((1.0 - c) - c)}
+
+
+def _gamma(node, ins, ev):
+    c, g = ins["Color"], np.asarray(ins["Gamma"])[..., None]
+    return {"Color": np.where(c > 0.0, _power(np.maximum(c, 0.0), g), c)}
+
+
+def _rgb_to_bw(node, ins, ev):
+    return {"Val": ins["Color"] @ LUMINANCE}
+
+
+def _separate(node, ins, ev):
+    v = ins["Color"] if "Color" in ins else ins["Vector"]
+    names = ("Red", "Green", "Blue") if "Color" in ins else ("X", "Y", "Z")
+    return {n: v[..., k] for k, n in enumerate(names)}
+
+
+def _combine(node, ins, ev):
+    names = ("Red", "Green", "Blue") if "Red" in ins else ("X", "Y", "Z")
+    parts = np.broadcast_arrays(*(np.asarray(ins[n], np.float64) for n in names))
+    out = np.stack(parts, axis=-1)
+    return {"Color": out, "Vector": out}
+
+
+def _blackbody(node, ins, ev):
+    return {"Color": np.maximum(blackbody.color_rec709(ins["Temperature"]), 0.0)}
+
+
+def _tex_coord(node, ins, ev):
+    if ev.position is None:
+        return {}
+    lo, size = (np.asarray(x, np.float64) for x in ev.graph.texspace)
+    generated = (ev.position - (lo - size)) / np.where(size != 0.0, 2.0 * size, 1.0)
+    return {"Object": ev.position, "Generated": generated}
+
+
+def _euler(r) -> np.ndarray:
+    """Blender's XYZ Euler rotation matrix."""
+    x, y, z = (float(v) for v in np.asarray(r, np.float64).reshape(3))
+    cx, sx, cy, sy, cz, sz = math.cos(x), math.sin(x), math.cos(y), math.sin(y), math.cos(z), math.sin(z)
+    rx = np.array([[1, 0, 0], [0, cx, -sx], [0, sx, cx]])
+    ry = np.array([[cy, 0, sy], [0, 1, 0], [-sy, 0, cy]])
+    rz = np.array([[cz, -sz, 0], [sz, cz, 0], [0, 0, 1]])
+    return rz @ ry @ rx
+
+
+def _mapping(node, ins, ev):
+    v = ins["Vector"]
+    loc = np.asarray(ins.get("Location", np.zeros(3)))
+    rot = _euler(ins.get("Rotation", np.zeros(3)))
+    scale = np.asarray(ins.get("Scale", np.ones(3)))
+    kind = node.param("vector_type", "POINT")
+    if kind == "POINT":
+        out = (v * scale) @ rot.T + loc
+    elif kind == "TEXTURE":
+        out = ((v - loc) @ rot) / np.where(scale != 0.0, scale, 1.0)
+    elif kind == "VECTOR":
+        out = (v * scale) @ rot.T
+    else:
+        out = (v / np.where(scale != 0.0, scale, 1.0)) @ rot.T
+        out = out / np.maximum(np.linalg.norm(out, axis=-1, keepdims=True), 1e-30)
+    return {"Vector": out}
+
+
+def _texture_vector(ins, ev):
+    v = ins.get("Vector")
+    unlinked = v is None or (np.ndim(v) == 1 and not np.any(v))
+    if unlinked and ev.position is not None:    # an unlinked Vector reads Generated coordinates
+        v = _tex_coord(None, {}, ev)["Generated"]
+    return np.broadcast_to(np.asarray(v, np.float64), (ev.n, 3))
+
+
+def _tex_noise(node, ins, ev):
+    from . import textures
+    p = _texture_vector(ins, ev)
+    kw = {k: float(np.asarray(ins[s]).mean()) for k, s in (
+        ("scale", "Scale"), ("detail", "Detail"), ("roughness", "Roughness"),
+        ("lacunarity", "Lacunarity"), ("distortion", "Distortion"), ("offset", "Offset"),
+        ("gain", "Gain")) if s in ins}
+    fac, color = textures.noise(p, normalize=bool(node.param("normalize", True)),
+                                noise_type=node.param("noise_type", "FBM"), **kw)
+    return {"Fac": fac, "Color": color}
+
+
+def _tex_gradient(node, ins, ev):
+    from . import textures
+    fac = textures.gradient(_texture_vector(ins, ev), node.param("gradient_type", "LINEAR"))
+    return {"Fac": fac, "Color": np.repeat(np.asarray(fac)[..., None], 3, -1)}
+
+
+def _tex_white_noise(node, ins, ev):
+    from . import textures
+    value, color = textures.white_noise(_texture_vector(ins, ev))
+    return {"Value": value, "Color": color}
+
+
+# ---- shader nodes -------------------------------------------------------------------------------
+
+def _principled(node, ins, ev):
+    density = ins["Density"]
+    attr = ev.grid(node.param("density_attribute", ""))
+    if attr is not None:
+        density = density * (attr.mean(axis=-1) if attr.ndim >= 2 else attr)
+    density = np.maximum(density, 0.0)
+    color = ins["Color"]
+    cattr = ev.grid(node.param("color_attribute", ""))
+    if cattr is not None:
+        color = color * (cattr if cattr.ndim >= 2 and cattr.shape[-1] == 3 else cattr[..., None])
+    k = np.maximum(1.0 - np.sqrt(np.maximum(ins["Absorption Color"], 0.0)), 0.0)
+    absorption = np.maximum(1.0 - color, 0.0) * k
+    d = np.asarray(density)[..., None]
+    sigma_s = color * d
+    out = Closure(sigma_s, absorption * d, np.zeros(3), ins["Anisotropy"] * sigma_s.mean(axis=-1))
+    strength = ins["Emission Strength"]
+    out.emission = np.where((np.asarray(strength) > CUTOFF)[..., None],
+                            ins["Emission Color"] * np.asarray(strength)[..., None], 0.0)
+    intensity = np.asarray(ins["Blackbody Intensity"])
+    if np.any(intensity > CUTOFF):
+        t = ins["Temperature"]
+        tattr = ev.grid(node.param("temperature_attribute", ""))
+        if tattr is not None:
+            t = t * (tattr.mean(axis=-1) if tattr.ndim >= 2 else tattr)
+        term = blackbody.radiance(np.maximum(t, 0.0), np.where(intensity > CUTOFF, intensity, 0.0))
+        out.emission = out.emission + ins["Blackbody Tint"] * term
+    return {"Volume": out}
+
+
+def _scatter(node, ins, ev):
+    d = np.maximum(ins["Density"], 0.0)[..., None]
+    s = ins["Color"] * d
+    return {"Volume": Closure(s, np.zeros(3), np.zeros(3), ins["Anisotropy"] * s.mean(axis=-1))}
+
+
+def _absorption(node, ins, ev):
+    d = np.maximum(ins["Density"], 0.0)[..., None]
+    return {"Volume": Closure(np.zeros(3), np.maximum(1.0 - ins["Color"], 0.0) * d)}
+
+
+def _coefficients(node, ins, ev):
+    s = np.maximum(ins["Scatter Coefficients"], 0.0)
+    a = np.maximum(ins["Absorption Coefficients"], 0.0)
+    e = np.maximum(ins.get("Emission Coefficients", np.zeros(3)), 0.0)
+    return {"Volume": Closure(s, a, e, ins["Anisotropy"] * s.mean(axis=-1))}
+
+
+def _emission(node, ins, ev):
+    strength = np.asarray(ins["Strength"])[..., None]
+    return {"Emission": Closure(emission=ins["Color"] * strength)}
+
+
+def _add_shader(node, ins, ev):
+    a, b = ins.get("Shader"), ins.get("Shader_001")
+    parts = [c for c in (a, b) if c is not None]
+    return {"Shader": sum(parts[1:], parts[0]) if parts else None}
+
+
+def _mix_shader(node, ins, ev):
+    f = np.clip(ins["Fac"], 0.0, 1.0)
+    a, b = ins.get("Shader"), ins.get("Shader_001")
+    parts = ([a.scaled(1.0 - f)] if a is not None else []) + ([b.scaled(f)] if b is not None else [])
+    return {"Shader": sum(parts[1:], parts[0]) if parts else None}
+
+
+NODES: dict[str, Callable] = {
+    "ATTRIBUTE": _attribute, "VOLUME_INFO": _volume_info, "VALUE": _value, "RGB": _rgb,
+    "MATH": _math, "MAP_RANGE": _map_range, "CLAMP": _clamp, "COLOR_RAMP": _color_ramp,
+    "FLOAT_CURVE": _float_curve, "MIX": _mix, "INVERT": _invert, "GAMMA": _gamma,
+    "RGB_TO_BW": _rgb_to_bw, "SEPARATE": _separate, "COMBINE": _combine, "BLACKBODY": _blackbody,
+    "TEX_COORD": _tex_coord, "MAPPING": _mapping, "TEX_NOISE": _tex_noise,
+    "TEX_GRADIENT": _tex_gradient, "TEX_WHITE_NOISE": _tex_white_noise,
+    "PRINCIPLED_VOLUME": _principled, "VOLUME_SCATTER": _scatter, "VOLUME_ABSORPTION": _absorption,
+    "VOLUME_COEFFICIENTS": _coefficients, "EMISSION": _emission, "ADD_SHADER": _add_shader,
+    "MIX_SHADER": _mix_shader,
+}
+
+
+# ---- from per-voxel fields to the renderer's medium ---------------------------------------------
+
+CHUNK = 1 << 20         # voxels evaluated at once (bounds the evaluation's memory)
+
+
+@dataclass(frozen=True)
+class Resolved:
+    """A shader evaluated over a lattice as the renderer's Medium fields: ``density`` (nx, ny, nz)
+    the extinction's mean over the channels, ``sigma_a``/``sigma_s`` per unit density,
+    ``color`` (nx, ny, nz, 3) the scattering colour relative to them where it varies (else None),
+    ``emission`` (nx, ny, nz, 3) the emitted radiance per metre (None: none), ``anisotropy``,
+    ``notes`` what is approximated."""
+
+    density: np.ndarray
+    sigma_a: tuple
+    sigma_s: tuple
+    anisotropy: float
+    color: np.ndarray | None
+    emission: np.ndarray | None
+    notes: tuple[str, ...] = ()
+
+
+def _voxel_positions(shape, index_to_object: np.ndarray, start: int, stop: int) -> np.ndarray:
+    idx = np.stack(np.unravel_index(np.arange(start, stop), shape), axis=-1).astype(np.float64)
+    m = np.asarray(index_to_object, np.float64)
+    return idx @ m[:3, :3].T + m[:3, 3]
+
+
+def resolve(graph: ShaderGraph, grids: Mapping[str, np.ndarray], shape: tuple[int, int, int],
+            index_to_object: np.ndarray | None = None, mask: np.ndarray | None = None,
+            label: str = "") -> Resolved:
+    """Evaluate ``graph`` at every voxel of a lattice of ``shape`` whose grids (on that lattice)
+    are ``grids``; ``index_to_object`` places voxel centres in object space (Texture Coordinate);
+    ``mask`` (shape, bool): where the volume is (Cycles renders nothing outside its volume mesh).
+    Evaluated ``CHUNK`` voxels at a time."""
+    n = int(np.prod(shape))
+    flat = {k: np.asarray(v).reshape(n, -1) for k, v in grids.items()}
+    flat = {k: (v[:, 0] if v.shape[1] == 1 else v[:, :3]) for k, v in flat.items()}
+    m = np.eye(4) if index_to_object is None else index_to_object
+    t = np.empty((n, 3), np.float32)
+    s = np.empty((n, 3), np.float32)
+    e = np.empty((n, 3), np.float32)
+    g_sum = 0.0
+    g_lo, g_hi = np.inf, -np.inf
+    for start in range(0, n, CHUNK):
+        stop = min(n, start + CHUNK)
+        pos = _voxel_positions(shape, m, start, stop) if graph.reads_position else None
+        f = evaluate(graph, {k: v[start:stop] for k, v in flat.items()}, stop - start, pos)
+        t[start:stop] = np.maximum(f.sigma_a + f.sigma_s, 0.0)
+        s[start:stop] = np.maximum(f.sigma_s, 0.0)
+        e[start:stop] = f.emission
+        w = f.sigma_s.mean(axis=1)
+        g_sum += float((f.anisotropy * w).sum())
+        if (w > 0).any():
+            g_lo = min(g_lo, float(f.anisotropy[w > 0].min()))
+            g_hi = max(g_hi, float(f.anisotropy[w > 0].max()))
+    if mask is not None:
+        out = ~np.asarray(mask, bool).reshape(n)
+        t[out], s[out], e[out] = 0.0, 0.0, 0.0
+    notes = []
+    density = t.mean(axis=1)
+    total = float(density.sum(dtype=np.float64))
+    k = np.ones(3) if total <= 0.0 else t.sum(axis=0, dtype=np.float64) / total
+    live = density > 1e-3 * float(density.max(initial=0.0))
+    if live.any() and np.abs(t[live] - density[live, None] * k).max() > 0.01 * density[live].max():
+        notes.append(f"{label}the extinction's colour varies over the volume; it is rendered with its "
+                     f"mean colour")
+    with np.errstate(invalid="ignore", divide="ignore"):
+        albedo = np.where(live[:, None], s / (density[:, None] * k), 0.0).astype(np.float32)
+    color = None
+    if live.any() and float(np.ptp(albedo[live], axis=0).max()) > 1e-4:
+        sigma_s, sigma_a = tuple(k), (0.0, 0.0, 0.0)
+        color = albedo.reshape(*shape, 3)
+    else:
+        c = albedo[live].mean(axis=0) if live.any() else np.zeros(3)
+        sigma_s, sigma_a = tuple(k * c), tuple(k * (1.0 - c))
+    s_total = float(s.mean(axis=1).sum(dtype=np.float64))
+    g = g_sum / s_total if s_total > 0.0 else 0.0
+    if g_hi - g_lo > 1e-3:
+        notes.append(f"{label}the anisotropy varies over the volume ({g_lo:.2f} to {g_hi:.2f}); it is "
+                     f"rendered with its mean {g:.2f}")
+    emission = e.reshape(*shape, 3) if np.any(e != 0.0) else None
+    if emission is not None and np.any(e < 0.0):
+        emission = np.maximum(emission, 0.0)
+    if emission is not None and not live.any():
+        # emission alone: the renderer draws a medium where its density is, so the emitting
+        # voxels get an extinction of 1e-9 per metre (a transmittance change below 1e-8)
+        density = np.where(np.any(e > 0.0, axis=1), np.float32(1e-9), np.float32(0.0))
+        sigma_s, sigma_a = (0.0, 0.0, 0.0), (1.0, 1.0, 1.0)
+    return Resolved(density.reshape(shape), tuple(float(x) for x in sigma_a),
+                    tuple(float(x) for x in sigma_s), float(np.clip(g, -0.99, 0.99)), color, emission,
+                    tuple(notes))
