@@ -15,8 +15,16 @@ heat             ``temperature`` (Mantaflow's heat) x 0.5
 temperature      ``flame_ignition + flame * (flame_max_temp - flame_ignition)`` where flame
                  > 0.01, else 0 (units of 1000 K: the Principled Volume's Temperature
                  1000 K times it gives kelvin)
-color            (``color_r``, ``color_g``, ``color_b``) x density ("premultiplied" by density)
+color            (``color_r``, ``color_g``, ``color_b``): the cache's own colour, where the
+                 density is above 1e-6 (else the colour x density, about 0)
 ==============  ==========================================================================
+
+Blender hands Cycles a domain's colour premultiplied, (color_r * density, ..., density), and
+Cycles un-premultiplies it after its lookup (``volume_attribute_value_to_float3`` in
+``intern/cycles/kernel/geom/volume.h``: divided by the alpha where it is above 1e-6 and not 1).
+Cycles 5 looks each attribute up at one voxel drawn with the trilinear weights, so what a render
+converges to is the trilinear blend of each voxel's un-premultiplied colour: the cache's colour
+per voxel, which the engine blends like any colour grid.
 
 Voxel i of the domain sits at the domain's local p0 + (i + 0.5) * cell_size, p0 the minimum of
 the domain mesh's local bounding box, cell_size = (p1 - p0) / base_res with base_res derived from
@@ -85,7 +93,10 @@ def render_attributes(raw: dict[str, np.ndarray], density: np.ndarray, ignition:
     if "temperature" in raw:
         out["heat"] = (raw["temperature"] * 0.5).astype(np.float32)
     if all(f"color_{c}" in raw for c in "rgb"):
-        out["color"] = np.stack([raw[f"color_{c}"] * density for c in "rgb"], axis=-1).astype(np.float32)
+        # Cycles' (c d, d) un-premultiplied per voxel: c where d > 1e-6, else c d (module docstring)
+        d = np.asarray(density, np.float32)
+        out["color"] = np.stack([np.where(d > 1e-6, raw[f"color_{c}"], raw[f"color_{c}"] * d)
+                                 for c in "rgb"], axis=-1).astype(np.float32)
     return out
 
 
