@@ -10,7 +10,7 @@ import textwrap
 
 import bpy
 import numpy as np
-from blender_helpers import MODULE, ROOT, SETTINGS, read_passes
+from blender_helpers import MODULE, ROOT, SETTINGS, read_passes, render_passes, smoke
 
 from tfm_addon import scenes
 
@@ -82,3 +82,30 @@ def test_sequence_outside_its_frame_range_renders_no_medium_quietly(blank, tmp_p
     blank.frame_set(5)
     ex = extract.extract(bpy.context.evaluated_depsgraph_get())
     assert ex.medium is None and ex.all_warnings == []
+
+
+def test_a_frame_missing_from_a_sequence_names_the_file_tried_once(blank, tmp_path):
+    """Frames 1, 2 and 4 of a 4-frame sequence on disk: frame 3 renders the rest of the scene and
+    the render report names the full path Blender tried, in one line (Blender's own message:
+    'puff_0003.vdb not found'); frame 2 renders the medium with no such line."""
+    builder = importlib.import_module(MODULE + ".tfm_addon.blender.scene_builder")
+    final_render = importlib.import_module(MODULE + ".tfm_addon.blender.final_render")
+    made = builder.build(smoke(), str(tmp_path), settings=SETTINGS)
+    density = np.zeros((8, 8, 8), np.float32)
+    density[2:6, 2:6, 2:6] = 1.0
+    for frame in (1, 2, 4):
+        builder.write_vdb(str(tmp_path / "seq" / f"puff_{frame:04d}.vdb"), density, 0.25)
+    data = made["medium"].data
+    data.filepath = str(tmp_path / "seq" / "puff_0001.vdb")
+    data.is_sequence, data.frame_start, data.frame_duration, data.sequence_mode = True, 1, 4, 'CLIP'
+    missing = os.path.normpath(str(tmp_path / "seq" / "puff_0003.vdb"))
+    blank.frame_set(2)
+    image = render_passes(tmp_path, "frame2")
+    assert image["Scattering"].max() > 0.0
+    assert not [m for _level, m in final_render.last_messages if "not found" in m]
+    blank.frame_set(3)
+    image = render_passes(tmp_path, "frame3")
+    lines = [m for level, m in final_render.last_messages if level == 'WARNING' and "puff_0003" in m]
+    assert len(lines) == 1 and missing in lines[0] and "not found" in lines[0], \
+        list(final_render.last_messages)
+    assert image["Scattering"].max() == 0.0 and image["Surfaces"].max() > 0.1   # the rest renders

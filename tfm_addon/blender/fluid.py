@@ -15,17 +15,30 @@ heat             ``temperature`` (Mantaflow's heat) x 0.5
 temperature      ``flame_ignition + flame * (flame_max_temp - flame_ignition)`` where flame
                  > 0.01, else 0 (units of 1000 K: the Principled Volume's Temperature
                  1000 K times it gives kelvin)
-color            (``color_r``, ``color_g``, ``color_b``) x density ("premultiplied" by density)
+color            (``color_r``, ``color_g``, ``color_b``): the cache's own colour, where the
+                 density is above 1e-6 (else the colour x density, about 0)
 ==============  ==========================================================================
+
+Blender hands Cycles a domain's colour premultiplied, (color_r * density, ..., density), and
+Cycles un-premultiplies it after its lookup (``volume_attribute_value_to_float3`` in
+``intern/cycles/kernel/geom/volume.h``: divided by the alpha where it is above 1e-6 and not 1).
+Cycles 5 looks each attribute up at one voxel drawn with the trilinear weights, so what a render
+converges to is the trilinear blend of each voxel's un-premultiplied colour: the cache's colour
+per voxel, which the engine blends like any colour grid.
 
 Voxel i of the domain sits at the domain's local p0 + (i + 0.5) * cell_size, p0 the minimum of
 the domain mesh's local bounding box, cell_size = (p1 - p0) / base_res with base_res derived from
-``resolution_max`` on the longest side (at least 4 voxels a side), then the object's matrix.
+``resolution_max`` on the longest side (at least 4 voxels a side), then the object's matrix. An
+adaptive domain (``use_adaptive_domain``) holds res_max - res_min voxels from the frame's
+configuration file, placed over the box Blender draws it as (``adaptive_index_to_object``). The
+frame read is the scene's frame less ``cache_frame_offset`` (``data_frame``).
 """
 
 from __future__ import annotations
 
+import gzip
 import os
+import struct
 
 import numpy as np
 
@@ -51,6 +64,82 @@ def domain_modifier(ob, render: bool | None = None):
 def cache_file(directory: str, frame: int) -> str:
     """Where Mantaflow keeps a frame's grids."""
     return os.path.join(directory, "data", f"fluid_data_{int(frame):04d}.vdb")
+
+
+def config_file(directory: str, frame: int) -> str:
+    """Where Mantaflow keeps a frame's domain configuration (gzip, MANTA::writeConfiguration)."""
+    return os.path.join(directory, "config", f"config_{int(frame):04d}.uni")
+
+
+# MANTA::writeConfiguration (intern/mantaflow/intern/MANTA_main.cpp), native byte order: active
+# fields, res, dx, dt, p0, p1, dp0, shift, obj_shift_f, obmat (4x4, columns), base_res, res_min,
+# res_max, active_color, time_total, cache version.
+_CONFIG = struct.Struct("<i3iff3f3f3f3i3f16f3i3i3i3fi4s")
+_CONFIG_FIELDS = (("active_fields", 1), ("res", 3), ("dx", 1), ("dt", 1), ("p0", 3), ("p1", 3),
+                  ("dp0", 3), ("shift", 3), ("obj_shift_f", 3), ("obmat", 16), ("base_res", 3),
+                  ("res_min", 3), ("res_max", 3), ("active_color", 3), ("time_total", 1),
+                  ("version", 1))
+
+
+def read_config(path: str) -> dict:
+    """A frame's domain configuration as Mantaflow wrote it: lists of numbers by field name (single
+    values unwrapped), ``obmat`` as a 4x4 array (rows, translation in the last column)."""
+    with gzip.open(path, "rb") as f:
+        raw = f.read(_CONFIG.size)
+    values = list(_CONFIG.unpack(raw))
+    out, i = {}, 0
+    for name, n in _CONFIG_FIELDS:
+        out[name] = values[i] if n == 1 else list(values[i:i + n])
+        i += n
+    out["obmat"] = np.asarray(out["obmat"], np.float64).reshape(4, 4).T   # Blender's m[column][row]
+    return out
+
+
+def write_config(path: str, *, res, p0, p1, base_res, res_min, res_max, obmat=None, dx: float = 0.0,
+                 active_fields: int = 0, shift=(0, 0, 0), dp0=None) -> str:
+    """Write a domain configuration in Mantaflow's layout (tests, demos: baking does not run in the
+    bpy module). ``obmat``: the domain's matrix when it was baked (default identity)."""
+    m = np.eye(4) if obmat is None else np.asarray(obmat, np.float64)
+    values = [int(active_fields), *map(int, res), float(dx), 0.0, *map(float, p0), *map(float, p1),
+              *map(float, p0 if dp0 is None else dp0), *map(int, shift), 0.0, 0.0, 0.0,
+              *m.T.ravel().tolist(), *map(int, base_res), *map(int, res_min), *map(int, res_max),
+              0.0, 0.0, 0.0, 0, b"0.10"]
+    os.makedirs(os.path.dirname(path), exist_ok=True)
+    with gzip.open(path, "wb") as f:
+        f.write(_CONFIG.pack(*values))
+    return path
+
+
+def data_frame(settings, frame: int) -> int:
+    """The cache frame Blender reads at scene ``frame``: the frame less the domain's
+    ``cache_frame_offset`` for a baked cache (All, Modular); Replay reads the frame itself
+    (``fluid_modifier_processDomain`` in blenkernel/intern/fluid.cc)."""
+    if getattr(settings, "cache_type", 'ALL') == 'REPLAY':
+        return int(frame)
+    return int(frame) - int(getattr(settings, "cache_frame_offset", 0))
+
+
+def adaptive_index_to_object(config: dict, matrix_world) -> tuple[np.ndarray, np.ndarray]:
+    """An adaptive domain's voxel index to its object space, and its resolution: Blender draws the
+    domain as the box p0 + cell_size * res_min .. p0 + cell_size * res_max (``create_smoke_geometry``
+    in fluid.cc, p0 and the resolutions from the frame's configuration, cell_size = (p1 - p0) /
+    base_res), moved by the domain's move since the bake, and Cycles spreads the res_max - res_min
+    voxels over that box."""
+    p0, p1 = np.asarray(config["p0"], np.float64), np.asarray(config["p1"], np.float64)
+    base = np.maximum(np.asarray(config["base_res"], np.float64), 1.0)
+    cell = (p1 - p0) / base
+    lo = p0 + cell * np.asarray(config["res_min"], np.float64)
+    res = np.asarray(config["res_max"], np.int64) - np.asarray(config["res_min"], np.int64)
+    # obj_shift_f: the bake-time location less the current one, in the object's local axes
+    m = np.asarray(matrix_world, np.float64)
+    shift_world = np.asarray(config["obmat"], np.float64)[:3, 3] - m[:3, 3]
+    try:
+        lo = lo + np.linalg.solve(m[:3, :3], shift_world)
+    except np.linalg.LinAlgError:
+        pass
+    to_object = np.diag([*cell, 1.0])
+    to_object[:3, 3] = lo + 0.5 * cell
+    return to_object, res
 
 
 def base_resolution(size: np.ndarray, resolution_max: int) -> np.ndarray:
@@ -85,7 +174,10 @@ def render_attributes(raw: dict[str, np.ndarray], density: np.ndarray, ignition:
     if "temperature" in raw:
         out["heat"] = (raw["temperature"] * 0.5).astype(np.float32)
     if all(f"color_{c}" in raw for c in "rgb"):
-        out["color"] = np.stack([raw[f"color_{c}"] * density for c in "rgb"], axis=-1).astype(np.float32)
+        # Cycles' (c d, d) un-premultiplied per voxel: c where d > 1e-6, else c d (module docstring)
+        d = np.asarray(density, np.float32)
+        out["color"] = np.stack([np.where(d > 1e-6, raw[f"color_{c}"], raw[f"color_{c}"] * d)
+                                 for c in "rgb"], axis=-1).astype(np.float32)
     return out
 
 
@@ -106,33 +198,43 @@ def read_domain(ob, frame: int, cache: GridCache, wanted: tuple[str, ...], label
     if settings.cache_data_format != 'OPENVDB':
         raise VolumeReadError(f"Fluid domain '{label}': cache format {settings.cache_data_format} is "
                               f"not read (only OpenVDB); cache folder '{directory}'")
-    path = cache_file(directory, frame)
+    cached = data_frame(settings, frame)
+    path = cache_file(directory, cached)
     if not os.path.isfile(path):
-        raise FluidCacheMissing(f"Fluid domain '{label}': no baked data for frame {frame} in cache "
+        which = f"frame {frame}" if cached == frame else f"frame {frame} (cache frame {cached})"
+        raise FluidCacheMissing(f"Fluid domain '{label}': no baked data for {which} in cache "
                                 f"folder '{directory}' (expected {os.path.relpath(path, directory)})")
     if settings.use_noise:
         warnings.append(f"Fluid domain '{label}': the noise (high resolution) cache is not read; "
                         f"rendering the base resolution")
-    if settings.use_adaptive_domain:
-        warnings.append(f"Fluid domain '{label}': the adaptive domain's offset is not read; the smoke "
-                        f"may be placed wrongly")
     grid = cache.read_path(path, "density", label, _CACHE_GRIDS)
     mesh = ob.original.data
     corners = np.empty(len(mesh.vertices) * 3, dtype=np.float64)
     mesh.vertices.foreach_get("co", corners)
     corners = corners.reshape(-1, 3)
     to_object = domain_index_to_object(corners.min(axis=0), corners.max(axis=0), settings.resolution_max)
+    # Cycles draws a domain by its cube: voxels 0 .. res - 1 of the domain, centres at integers.
+    res = base_resolution(corners.max(axis=0) - corners.min(axis=0), settings.resolution_max)
+    key = grid.key + f"|fluid {settings.flame_ignition} {settings.flame_max_temp}"
+    if settings.use_adaptive_domain:
+        config_path = config_file(directory, cached)
+        try:
+            config = read_config(config_path)
+        except (OSError, EOFError, struct.error) as ex:
+            warnings.append(f"Fluid domain '{label}': the adaptive domain's configuration "
+                            f"'{config_path}' cannot be read ({ex}); the smoke is placed as in a "
+                            f"domain that does not adapt")
+        else:
+            to_object, res = adaptive_index_to_object(config, ob.matrix_world)
+            key += f"|adaptive {config['res_min']} {config['res_max']}"
     # The file's voxel index ijk is the domain's voxel index (its transform is a voxel size only).
     shift = np.eye(4)
     shift[:3, 3] = grid.first_index
     attributes = render_attributes(grid.extras, grid.density, float(settings.flame_ignition),
                                    float(settings.flame_max_temp))
-    # Cycles draws a domain by its cube: voxels 0 .. res - 1 of the domain, centres at integers.
-    res = base_resolution(corners.max(axis=0) - corners.min(axis=0), settings.resolution_max)
     first = np.asarray(grid.first_index, np.float64)
     bounds = (tuple(-0.5 - first), tuple(np.asarray(res, np.float64) - 0.5 - first))
     placed = DensityGrid(density=grid.density, index_to_object=to_object @ shift, grid_name="density",
                          extras={k: v for k, v in attributes.items() if k in wanted},
-                         key=grid.key + f"|fluid {settings.flame_ignition} {settings.flame_max_temp}",
-                         warnings=grid.warnings, first_index=grid.first_index, bounds=bounds)
+                         key=key, warnings=grid.warnings, first_index=grid.first_index, bounds=bounds)
     return placed, attributes, warnings

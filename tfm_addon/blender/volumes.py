@@ -182,7 +182,11 @@ class GridCache:
         """(name, Blender data type) of an evaluated Volume's grids (loading them)."""
         grids = volume.grids
         if volume.is_sequence and not grids.frame_filepath:
-            raise NoGridThisFrame(f"Volume '{label}': the sequence has no file for this frame")
+            if grids.frame == VOLUME_FRAME_NONE:     # outside the sequence's frames (Clip mode)
+                raise NoGridThisFrame(f"Volume '{label}': the sequence has no file for this frame")
+            # A frame of the sequence whose file is missing: Blender names the file it looked for.
+            raise VolumeReadError(f"Volume '{label}': frame {grids.frame} of the sequence, "
+                                  f"'{_sequence_frame_path(volume, grids.frame)}', not found")
         if len(grids) == 0 and not grids.load():
             where = grids.frame_filepath or volume.filepath
             raise VolumeReadError(f"Volume '{label}': cannot read '{where}': {grids.error_message}")
@@ -260,6 +264,33 @@ class GridCache:
     def _read_file(self, openvdb, path, name, label, extras=(), key="") -> DensityGrid:
         self.reads += 1
         return read_grid_set(openvdb, path, name, extras, label, [], key)
+
+
+VOLUME_FRAME_NONE = 2**31 - 1     # Blender's VOLUME_FRAME_NONE: no file of the sequence this frame
+
+
+def sequence_frame_path(filepath: str, frame: int) -> str:
+    """The file of a volume sequence for ``frame``, as Blender makes it (``BLI_path_frame``): the
+    digits just before the file's extension replaced by the frame, padded to their count."""
+    directory, name = os.path.split(filepath)
+    stem, dot, ext = name.rpartition(".")
+    if not dot:
+        stem, ext = name, ""
+    digits = len(stem) - len(stem.rstrip("0123456789"))
+    if digits == 0:
+        return filepath
+    sign = "-" if frame < 0 else ""
+    name = f"{stem[:len(stem) - digits]}{sign}{abs(int(frame)):0{digits}d}{dot}{ext}"
+    return os.path.join(directory, name)
+
+
+def _sequence_frame_path(volume, frame: int) -> str:
+    """The absolute path Blender tried for ``frame`` of an evaluated volume sequence."""
+    import bpy
+
+    library = volume.original.library if volume.original is not None else None
+    path = os.path.normpath(bpy.path.abspath(volume.filepath, library=library))
+    return sequence_frame_path(path, frame)
 
 
 def _file_path(volume) -> str:

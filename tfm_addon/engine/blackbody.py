@@ -60,10 +60,12 @@ def color_rec709(temperature_k: np.ndarray) -> np.ndarray:
 
 
 def radiance(temperature_k: np.ndarray, intensity: np.ndarray | float) -> np.ndarray:
-    """The blackbody term before the tint, W/(sr m^2) per metre, (..., 3): zero where the
-    intensity is not positive, else 1e-6 sigma / pi * mix(1, T^4, intensity) * colour(T)."""
+    """The blackbody term before the tint, W/(sr m^2) per metre, (..., 3): 1e-6 sigma / pi *
+    mix(1, T^4, intensity) * colour(T) where the intensity and that power are positive, else zero
+    (Cycles' svm_node_principled_volume emits nothing where ``intensity > 0`` fails: an intensity
+    above 1 at T = 0 K gives a negative power, which would darken the red)."""
     t = np.maximum(np.asarray(temperature_k, dtype=np.float64), 0.0)
     b = np.broadcast_to(np.asarray(intensity, dtype=np.float64), t.shape)
     power = STEFAN_BOLTZMANN * 1e-6 / math.pi * ((1.0 - b) + b * t ** 4)
-    power = np.where(b > 0.0, power, 0.0)
+    power = np.where((b > 0.0) & (power > 0.0), power, 0.0)
     return power[..., None] * color_rec709(t)
