@@ -412,6 +412,10 @@ def _volume_medium(instance, cache: GridCache, notes: list[str], simplify: int =
         notes.append(f"{ex}; rendering without it")
         return None
     read = _sigma(meshes.first_material(ob), settings, label, notes, available)
+    if read.get("graph") is not None:       # Generated coordinates span the object's bounds
+        corners = np.asarray([tuple(c) for c in ob.bound_box], np.float64)
+        lo, hi = corners.min(axis=0), corners.max(axis=0)
+        read["graph"] = replace(read["graph"], texspace=(tuple((lo + hi) / 2.0), tuple((hi - lo) / 2.0)))
     material_grid = read["grid"]
     try:
         grid, grid_notes = cache.read(volume, preferred, _label(instance), generated=generated,
@@ -493,6 +497,10 @@ def _grid_medium(matrix_world, grid, read: dict, label: str, notes: list[str], s
 # The last evaluations of node graphs: (grid key, graph key, simplify, clipping) -> Resolved.
 _resolved: dict = {}
 EVALUATIONS = {"count": 0}      # how many node graphs were evaluated over a lattice (tests)
+# A graph is evaluated on a lattice this many times finer per axis (Cycles evaluates its nodes on
+# interpolated grid values; a finer lattice brings per-voxel evaluation closer to that) while the
+# fine lattice stays within SUPERSAMPLE_VOXELS.
+SUPERSAMPLE, SUPERSAMPLE_VOXELS = 2, 1 << 21
 
 
 def _graph_medium(matrix_world, grid, graph: shading.ShaderGraph, label: str, notes: list[str],
@@ -513,12 +521,26 @@ def _graph_medium(matrix_world, grid, graph: shading.ShaderGraph, label: str, no
             grids[name] = np.where(d < clipping, np.float32(0.0), d)
         mask = _volume_mask(grid, tuple(n for n in graph.grids if n in grid.extras), clipping,
                             density.shape, simplify)
-        resolved = shading.resolve(graph, grids, density.shape, index_to_object, mask)
+        factor = SUPERSAMPLE if density.size * SUPERSAMPLE ** 3 <= _supersample_budget(graph) else 1
+        resolved = shading.resolve(graph, grids, density.shape, index_to_object, mask,
+                                   supersample=factor)
+        if factor > 1:
+            index_to_object = index_to_object @ shading.fine_to_coarse(factor)
         EVALUATIONS["count"] += 1
         hit = (resolved, index_to_object)
         if len(_resolved) >= 8:
             _resolved.pop(next(iter(_resolved)))
         _resolved[key] = hit
+    return _resolved_medium(hit, matrix_world, key, bool(grid.key), label, notes)
+
+
+def _supersample_budget(graph: shading.ShaderGraph) -> int:
+    """Fine voxels a graph may be evaluated on: textures cost some 20 times more per voxel."""
+    return SUPERSAMPLE_VOXELS // 8 if graph.reads_position else SUPERSAMPLE_VOXELS
+
+
+def _resolved_medium(hit, matrix_world, key, keyed: bool, label: str, notes: list[str]) -> Medium:
+    """The Medium of an evaluated graph (``hit``: the Resolved and its lattice's index_to_object)."""
     resolved, index_to_object = hit
     notes.extend(f"{label}: {note}" for note in resolved.notes)
     grids, fields = {}, {}
@@ -530,7 +552,7 @@ def _graph_medium(matrix_world, grid, graph: shading.ShaderGraph, label: str, no
         fields["emission_grid"] = "__emission"
     return Medium(density=resolved.density, index_to_world=matrix_world @ index_to_object, grids=grids,
                   sigma_a=resolved.sigma_a, sigma_s=resolved.sigma_s, anisotropy=resolved.anisotropy,
-                  source_key=digest(*key) if grid.key else None, **fields)
+                  source_key=digest(*key) if keyed else None, **fields)
 
 
 def _volume_mask(grid, extras: tuple[str, ...], clipping: float, shape, simplify: int):
@@ -658,9 +680,48 @@ def _mesh_medium(instance, material, notes: list[str],
     if mesh is None:
         notes.append(f"{label}: the mesh has no faces, so it holds no medium")
         return None
+    if read.get("graph") is not None:
+        return _mesh_graph_medium(instance, ob, mesh, read["graph"], label, notes, resolution)
     fields = _drop_missing(read["fields"], {}, label, notes, "is not rendered in a mesh medium")
     medium, mesh_notes = mesh_volume.mesh_medium(
         mesh[0], mesh[1], np.array(instance.matrix_world), resolution=resolution, label=label,
         **fields)
     notes.extend(mesh_notes)
     return medium
+
+
+def _mesh_graph_medium(instance, ob, mesh, graph: shading.ShaderGraph, label: str, notes: list[str],
+                       resolution: int) -> Medium | None:
+    """A mesh medium whose material is a node graph: the graph evaluated over the voxelised inside
+    (positions in object space, Generated from the mesh's texture space; a mesh has no grids, so
+    Attribute nodes read 0 and the Density Attribute is ignored, as in Cycles), times the coverage
+    of each voxel. Cached like a volume's by the shape and the graph."""
+    occ = mesh_volume.occupancy_cache.get(mesh[0], mesh[1], resolution)
+    if not occ.closed:
+        notes.append(f"{label}: the mesh is not closed ({occ.open_edges} open edges); its medium fills "
+                     f"what most of three axis-aligned views see inside")
+    if not occ.coverage.any():
+        notes.append(f"{label}: the mesh encloses no volume, so it holds no medium")
+        return None
+    data = ob.data
+    if hasattr(data, "texspace_location") and hasattr(data, "texspace_size"):
+        graph = replace(graph, texspace=(tuple(data.texspace_location), tuple(data.texspace_size)))
+    key = ("mesh", occ.key, graph.key)
+    hit = _resolved.get(key)
+    if hit is None:
+        coverage = occ.coverage
+        factor = SUPERSAMPLE if coverage.size * SUPERSAMPLE ** 3 <= _supersample_budget(graph) else 1
+        resolved = shading.resolve(graph, {}, coverage.shape, occ.index_to_object, coverage > 0.0,
+                                   supersample=factor)
+        index_to_object = occ.index_to_object
+        if factor > 1:
+            coverage = shading.upsample(coverage, factor)
+            index_to_object = index_to_object @ shading.fine_to_coarse(factor)
+        emission = None if resolved.emission is None else resolved.emission * coverage[..., None]
+        resolved = replace(resolved, density=resolved.density * coverage, emission=emission)
+        EVALUATIONS["count"] += 1
+        hit = (resolved, index_to_object)
+        if len(_resolved) >= 8:
+            _resolved.pop(next(iter(_resolved)))
+        _resolved[key] = hit
+    return _resolved_medium(hit, np.array(instance.matrix_world), key, True, label, notes)

@@ -73,6 +73,10 @@ KINDS = {
     'ShaderNodeTexNoise': ("TEX_NOISE", _props("noise_type", "normalize")),
     'ShaderNodeTexGradient': ("TEX_GRADIENT", _props("gradient_type")),
     'ShaderNodeTexWhiteNoise': ("TEX_WHITE_NOISE", None),
+    'ShaderNodeTexVoronoi': ("TEX_VORONOI", _props("feature", "distance", "normalize")),
+    'ShaderNodeTexWave': ("TEX_WAVE", _props("wave_type", "bands_direction", "rings_direction",
+                                             "wave_profile")),
+    'ShaderNodeTexChecker': ("TEX_CHECKER", None),
     'ShaderNodeVolumePrincipled': ("PRINCIPLED_VOLUME",
                                    _strings("Density Attribute", "Color Attribute", "Temperature Attribute")),
     'ShaderNodeVolumeScatter': ("VOLUME_SCATTER", None),
@@ -89,12 +93,17 @@ def _unsupported_setting(node) -> str | None:
     kind = node.bl_idname
     if kind == 'ShaderNodeAttribute' and node.attribute_type != 'GEOMETRY':
         return f"of type {node.attribute_type}"
+    if kind == 'ShaderNodeTexCoord' and node.object is not None:
+        return f"relative to object '{node.object.name}'"
     if kind == 'ShaderNodeMapRange' and node.data_type != 'FLOAT':
         return "with vector values"
     if kind in ('ShaderNodeSeparateColor', 'ShaderNodeCombineColor') and node.mode != 'RGB':
         return f"in {node.mode} mode"
     if kind in ('ShaderNodeTexNoise', 'ShaderNodeTexWhiteNoise') and node.noise_dimensions != '3D':
         return f"in {node.noise_dimensions}"
+    if kind == 'ShaderNodeTexVoronoi' and (node.voronoi_dimensions != '3D'
+                                           or node.feature not in ('F1', 'F2')):
+        return f"({node.voronoi_dimensions}, {node.feature.replace('_', ' ').lower()})"
     if kind == 'ShaderNodeMix' and node.data_type not in ('FLOAT', 'VECTOR', 'RGBA'):
         return f"with {node.data_type.lower()} values"
     if kind in ('ShaderNodeMix', 'ShaderNodeMixRGB') and node.blend_type in (
@@ -166,6 +175,10 @@ class _Compiler:
             self.notes.setdefault(f"node '{node.name}' ({node.bl_label}) is not read by the engine; "
                                   f"'{socket.name}' of '{socket.node.name}' reads its own value", None)
             return Input(name, kind, 0.0 if kind == 'SHADER' else _constant(socket))
+        if node.bl_idname == 'ShaderNodeTexCoord' and out.identifier not in ("Object", "Generated"):
+            self.notes.setdefault(f"the {out.name} output of '{node.name}' (Texture Coordinate) has no "
+                                  f"meaning in a volume here; '{socket.name}' reads its own value", None)
+            return Input(name, kind, _constant(socket))
         return Input(name, kind, Link(index, out.identifier, out.type))
 
     def node(self, node) -> int | None:
@@ -187,6 +200,11 @@ class _Compiler:
             self.notes.setdefault(f"'{node.name}' uses the {node.phase.replace('_', ' ').title()} phase "
                                   f"function, rendered as Henyey-Greenstein with its anisotropy", None)
         inputs = tuple(self.input(name, s) for name, s in _inputs(node))
+        if kind.startswith("TEX_") and kind != "TEX_CHECKER":
+            varying = [i.name for i in inputs if i.name != "Vector" and isinstance(i.value, Link)]
+            if varying:
+                self.notes.setdefault(f"'{node.name}' ({node.bl_label}): a linked {', '.join(varying)} "
+                                      f"is read as its mean over the volume", None)
         self.nodes.append(Node(kind, params(node) if params else (), inputs, node.name))
         self.index[key] = len(self.nodes) - 1
         return self.index[key]

@@ -37,6 +37,7 @@ from .scene import _digest
 
 LUMINANCE = np.array([0.2126729, 0.7151522, 0.0721750])   # Cycles' Rec.709 colour -> float
 CUTOFF = 1e-5          # Cycles' CLOSURE_WEIGHT_CUTOFF
+F = np.float32         # the values' type: what Cycles computes in, and half the memory of float64
 
 
 @dataclass(frozen=True)
@@ -105,6 +106,13 @@ class ShaderGraph:
         return tuple(dict.fromkeys(n for n in names if n))
 
     @cached_property
+    def used(self) -> frozenset:
+        """(node, output) pairs some input or the output reads."""
+        links = [i.value for n in self.nodes for i in n.inputs if isinstance(i.value, Link)]
+        links += [self.output] if self.output is not None else []
+        return frozenset((lk.node, lk.output) for lk in links)
+
+    @cached_property
     def reads_position(self) -> bool:
         """Whether the graph needs the voxels' positions (texture coordinates, textures)."""
         return any(node.kind == "TEX_COORD" or node.kind.startswith("TEX_") for node in self.nodes)
@@ -118,13 +126,13 @@ class Closure:
     """Volume coefficients (1/m, per channel), emission (W/(sr m^2) per m) and the anisotropy
     weighted by the mean scattering coefficient, all broadcastable over the voxels."""
 
-    sigma_s: np.ndarray = field(default_factory=lambda: np.zeros(3))
-    sigma_a: np.ndarray = field(default_factory=lambda: np.zeros(3))
-    emission: np.ndarray = field(default_factory=lambda: np.zeros(3))
-    g_weighted: np.ndarray = field(default_factory=lambda: np.zeros(()))
+    sigma_s: np.ndarray = field(default_factory=lambda: np.zeros(3, F))
+    sigma_a: np.ndarray = field(default_factory=lambda: np.zeros(3, F))
+    emission: np.ndarray = field(default_factory=lambda: np.zeros(3, F))
+    g_weighted: np.ndarray = field(default_factory=lambda: np.zeros((), F))
 
     def scaled(self, f) -> Closure:
-        f = np.asarray(f, np.float64)
+        f = np.asarray(f, F)
         return Closure(self.sigma_s * f[..., None], self.sigma_a * f[..., None],
                        self.emission * f[..., None], self.g_weighted * f)
 
@@ -148,11 +156,17 @@ class _Evaluation:
                  position: np.ndarray | None):
         self.graph, self.grids, self.n, self.position = graph, grids, n, position
         self.memo: dict[int, dict] = {}
+        self.current = -1           # the node being evaluated
+
+    def reads(self, output: str) -> bool:
+        """Whether the current node's ``output`` is read by another node or the graph's output."""
+        return (self.current, output) in self.graph.used
 
     def outputs(self, index: int) -> dict:
         if index not in self.memo:
             node = self.graph.nodes[index]
             ins = {i.name: self.input(i) for i in node.inputs}
+            self.current = index
             self.memo[index] = NODES[node.kind](node, ins, self)
         return self.memo[index]
 
@@ -164,22 +178,28 @@ class _Evaluation:
             return convert(value, i.value.kind, i.kind)
         if i.kind == "SHADER":
             return None
-        return convert(np.asarray(i.value, np.float64), "RGBA" if np.ndim(i.value) else "VALUE", i.kind)
+        return convert(np.asarray(i.value, F), "RGBA" if np.ndim(i.value) else "VALUE", i.kind)
 
     def grid(self, name: str) -> np.ndarray | None:
         g = self.grids.get(name)
-        return None if g is None else np.asarray(g, np.float64)
+        return None if g is None else np.asarray(g, F)
+
+
+def _mean3(x):
+    """The mean of the last axis of length 3 (faster than ``mean(axis=-1)`` on long arrays)."""
+    x = np.asarray(x)
+    return (x[..., 0] + x[..., 1] + x[..., 2]) * np.float32(1.0 / 3.0)
 
 
 def _default(kind: str):
-    return None if kind == "SHADER" else (np.zeros(3) if kind in ("RGBA", "VECTOR") else np.zeros(()))
+    return None if kind == "SHADER" else (np.zeros(3, F) if kind in ("RGBA", "VECTOR") else np.zeros((), F))
 
 
 def convert(value, src: str, dst: str):
     """A socket value of type ``src`` as type ``dst``, as Cycles converts across a link."""
     if value is None or dst == "SHADER" or src == "SHADER":
         return value
-    v = np.asarray(value, np.float64)
+    v = np.asarray(value, F)
     src_vec = v.ndim >= 1 and v.shape[-1] == 3 and src in ("RGBA", "VECTOR")
     if dst in ("VALUE", "INT", "BOOLEAN"):
         if not src_vec:
@@ -201,10 +221,10 @@ def evaluate(graph: ShaderGraph, grids: Mapping[str, np.ndarray], n: int,
         c = ev.outputs(graph.output.node).get(graph.output.output)
     c = c if c is not None else Closure()
     shape = (n, 3)
-    s = np.broadcast_to(c.sigma_s, shape).astype(np.float64)
-    a = np.broadcast_to(c.sigma_a, shape).astype(np.float64)
-    e = np.broadcast_to(c.emission, shape).astype(np.float64)
-    mean_s = s.mean(axis=1)
+    s = np.broadcast_to(c.sigma_s, shape)
+    a = np.broadcast_to(c.sigma_a, shape)
+    e = np.broadcast_to(c.emission, shape)
+    mean_s = _mean3(s)
     g = np.where(mean_s > 0.0, np.broadcast_to(c.g_weighted, (n,)) / np.maximum(mean_s, 1e-30), 0.0)
     return VolumeFields(s, a, e, np.clip(g, -0.99, 0.99))
 
@@ -215,12 +235,12 @@ def _attribute(node, ins, ev):
     name = node.param("name")
     g = ev.grid(name) if name else None
     if g is None:
-        zero = np.zeros(())
-        return {"Color": np.zeros(3), "Vector": np.zeros(3), "Fac": zero, "Alpha": zero}
+        zero = np.zeros((), F)
+        return {"Color": np.zeros(3, F), "Vector": np.zeros(3, F), "Fac": zero, "Alpha": zero}
     if g.ndim >= 2 and g.shape[-1] == 3:
-        return {"Color": g, "Vector": g, "Fac": g.mean(axis=-1), "Alpha": np.ones(())}
+        return {"Color": g, "Vector": g, "Fac": g.mean(axis=-1), "Alpha": np.ones((), F)}
     rgb = np.repeat(g[..., None], 3, axis=-1)
-    return {"Color": rgb, "Vector": rgb, "Fac": g, "Alpha": np.ones(())}
+    return {"Color": rgb, "Vector": rgb, "Fac": g, "Alpha": np.ones((), F)}
 
 
 def _volume_info(node, ins, ev):
@@ -229,29 +249,29 @@ def _volume_info(node, ins, ev):
         g = ev.grid(name)
         if socket == "Color":
             if g is None:
-                out[socket] = np.zeros(3)
+                out[socket] = np.zeros(3, F)
             else:
                 out[socket] = g if g.ndim >= 2 and g.shape[-1] == 3 else np.repeat(g[..., None], 3, -1)
         else:
-            out[socket] = np.zeros(()) if g is None else (g.mean(axis=-1) if g.ndim >= 2 else g)
+            out[socket] = np.zeros((), F) if g is None else (g.mean(axis=-1) if g.ndim >= 2 else g)
     return out
 
 
 def _value(node, ins, ev):
-    return {"Value": np.asarray(node.param("value"), np.float64)}
+    return {"Value": np.asarray(node.param("value"), F)}
 
 
 def _rgb(node, ins, ev):
-    return {"Color": np.asarray(node.param("color"), np.float64)}
+    return {"Color": np.asarray(node.param("color"), F)}
 
 
 def _safe_divide(a, b):
-    b = np.asarray(b, np.float64)
+    b = np.asarray(b, F)
     return np.where(b != 0.0, a / np.where(b != 0.0, b, 1.0), 0.0)
 
 
 def _smoothmin(a, b, c):
-    c = np.asarray(c, np.float64)
+    c = np.asarray(c, F)
     h = np.maximum(c - np.abs(a - b), 0.0) / np.where(c != 0.0, c, 1.0)
     return np.where(c != 0.0, np.minimum(a, b) - h * h * h * c * (1.0 / 6.0), np.minimum(a, b))
 
@@ -297,10 +317,10 @@ MATH: dict[str, Callable] = {
     'EXPONENT': lambda a, b, c: np.exp(np.minimum(a, 700.0)),
     'MINIMUM': lambda a, b, c: np.minimum(a, b),
     'MAXIMUM': lambda a, b, c: np.maximum(a, b),
-    'LESS_THAN': lambda a, b, c: (a < b).astype(np.float64),
-    'GREATER_THAN': lambda a, b, c: (a > b).astype(np.float64),
+    'LESS_THAN': lambda a, b, c: (a < b).astype(F),
+    'GREATER_THAN': lambda a, b, c: (a > b).astype(F),
     'SIGN': lambda a, b, c: np.sign(a),
-    'COMPARE': lambda a, b, c: (np.abs(a - b) <= np.maximum(c, 1e-5)).astype(np.float64),
+    'COMPARE': lambda a, b, c: (np.abs(a - b) <= np.maximum(c, 1e-5)).astype(F),
     'SMOOTH_MIN': lambda a, b, c: _smoothmin(a, b, c),
     'SMOOTH_MAX': lambda a, b, c: -_smoothmin(-a, -b, c),
     'ROUND': lambda a, b, c: np.floor(a + 0.5),
@@ -330,7 +350,7 @@ MATH: dict[str, Callable] = {
 
 
 def _math(node, ins, ev):
-    a, b, c = (ins.get(k, np.zeros(())) for k in ("A", "B", "C"))
+    a, b, c = (ins.get(k, np.zeros((), F)) for k in ("A", "B", "C"))
     out = MATH[node.param("operation")](a, b, c)
     if node.param("use_clamp"):
         out = np.clip(out, 0.0, 1.0)
@@ -374,7 +394,7 @@ def _clamp(node, ins, ev):
 def _table_lookup(table: np.ndarray, f, interpolate: bool):
     """Cycles' rgb_ramp_lookup: ``table`` (size, c) sampled at i / (size - 1), f clamped to [0, 1]."""
     size = len(table)
-    x = np.clip(np.nan_to_num(np.asarray(f, np.float64)), 0.0, 1.0) * (size - 1)
+    x = np.clip(np.nan_to_num(np.asarray(f, F)), 0.0, 1.0) * (size - 1)
     i = np.clip(x.astype(np.int64), 0, size - 1)
     t = x - i
     a = table[i]
@@ -385,13 +405,13 @@ def _table_lookup(table: np.ndarray, f, interpolate: bool):
 
 
 def _color_ramp(node, ins, ev):
-    table = np.asarray(node.param("table"), np.float64).reshape(-1, 4)
+    table = np.asarray(node.param("table"), F).reshape(-1, 4)
     rgba = _table_lookup(table, ins["Fac"], node.param("interpolate", True))
     return {"Color": rgba[..., :3], "Alpha": rgba[..., 3]}
 
 
 def _float_curve(node, ins, ev):
-    table = np.asarray(node.param("table"), np.float64).reshape(-1, 1)
+    table = np.asarray(node.param("table"), F).reshape(-1, 1)
     lo, hi = node.param("range", (0.0, 1.0))
     v, fac = ins["Value"], ins["Factor"]
     x = _safe_divide(v - lo, hi - lo)
@@ -488,7 +508,7 @@ def _separate(node, ins, ev):
 
 def _combine(node, ins, ev):
     names = ("Red", "Green", "Blue") if "Red" in ins else ("X", "Y", "Z")
-    parts = np.broadcast_arrays(*(np.asarray(ins[n], np.float64) for n in names))
+    parts = np.broadcast_arrays(*(np.asarray(ins[n], F) for n in names))
     out = np.stack(parts, axis=-1)
     return {"Color": out, "Vector": out}
 
@@ -517,8 +537,8 @@ def _euler(r) -> np.ndarray:
 
 def _mapping(node, ins, ev):
     v = ins["Vector"]
-    loc = np.asarray(ins.get("Location", np.zeros(3)))
-    rot = _euler(ins.get("Rotation", np.zeros(3)))
+    loc = np.asarray(ins.get("Location", np.zeros(3, F)))
+    rot = _euler(ins.get("Rotation", np.zeros(3, F)))
     scale = np.asarray(ins.get("Scale", np.ones(3)))
     kind = node.param("vector_type", "POINT")
     if kind == "POINT":
@@ -544,12 +564,11 @@ def _texture_vector(ins, ev):
 def _tex_noise(node, ins, ev):
     from . import textures
     p = _texture_vector(ins, ev)
-    kw = {k: float(np.asarray(ins[s]).mean()) for k, s in (
-        ("scale", "Scale"), ("detail", "Detail"), ("roughness", "Roughness"),
-        ("lacunarity", "Lacunarity"), ("distortion", "Distortion"), ("offset", "Offset"),
-        ("gain", "Gain")) if s in ins}
+    kw = _scalar_params(ins, (("scale", "Scale"), ("detail", "Detail"), ("roughness", "Roughness"),
+                              ("lacunarity", "Lacunarity"), ("distortion", "Distortion"),
+                              ("offset", "Offset"), ("gain", "Gain")))
     fac, color = textures.noise(p, normalize=bool(node.param("normalize", True)),
-                                noise_type=node.param("noise_type", "FBM"), **kw)
+                                noise_type=node.param("noise_type", "FBM"), color=ev.reads("Color"), **kw)
     return {"Fac": fac, "Color": color}
 
 
@@ -563,6 +582,41 @@ def _tex_white_noise(node, ins, ev):
     from . import textures
     value, color = textures.white_noise(_texture_vector(ins, ev))
     return {"Value": value, "Color": color}
+
+
+def _scalar_params(ins, names) -> dict:
+    """Texture parameters as the scalars textures.py takes (a linked, varying one: its mean, which
+    the compiler names)."""
+    return {k: float(np.asarray(ins[s], np.float64).mean()) for k, s in names if s in ins}
+
+
+def _tex_voronoi(node, ins, ev):
+    from . import textures
+    kw = _scalar_params(ins, (("scale", "Scale"), ("randomness", "Randomness"), ("exponent", "Exponent"),
+                              ("detail", "Detail"), ("roughness", "Roughness"), ("lacunarity", "Lacunarity")))
+    distance, color, position = textures.voronoi(
+        _texture_vector(ins, ev), feature=node.param("feature", "F1"),
+        distance=node.param("distance", "EUCLIDEAN"), normalize=bool(node.param("normalize", False)), **kw)
+    return {"Distance": distance, "Color": color, "Position": position}
+
+
+def _tex_wave(node, ins, ev):
+    from . import textures
+    kw = _scalar_params(ins, (("scale", "Scale"), ("distortion", "Distortion"), ("detail", "Detail"),
+                              ("detail_scale", "Detail Scale"), ("detail_roughness", "Detail Roughness"),
+                              ("phase_offset", "Phase Offset")))
+    fac, color = textures.wave(_texture_vector(ins, ev), wave_type=node.param("wave_type", "BANDS"),
+                               bands_direction=node.param("bands_direction", "X"),
+                               rings_direction=node.param("rings_direction", "X"),
+                               wave_profile=node.param("wave_profile", "SIN"), **kw)
+    return {"Fac": fac, "Color": color}
+
+
+def _tex_checker(node, ins, ev):
+    from . import textures
+    fac, _ = textures.checker(_texture_vector(ins, ev), **_scalar_params(ins, (("scale", "Scale"),)))
+    on = np.asarray(fac)[..., None] > 0.5
+    return {"Fac": fac, "Color": np.where(on, ins["Color1"], ins["Color2"])}
 
 
 # ---- shader nodes -------------------------------------------------------------------------------
@@ -581,7 +635,7 @@ def _principled(node, ins, ev):
     absorption = np.maximum(1.0 - color, 0.0) * k
     d = np.asarray(density)[..., None]
     sigma_s = color * d
-    out = Closure(sigma_s, absorption * d, np.zeros(3), ins["Anisotropy"] * sigma_s.mean(axis=-1))
+    out = Closure(sigma_s, absorption * d, np.zeros(3, F), ins["Anisotropy"] * _mean3(sigma_s))
     strength = ins["Emission Strength"]
     out.emission = np.where((np.asarray(strength) > CUTOFF)[..., None],
                             ins["Emission Color"] * np.asarray(strength)[..., None], 0.0)
@@ -599,19 +653,19 @@ def _principled(node, ins, ev):
 def _scatter(node, ins, ev):
     d = np.maximum(ins["Density"], 0.0)[..., None]
     s = ins["Color"] * d
-    return {"Volume": Closure(s, np.zeros(3), np.zeros(3), ins["Anisotropy"] * s.mean(axis=-1))}
+    return {"Volume": Closure(s, np.zeros(3, F), np.zeros(3, F), ins["Anisotropy"] * _mean3(s))}
 
 
 def _absorption(node, ins, ev):
     d = np.maximum(ins["Density"], 0.0)[..., None]
-    return {"Volume": Closure(np.zeros(3), np.maximum(1.0 - ins["Color"], 0.0) * d)}
+    return {"Volume": Closure(np.zeros(3, F), np.maximum(1.0 - ins["Color"], 0.0) * d)}
 
 
 def _coefficients(node, ins, ev):
     s = np.maximum(ins["Scatter Coefficients"], 0.0)
     a = np.maximum(ins["Absorption Coefficients"], 0.0)
-    e = np.maximum(ins.get("Emission Coefficients", np.zeros(3)), 0.0)
-    return {"Volume": Closure(s, a, e, ins["Anisotropy"] * s.mean(axis=-1))}
+    e = np.maximum(ins.get("Emission Coefficients", np.zeros(3, F)), 0.0)
+    return {"Volume": Closure(s, a, e, ins["Anisotropy"] * _mean3(s))}
 
 
 def _emission(node, ins, ev):
@@ -638,7 +692,8 @@ NODES: dict[str, Callable] = {
     "FLOAT_CURVE": _float_curve, "MIX": _mix, "INVERT": _invert, "GAMMA": _gamma,
     "RGB_TO_BW": _rgb_to_bw, "SEPARATE": _separate, "COMBINE": _combine, "BLACKBODY": _blackbody,
     "TEX_COORD": _tex_coord, "MAPPING": _mapping, "TEX_NOISE": _tex_noise,
-    "TEX_GRADIENT": _tex_gradient, "TEX_WHITE_NOISE": _tex_white_noise,
+    "TEX_GRADIENT": _tex_gradient, "TEX_WHITE_NOISE": _tex_white_noise, "TEX_VORONOI": _tex_voronoi,
+    "TEX_WAVE": _tex_wave, "TEX_CHECKER": _tex_checker,
     "PRINCIPLED_VOLUME": _principled, "VOLUME_SCATTER": _scatter, "VOLUME_ABSORPTION": _absorption,
     "VOLUME_COEFFICIENTS": _coefficients, "EMISSION": _emission, "ADD_SHADER": _add_shader,
     "MIX_SHADER": _mix_shader,
@@ -673,13 +728,51 @@ def _voxel_positions(shape, index_to_object: np.ndarray, start: int, stop: int) 
     return idx @ m[:3, :3].T + m[:3, 3]
 
 
+def upsample(a: np.ndarray, factor: int) -> np.ndarray:
+    """A grid (nx, ny, nz[, c]) trilinearly interpolated onto a lattice ``factor`` times finer: fine
+    voxel i of an axis sits at coarse index (i + 0.5) / factor - 0.5, and the grid is 0 one voxel
+    beyond its outermost centres (as the renderer's textures are)."""
+    out = np.asarray(a, F)
+    for axis in range(3):
+        n = out.shape[axis]
+        x = (np.arange(n * factor, dtype=np.float64) + 0.5) / factor - 0.5
+        i0 = np.floor(x).astype(np.int64)
+        w = (x - i0).astype(F)
+        pad = [(0, 0)] * out.ndim
+        pad[axis] = (1, 1)
+        padded = np.pad(out, pad)               # coarse index j at j + 1
+        lo = np.take(padded, i0 + 1, axis=axis)
+        hi = np.take(padded, i0 + 2, axis=axis)
+        shape = [1] * out.ndim
+        shape[axis] = len(w)
+        w = w.reshape(shape)
+        out = lo + w * (hi - lo)
+    return out
+
+
+def fine_to_coarse(factor: int) -> np.ndarray:
+    """The matrix from a ``factor`` times finer lattice's indices to the coarse one's (upsample)."""
+    m = np.diag([1.0 / factor] * 3 + [1.0])
+    m[:3, 3] = 0.5 / factor - 0.5
+    return m
+
+
 def resolve(graph: ShaderGraph, grids: Mapping[str, np.ndarray], shape: tuple[int, int, int],
             index_to_object: np.ndarray | None = None, mask: np.ndarray | None = None,
-            label: str = "") -> Resolved:
+            label: str = "", supersample: int = 1) -> Resolved:
     """Evaluate ``graph`` at every voxel of a lattice of ``shape`` whose grids (on that lattice)
     are ``grids``; ``index_to_object`` places voxel centres in object space (Texture Coordinate);
     ``mask`` (shape, bool): where the volume is (Cycles renders nothing outside its volume mesh).
-    Evaluated ``CHUNK`` voxels at a time."""
+    ``supersample`` > 1 evaluates on a lattice that many times finer per axis, the grids
+    interpolated onto it as Cycles interpolates them before its nodes (the result is on that
+    lattice: ``fine_to_coarse``). Evaluated ``CHUNK`` voxels at a time."""
+    if supersample > 1:
+        f = int(supersample)
+        grids = {k: upsample(v, f) for k, v in grids.items()}
+        if mask is not None:
+            mask = np.asarray(mask, bool).repeat(f, 0).repeat(f, 1).repeat(f, 2)
+        index_to_object = (np.eye(4) if index_to_object is None else index_to_object) @ fine_to_coarse(f)
+        shape = tuple(int(n) * f for n in shape)
     n = int(np.prod(shape))
     flat = {k: np.asarray(v).reshape(n, -1) for k, v in grids.items()}
     flat = {k: (v[:, 0] if v.shape[1] == 1 else v[:, :3]) for k, v in flat.items()}
@@ -696,7 +789,7 @@ def resolve(graph: ShaderGraph, grids: Mapping[str, np.ndarray], shape: tuple[in
         t[start:stop] = np.maximum(f.sigma_a + f.sigma_s, 0.0)
         s[start:stop] = np.maximum(f.sigma_s, 0.0)
         e[start:stop] = f.emission
-        w = f.sigma_s.mean(axis=1)
+        w = _mean3(f.sigma_s)
         g_sum += float((f.anisotropy * w).sum())
         if (w > 0).any():
             g_lo = min(g_lo, float(f.anisotropy[w > 0].min()))
@@ -705,23 +798,27 @@ def resolve(graph: ShaderGraph, grids: Mapping[str, np.ndarray], shape: tuple[in
         out = ~np.asarray(mask, bool).reshape(n)
         t[out], s[out], e[out] = 0.0, 0.0, 0.0
     notes = []
-    density = t.mean(axis=1)
+    density = _mean3(t)
     total = float(density.sum(dtype=np.float64))
     k = np.ones(3) if total <= 0.0 else t.sum(axis=0, dtype=np.float64) / total
-    live = density > 1e-3 * float(density.max(initial=0.0))
-    if live.any() and np.abs(t[live] - density[live, None] * k).max() > 0.01 * density[live].max():
+    d_max = float(density.max(initial=0.0))
+    live = density > 1e-3 * d_max
+    grey = float(np.abs(t - density[:, None] * k.astype(np.float32)).max(initial=0.0)) <= 0.01 * d_max
+    if not grey:
         notes.append(f"{label}the extinction's colour varies over the volume; it is rendered with its "
                      f"mean colour")
-    with np.errstate(invalid="ignore", divide="ignore"):
-        albedo = np.where(live[:, None], s / (density[:, None] * k), 0.0).astype(np.float32)
+    albedo = np.zeros_like(s)
+    np.divide(s, density[:, None] * k.astype(np.float32), out=albedo, where=live[:, None])
+    lo = np.where(live[:, None], albedo, np.float32(np.inf)).min(axis=0)
+    hi = np.where(live[:, None], albedo, np.float32(-np.inf)).max(axis=0)
     color = None
-    if live.any() and float(np.ptp(albedo[live], axis=0).max()) > 1e-4:
+    if live.any() and float((hi - lo).max()) > 1e-4:
         sigma_s, sigma_a = tuple(k), (0.0, 0.0, 0.0)
         color = albedo.reshape(*shape, 3)
     else:
-        c = albedo[live].mean(axis=0) if live.any() else np.zeros(3)
+        c = (albedo.sum(axis=0, dtype=np.float64) / max(int(live.sum()), 1)) if live.any() else np.zeros(3)
         sigma_s, sigma_a = tuple(k * c), tuple(k * (1.0 - c))
-    s_total = float(s.mean(axis=1).sum(dtype=np.float64))
+    s_total = float(_mean3(s).sum(dtype=np.float64))
     g = g_sum / s_total if s_total > 0.0 else 0.0
     if g_hi - g_lo > 1e-3:
         notes.append(f"{label}the anisotropy varies over the volume ({g_lo:.2f} to {g_hi:.2f}); it is "

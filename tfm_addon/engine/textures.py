@@ -349,7 +349,7 @@ def _scaled32(p, scale) -> np.ndarray:
 
 
 def noise(p, *, scale=5.0, detail=2.0, roughness=0.5, lacunarity=2.0, distortion=0.0, normalize=True,
-          noise_type='FBM', offset=0.0, gain=1.0) -> tuple[np.ndarray, np.ndarray]:
+          noise_type='FBM', offset=0.0, gain=1.0, color: bool = True) -> tuple[np.ndarray, np.ndarray | None]:
     """The 3D Noise Texture: (Fac (n,), Color (n, 3)).
 
     As svm_node_tex_noise / noise_texture_3d: detail clamped to [0, 15], roughness to >= 0, the
@@ -365,6 +365,8 @@ def noise(p, *, scale=5.0, detail=2.0, roughness=0.5, lacunarity=2.0, distortion
                          axis=-1)
         p = p + shift.astype(np.float32)
     value = _noise_select(p, *args)
+    if not color:       # the Color output is not used: its two extra fractals are not computed
+        return value, None
     color = np.stack([value,
                       _noise_select(p + _random_float3_offset(3.0), *args),
                       _noise_select(p + _random_float3_offset(4.0), *args)], axis=-1)
