@@ -5,7 +5,8 @@ Runs inside a process that imported ``bpy``. A row is a small scene built by cod
 builds it (operators for objects and lights, so Blender's defaults apply to everything the row does
 not set: Volume ▸ Render ▸ Space Object, clipping 0.001, precision Half, light radius and size, ...),
 in an empty scene (``bpy.ops.wm.read_homefile(use_empty=True)``). Every scene has a camera at 64x48,
-a World (black, unless the row lights with it), a Diffuse ground that shows the medium's shadow and,
+a World (black, unless the row lights with it), a dark grey (0.2) Diffuse ground that shows the
+medium's shadow and,
 unless the row says otherwise, a point light of 1000 W.
 
 ``EXPECT`` says, per row id, the exact substring of the render-report line TFM gives today for the
@@ -183,9 +184,9 @@ def _camera() -> None:
     import bpy
     from mathutils import Vector
 
-    bpy.ops.object.camera_add(location=(0.0, -6.0, 1.2))
+    bpy.ops.object.camera_add(location=(0.0, -7.0, 1.4))
     cam = bpy.context.object
-    direction = Vector((0.0, 0.0, -0.25)) - cam.location
+    direction = Vector((0.0, 0.0, -0.1)) - cam.location
     cam.rotation_euler = direction.to_track_quat('-Z', 'Y').to_euler()
     scene = bpy.context.scene
     scene.camera = cam
@@ -230,7 +231,7 @@ def _ground() -> None:
     import bpy
 
     bpy.ops.mesh.primitive_plane_add(size=8.0, location=(0.0, 0.0, -1.25))
-    bpy.context.object.data.materials.append(_diffuse("Ground"))
+    bpy.context.object.data.materials.append(_diffuse("Ground", (0.2, 0.2, 0.2)))
 
 
 def base(*, lights: str | None = 'POINT', world=(0.0, 0.0, 0.0), ground: bool = True) -> None:
@@ -303,8 +304,7 @@ def volume_object(tmpdir: str, name: str = "Smoke", grids: dict | None = None, m
     ob.data.filepath = path
     ob.scale = scale
     n = next(iter(grids.values())).shape[0]
-    # the grid's voxel centres sit at 0 .. n-1 voxels: centre it on the object's origin
-    ob.data.grids.load()
+    # the grid's voxel centres sit at 0 .. n-1 voxels: centre them on ``location``
     half = (n - 1) * voxel / 2.0
     ob.location = [location[i] - half * scale[i] for i in range(3)]
     if mat is not None:
@@ -804,7 +804,7 @@ def _(tmpdir):
     mat, nt, out = material()
     principled(nt, out)
     smoke_with(tmpdir, mat)
-    bpy.ops.mesh.primitive_plane_add(size=0.9, location=(1.3, -1.3, 1.6))
+    bpy.ops.mesh.primitive_plane_add(size=0.6, location=(1.6, -1.0, 1.5))
     occluder = bpy.context.object
     _aim(occluder, (2.5, -2.5, 3.0))
     occluder.data.materials.append(_diffuse("Occluder", (0.5, 0.5, 0.5)))
@@ -886,7 +886,7 @@ def final_render_module():
     import bpy
 
     for cls in bpy.types.RenderEngine.__subclasses__():
-        if getattr(cls, "bl_idname", "") == 'TFM':
+        if getattr(cls, "bl_idname", "") == 'TFM' and getattr(cls, "is_registered", True):
             package = cls.__module__.rsplit(".", 1)[0]
             return importlib.import_module(package + ".final_render")
     raise RuntimeError("the TFM engine is not registered")
@@ -972,3 +972,174 @@ def rows(names: list[str] | None = None) -> list[Row]:
         raise KeyError(f"unknown rows: {', '.join(unknown)}")
     return [ROW_BY_ID[n] for n in names]
 
+
+
+# ---------------------------------------------------------------------------------------------
+# The page: python -m tfm_addon.bench.conformance [--out docs] (inside bpy; the bench's
+# ``--only conformance`` runs it in a subprocess)
+
+def _display(image: np.ndarray, white: float) -> np.ndarray:
+    return np.clip(np.asarray(image, np.float64)[..., :3] / white, 0.0, 1.0) ** (1 / 2.2)
+
+
+def strip_png(path: Path, cycles: np.ndarray, tfm: np.ndarray) -> Path:
+    """Cycles | TFM | difference (|TFM - Cycles| x 4 in display values) as one small PNG; both
+    images scaled by the Cycles image's white, as ``metrics`` does."""
+    from PIL import Image
+
+    white = float(np.percentile(cycles[..., :3].max(axis=-1), 99.9)) or 1.0
+    a, b = _display(cycles, white), _display(tfm, white)
+    diff = np.clip(np.abs(b - a) * 4.0, 0, 1)
+    gap = np.ones((a.shape[0], 2, 3))
+    strip = np.concatenate([a, gap, b, gap, diff], axis=1)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    Image.fromarray((strip * 255 + 0.5).astype(np.uint8)).save(path, optimize=True)
+    return path
+
+
+@dataclasses.dataclass
+class PageRow:
+    row: Row
+    status: str
+    comparison: Comparison | None = None
+    seconds: float = 0.0
+    messages: list[str] = dataclasses.field(default_factory=list)
+    reference: dict = dataclasses.field(default_factory=dict)
+
+
+def status_of(row: Row, comparison: Comparison, messages: list[str]) -> str:
+    """'pass' / 'FAIL' for a 'rendered' row; 'reported' (or 'report gone') for a 'reported' one;
+    'wrong' (or 'now passes') for a 'wrong' one."""
+    if row.expect == 'rendered':
+        return 'pass' if comparison.passes() else 'FAIL'
+    if row.expect == 'reported':
+        if report_lines(messages, row):
+            return 'reported'
+        return 'report gone, passes: flip it' if comparison.passes() else 'report gone, FAIL'
+    return 'now passes: flip it' if comparison.passes() else 'wrong'
+
+
+def run_rows(names: list[str] | None, png_dir: Path, tmp: str, log=print) -> list[PageRow]:
+    """Render every row with TFM, compare with its reference, write its PNG strip."""
+    out = []
+    for r in rows(names):
+        if not (REF_DIR / f"{r.id}.npz").exists():
+            out.append(PageRow(r, "no reference"))
+            log(f"{r.id}: no reference")
+            continue
+        cycles, meta = load_reference(r.id)
+        result = render_tfm(r, os.path.join(tmp, r.id))
+        comparison = compare(r, result.image, cycles)
+        strip_png(png_dir / f"{r.id}.png", cycles, result.image)
+        page_row = PageRow(r, status_of(r, comparison, result.messages), comparison, result.seconds,
+                           result.messages, meta)
+        out.append(page_row)
+        log(f"{r.id}: {page_row.status}, SSIM {comparison.ssim:.4f}, brightness "
+            f"{comparison.ratio_text()}, TFM {result.seconds:.2f} s")
+    return out
+
+
+def _cell(text: str) -> str:
+    return text.replace("|", "\\|").replace("\n", " ")
+
+
+def write_page(page_rows: list[PageRow], md: Path, png_dir: Path, blender: str, seconds: float) -> str:
+    refs = [p.reference for p in page_rows if p.reference]
+    ref_seconds = sum(float(m.get("seconds", 0.0)) for m in refs)
+    samples = sorted({int(m["samples"]) for m in refs if "samples" in m})
+    seed_ssim = min((float(m["seed_ssim"]) for m in refs if "seed_ssim" in m), default=float("nan"))
+    counts: dict[str, int] = {}
+    for p in page_rows:
+        counts[p.status] = counts.get(p.status, 0) + 1
+    rel = os.path.relpath(png_dir, md.parent)
+    lines = [
+        "# Conformance against Cycles",
+        "",
+        "Every Blender setting and node the engine reads, as a row: a small scene built by code "
+        "(`tfm_addon/bench/conformance.py`), a stored converged Cycles reference "
+        "(`tests/data/conformance/<id>.npz`, `scripts/make_conformance_refs.py`) and a test "
+        "(`tests/blender/test_conformance.py`). Regenerate this page with "
+        "`python -m tfm_addon.bench --only conformance`.",
+        "",
+        f"- Thresholds: SSIM ≥ {SSIM_MIN} and total brightness within {BRIGHTNESS_TOL:.0%} of Cycles "
+        "(per channel, R / G / B, for coloured media), `tfm_addon.engine.metrics`.",
+        f"- Cycles references: Blender {refs[0].get('blender', '?') if refs else '?'}, single scattering "
+        "(volume_bounces 0, max_bounces 0, BLENDER.md's film settings), "
+        f"{'/'.join(map(str, samples))} samples each (the mean of two seeds), "
+        f"{ref_seconds / 60:.1f} min of Cycles in all on this machine; the two seeds agree to SSIM ≥ "
+        f"{seed_ssim:.4f}.",
+        f"- TFM: the add-on's defaults (quality AUTO) with {TFM_SAMPLES} antialiasing samples, "
+        f"{WIDTH}x{HEIGHT}, Blender {blender}; {seconds:.0f} s for every row, scenes built included.",
+        "- Scenes: Blender's defaults for everything a row does not set (Space Object, clipping 0.001, "
+        "Add-menu light sizes), a black World unless the row lights with it, a grey ground, a point "
+        "light of 1000 W unless the row sets the light; emissive rows' Cycles references turn the "
+        "volume's diffuse and volume-scatter visibility off (the engine's emission lights nothing).",
+        "- Expectation: **rendered** must pass; **reported** rows are not rendered yet and must "
+        "say their line in the render report (`conformance.EXPECT`); **wrong** rows render wrongly "
+        "without a word (`conformance.WRONG`). Flipping a row is deleting its line there.",
+        "- Images: Cycles | TFM | difference (×4, display values, both scaled by the Cycles image's "
+        "white).",
+        "",
+        "Today: " + ", ".join(f"{v} {k}" for k, v in sorted(counts.items())) + ".",
+        "",
+        "| row | setting / node | expected | status | SSIM | brightness | TFM (s) | report / note | "
+        "Cycles \\| TFM \\| diff |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
+    for p in page_rows:
+        r, c = p.row, p.comparison
+        note = r.wrong or "; ".join(p.messages)
+        image = f'<img src="{rel}/{r.id}.png" width="392">' if c is not None else ""
+        lines.append(
+            f"| `{r.id}` | {_cell(r.title)} | {r.expect} | {p.status} | "
+            f"{f'{c.ssim:.4f}' if c else ''} | {c.ratio_text() if c else ''} | "
+            f"{f'{p.seconds:.2f}' if c else ''} | {_cell(note)} | {image} |")
+    failing = [p for p in page_rows if p.comparison is not None and not p.comparison.passes()]
+    lines += ["", f"## Rows that do not match Cycles today ({len(failing)})", ""]
+    for p in failing:
+        c = p.comparison
+        lines.append(f"- `{p.row.id}` ({p.row.expect}): SSIM {c.ssim:.4f}, brightness "
+                     f"{c.ratio_text()}" + (f"; {p.row.wrong}" if p.row.wrong else
+                                            f"; report: {'; '.join(p.messages) or 'none'}"))
+    text = "\n".join(lines) + "\n"
+    md.parent.mkdir(parents=True, exist_ok=True)
+    md.write_text(text)
+    return text
+
+
+def main(argv: list[str] | None = None) -> int:
+    import argparse
+    import tempfile
+
+    parser = argparse.ArgumentParser(prog="python -m tfm_addon.bench.conformance",
+                                     description="Render every conformance row with TFM and write "
+                                                 "the page (inside bpy).")
+    root = Path(__file__).resolve().parents[2]
+    parser.add_argument("rows", nargs="*", help="row ids (default: every row)")
+    parser.add_argument("--md", type=Path, default=root / "docs" / "conformance.md")
+    parser.add_argument("--png-dir", type=Path, default=root / "docs" / "conformance")
+    args = parser.parse_args(argv)
+
+    import bpy
+
+    import tfm_addon
+
+    tfm_addon.register()
+    try:
+        t0 = time.perf_counter()
+        with tempfile.TemporaryDirectory(prefix="tfm_conformance_") as tmp:
+            page_rows = run_rows(args.rows or None, args.png_dir, tmp,
+                                 log=lambda s: print(s, flush=True))
+        text = write_page(page_rows, args.md, args.png_dir, bpy.app.version_string,
+                          time.perf_counter() - t0)
+        print(text.split("\n| row |")[0])
+        print(f"wrote {args.md}")
+    finally:
+        tfm_addon.unregister()
+    return 0
+
+
+if __name__ == "__main__":
+    import sys
+
+    sys.exit(main())
