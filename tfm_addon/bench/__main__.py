@@ -6,6 +6,9 @@ Table 1, the stability sweeps, Cycles and EEVEE, the issue-2 table, and EXR/PNG 
 render and of its error. A progress bar runs on stderr; the summary is printed at the end.
 
 --quick: small sizes, for the tests (about 3 minutes on 2 cores with llvmpipe).
+--only conformance (run only when named): the conformance suite against Cycles, every row of
+tfm_addon/bench/conformance.py rendered by TFM and compared with its stored Cycles reference, written
+to docs/conformance.md and docs/conformance/ (a Blender subprocess; about 10 s).
 --gpu (alias --paper): the renderer part only, at the paper's 1280x720 with 1024^2 maps, no
 Blender and no numpy reference (the ground truth is the GPU brute force at one step per voxel).
 """

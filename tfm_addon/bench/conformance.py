@@ -728,6 +728,19 @@ def _(tmpdir):
     smoke_with(tmpdir, mat)
 
 
+@row("volume_coefficients_mesh", "Volume Coefficients, constant (absorption 0.3, 0.35, 0.5; scatter "
+     "0.5, 0.4, 0.25), on a 2 m cube mesh", coloured=True)
+def _(tmpdir):
+    mat, nt, out = material("Fog")
+    node = nt.nodes.new('ShaderNodeVolumeCoefficients')
+    node.inputs["Absorption Coefficients"].default_value = (0.3, 0.35, 0.5)
+    node.inputs["Scatter Coefficients"].default_value = (0.5, 0.4, 0.25)
+    node.inputs["Emission Coefficients"].default_value = (0.0, 0.0, 0.0)
+    nt.links.new(node.outputs[0], out.inputs["Volume"])
+    base()
+    cube_medium(mat)
+
+
 @row("emission_shader", "Emission shader (Strength `density`×0.5, orange) into the Volume output",
      coloured=True, emissive=True)
 def _(tmpdir):
