@@ -6,6 +6,9 @@ Table 1, the stability sweeps, Cycles and EEVEE, the issue-2 table, and EXR/PNG 
 render and of its error. A progress bar runs on stderr; the summary is printed at the end.
 
 --quick: small sizes, for the tests (about 3 minutes on 2 cores with llvmpipe).
+--only conformance (run only when named): the conformance suite against Cycles, every row of
+tfm_addon/bench/conformance.py rendered by TFM and compared with its stored Cycles reference, written
+to docs/conformance.md and docs/conformance/ (a Blender subprocess; about 10 s).
 --gpu (alias --paper): the renderer part only, at the paper's 1280x720 with 1024^2 maps, no
 Blender and no numpy reference (the ground truth is the GPU brute force at one step per voxel).
 """
@@ -19,6 +22,9 @@ import time
 from pathlib import Path
 
 SECTIONS = ("methods", "table1", "sweeps", "blender", "issue2", "emission", "viewport", "lights")
+# Run only when named with --only: the conformance suite against Cycles writes docs/conformance.md
+# and docs/conformance/ (tfm_addon/bench/conformance.py, in a Blender subprocess).
+OPT_IN = ("conformance",)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -29,7 +35,8 @@ def main(argv: list[str] | None = None) -> int:
     size.add_argument("--gpu", "--paper", dest="gpu", action="store_true",
                       help="the paper's 1280x720 with 1024^2 maps, renderer only (for a GPU machine)")
     parser.add_argument("--out", type=Path, default=Path("out/bench"), help="output folder")
-    parser.add_argument("--only", nargs="+", choices=SECTIONS, help="run these sections only")
+    parser.add_argument("--only", nargs="+", choices=SECTIONS + OPT_IN,
+                        help="run these sections only (conformance: only when named here)")
     parser.add_argument("--scenes", nargs="+", choices=("smoke", "suzanne", "cloud", "gobo", "dense"),
                         help="method-table scenes (default: all five)")
     parser.add_argument("--size", metavar="WxH",
@@ -58,6 +65,11 @@ def main(argv: list[str] | None = None) -> int:
     if "blender" in sections and not blender_bench.blender_available():
         print("bpy is not installed: Cycles and EEVEE are skipped", file=sys.stderr)
         sections.discard("blender")
+    if "conformance" in sections:
+        sections.discard("conformance")
+        rc = run_conformance()
+        if not sections:
+            return rc
     out = args.out
     out.mkdir(parents=True, exist_ok=True)
     cache = None if args.no_cache else out / "cache"
@@ -153,6 +165,26 @@ def main(argv: list[str] | None = None) -> int:
         (out / "summary.md").write_text(text)
     print(text)
     return 0
+
+
+def run_conformance() -> int:
+    """``python -m tfm_addon.bench.conformance`` in a Blender process of its own (as blender_side
+    runs Cycles): every conformance row rendered by TFM against its stored Cycles reference, written
+    to docs/conformance.md and docs/conformance/<row>.png."""
+    import os
+    import subprocess
+
+    from . import blender_bench
+
+    if not blender_bench.blender_available():
+        print("bpy is not installed: the conformance suite is skipped", file=sys.stderr)
+        return 1
+    root = str(Path(__file__).resolve().parents[2])
+    env = dict(os.environ)
+    env["PYTHONPATH"] = root + os.pathsep + env.get("PYTHONPATH", "")
+    done = subprocess.run([sys.executable, "-m", "tfm_addon.bench.conformance"], env=env, cwd=root,
+                          timeout=3600)
+    return done.returncode
 
 
 if __name__ == "__main__":

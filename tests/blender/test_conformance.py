@@ -1,0 +1,40 @@
+"""The conformance suite against Cycles (tfm_addon/bench/conformance.py): one test per row.
+
+A 'rendered' row must match its stored Cycles reference (tests/data/conformance/<id>.npz, made by
+scripts/make_conformance_refs.py): SSIM >= 0.98 and total brightness within 3 % (per channel for
+coloured media). A 'reported' row must say its line in the render report; once the engine renders
+it, the test fails with the row's figures and asks for the row to be flipped (delete its line in
+``conformance.EXPECT``). A 'wrong' row (the engine renders it wrongly without a word) is an
+expected failure that fails as soon as it matches (delete its line in ``conformance.WRONG``).
+"""
+
+import pytest
+
+from tfm_addon.bench import conformance
+
+ROWS = conformance.rows()
+
+
+def _figures(row, comparison, result) -> str:
+    return (f"{row.id}: SSIM {comparison.ssim:.4f}, brightness {comparison.ratio_text()}, "
+            f"TFM {result.seconds:.2f} s, report {result.messages}")
+
+
+@pytest.mark.parametrize("row", ROWS, ids=[r.id for r in ROWS])
+def test_row(blank, tmp_path, row):
+    cycles, _ = conformance.load_reference(row.id)
+    result = conformance.render_tfm(row, str(tmp_path))
+    comparison = conformance.compare(row, result.image, cycles)
+    print(_figures(row, comparison, result))
+    if row.expect == 'rendered':
+        assert comparison.passes(), _figures(row, comparison, result)
+    elif row.expect == 'reported':
+        if not conformance.report_lines(result.messages, row):
+            pytest.fail(f"the report no longer says {row.report!r}: flip the row to 'rendered' if it "
+                        f"passes ({'it does' if comparison.passes() else 'it does not'}); "
+                        + _figures(row, comparison, result))
+    else:
+        if comparison.passes():
+            pytest.fail("the row now matches Cycles: delete it from conformance.WRONG; "
+                        + _figures(row, comparison, result))
+        pytest.xfail(f"{row.wrong}; " + _figures(row, comparison, result))
