@@ -46,53 +46,15 @@ TFM_SAMPLES = 0
 # render-report line the user sees (``final_render.last_messages``).
 _NOT_READ = "is not read by the engine; using the TFM settings instead"
 EXPECT: dict[str, str] = {
-    # The two 'grid density' lines below are misleading: the grid is there. The engine reads an
-    # emission grid only among the grids beside the density (extract._drop_missing is given the
-    # density grid's extras), or not at all for a medium without a density grid.
-    "emission_attribute_math": "grid 'density' was not found (or is not a float grid); its socket reads 0",
-    "math_power": "node 'Math' (Math) (power) " + _NOT_READ,
-    "math_minimum": "node 'Math' (Math) (minimum) " + _NOT_READ,
-    "math_smooth_min": "node 'Math' (Math) (smooth min) " + _NOT_READ,
-    "math_sqrt": "node 'Math' (Math) (sqrt) " + _NOT_READ,
-    "math_subtract": "node 'Math' (Math) with Clamp " + _NOT_READ,
-    "math_multiply": "node 'Math' (Math) with Clamp " + _NOT_READ,
-    "map_range_linear": "node 'Map Range' (Map Range), driving 'Density', " + _NOT_READ,
-    "map_range_stepped": "node 'Map Range' (Map Range), driving 'Density', " + _NOT_READ,
-    "map_range_smoothstep": "node 'Map Range' (Map Range), driving 'Density', " + _NOT_READ,
-    "map_range_smootherstep": "node 'Map Range' (Map Range), driving 'Density', " + _NOT_READ,
-    "ramp_linear_color": "node 'Color Ramp' (Color Ramp), driving 'Color', " + _NOT_READ,
-    "ramp_constant_color": "node 'Color Ramp' (Color Ramp), driving 'Color', " + _NOT_READ,
-    "ramp_ease_color": "node 'Color Ramp' (Color Ramp), driving 'Color', " + _NOT_READ,
-    "ramp_linear_density": "node 'Color Ramp' (Color Ramp), driving 'Value', " + _NOT_READ,
-    "ramp_constant_density": "node 'Color Ramp' (Color Ramp), driving 'Value', " + _NOT_READ,
-    "ramp_ease_density": "node 'Color Ramp' (Color Ramp), driving 'Value', " + _NOT_READ,
-    "float_curve": "node 'Float Curve' (Float Curve), driving 'Value', " + _NOT_READ,
-    "mix_float": "node 'Mix' (Mix), driving 'Density', " + _NOT_READ,
-    "mix_color_mix": "node 'Mix' (Mix), driving 'Color', " + _NOT_READ,
-    "mix_color_multiply": "node 'Mix' (Mix), driving 'Color', " + _NOT_READ,
-    "mix_color_add": "node 'Mix' (Mix), driving 'Color', " + _NOT_READ,
-    "clamp": "node 'Clamp' (Clamp), driving 'Density', " + _NOT_READ,
-    "invert": "node 'Invert Color' (Invert Color), driving 'Color', " + _NOT_READ,
-    "separate_combine_color": "node 'Combine Color' (Combine Color), driving 'Color', " + _NOT_READ,
-    "separate_combine_xyz": "node 'Combine XYZ' (Combine XYZ), driving 'Color', " + _NOT_READ,
-    "blackbody_node": "node 'Blackbody' (Blackbody), driving 'Emission Color', " + _NOT_READ,
-    "volume_info": "node 'Volume Info' (Volume Info), driving 'Density', " + _NOT_READ,
-    "volume_coefficients": "node 'Vector Math' (Vector Math), driving 'Absorption Coefficients', "
-                           + _NOT_READ,
-    "emission_shader": "grid 'density' is not rendered with a constant density (or is not a float "
-                       "grid); its socket reads 0",
-    "noise_cloud": "node 'Map Range' (Map Range), driving 'Density', " + _NOT_READ,
-    "gradient_texture": "node 'Map Range' (Map Range), driving 'Density', " + _NOT_READ,
+    "blackbody_node": "emits and scatters: its own emission is not scattered by it",
+    "clamp": "gives a medium where the grids are empty, up to Cycles' volume bounds",
+    "mix_float": "gives a medium where the grids are empty, up to Cycles' volume bounds",
     "world_color": "The scene has no spot light (nor any other light): only surfaces and ambient "
                    "light are rendered, and the medium scatters no light beam.",
 }
 # 'wrong': TFM renders the row, wrongly, and says nothing: a defect this suite found. The value
 # says what differs from Cycles.
-WRONG: dict[str, str] = {
-    "space_object_scaled": "Space Object: the density is not divided by the object's scale",
-    "no_material": "no material: the Volume panel's settings, not Cycles' default Principled Volume",
-    "no_grid_shader": "a shader that reads no grid renders a volume; Cycles renders nothing",
-}
+WRONG: dict[str, str] = {}
 
 
 @dataclasses.dataclass

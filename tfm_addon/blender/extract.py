@@ -296,6 +296,11 @@ def _walk_instances(depsgraph, parts: Change, cache: GridCache,
         # A scene without lights is the renderer's to explain (it says so in its warnings).
     for what, names in unrendered.items():
         notes[Change.SOLIDS].append(f"{what} are not rendered by TFM: " + ", ".join(names))
+    for m, source in zip(found_media, sources, strict=True):
+        if m.has_emission and max(m.sigma_s) > 0.0:
+            notes[Change.MEDIUM].append(
+                f"Medium '{source}' emits and scatters: its own emission is not scattered by it (Cycles "
+                f"lights the medium with it even with no bounces, a few per cent brighter)")
     medium = found_media[0] if found_media else None
     return {"lights": spots, "meshes": solids, "medium": medium,
             "medium_source": sources[0] if sources else None, "media": found_media,
@@ -345,6 +350,8 @@ def _sigma(material, settings, label: str, notes: list[str], available=None) -> 
                     grid="density", constant=False, grids=("density",))
     if use_nodes and material is not None:
         sigma, reason = materials.read_volume_material(material, available)
+        if sigma is not None and sigma.grid is None and sigma.grids:
+            sigma = None        # a constant density beside grids (an emission): evaluated per voxel
         graph = None if sigma is not None else node_graph.compile_volume(material)
         if graph is not None and graph.output is not None:
             # a graph that is not scale x grid + offset: evaluated per voxel (engine/shading.py)
@@ -507,23 +514,42 @@ def _graph_medium(matrix_world, grid, graph: shading.ShaderGraph, label: str, no
                   simplify: int, clipping: float) -> Medium:
     """The medium of a node graph evaluated per voxel over the grid's lattice: where Cycles' volume
     mesh is (the grids' leaf blocks, or a fluid domain's cube), every voxel's coefficients and
-    emission; cached by the grids' and the graph's content, so only an edit of either evaluates."""
+    emission; cached by the grids' and the graph's content, so only an edit of either evaluates.
+    A graph that gives a medium where the grids are 0 (a Clamp's minimum, a constant emission)
+    fills the whole of the leaf blocks, which reach up to 8 voxels beyond the grid's box: the
+    lattice is padded to them (at full resolution; a simplified grid keeps its box)."""
     key = (grid.key or id(grid.density), graph.key, simplify, float(clipping))
     hit = _resolved.get(key)
     if hit is None:
-        available = {getattr(grid, "grid_name", "density"): grid.density, **grid.extras}
-        grids = {name: available[name] for name in graph.grids if name in available}
+        name = getattr(grid, "grid_name", "density")
+        available = {name: grid.density, **grid.extras}
+        grids = {n: available[n] for n in graph.grids if n in available}
         density, index_to_object = simplify_grid(grid.density, grid.index_to_object, simplify)
         grids = _simplify_extras(grids, simplify) if simplify > 0 else grids
-        name = getattr(grid, "grid_name", "density")
         if clipping > 0.0 and name in grids:
             d = np.asarray(grids[name])
             grids[name] = np.where(d < clipping, np.float32(0.0), d)
-        mask = _volume_mask(grid, tuple(n for n in graph.grids if n in grid.extras), clipping,
-                            density.shape, simplify)
-        factor = SUPERSAMPLE if density.size * SUPERSAMPLE ** 3 <= _supersample_budget(graph) else 1
-        resolved = shading.resolve(graph, grids, density.shape, index_to_object, mask,
-                                   supersample=factor)
+        extras = tuple(n for n in graph.grids if n in grid.extras)
+        shape, before = density.shape, np.zeros(3, np.int64)
+        glow = glow_blocks(grid, extras, clipping) if grid.bounds is None else None
+        fills = glow is not None and _fills_empty_voxels(graph)
+        if fills:
+            notes.append(f"{label}: its shader gives a medium where the grids are empty, up to Cycles' "
+                         f"volume bounds (the grids' 8³ leaf blocks), whose edge is drawn at voxel "
+                         f"resolution")
+        if fills and simplify == 0:
+            lo, hi = glow.box
+            before = np.maximum(0, -np.ceil(np.asarray(lo))).astype(np.int64)
+            after = np.maximum(0, np.ceil(np.asarray(hi)).astype(np.int64) - np.asarray(shape))
+            pad = [(int(x), int(y)) for x, y in zip(before, after, strict=True)]
+            grids = {n: np.pad(g, pad + [(0, 0)] * (g.ndim - 3)) for n, g in grids.items()}
+            shape = tuple(int(n + x + y) for n, x, y in zip(shape, before, after, strict=True))
+            shift = np.eye(4)
+            shift[:3, 3] = -before
+            index_to_object = index_to_object @ shift
+        factor = SUPERSAMPLE if int(np.prod(shape)) * SUPERSAMPLE ** 3 <= _supersample_budget(graph) else 1
+        mask = _volume_mask(grid, extras, clipping, shape, simplify, before, factor)
+        resolved = shading.resolve(graph, grids, shape, index_to_object, mask, supersample=factor)
         if factor > 1:
             index_to_object = index_to_object @ shading.fine_to_coarse(factor)
         EVALUATIONS["count"] += 1
@@ -532,6 +558,14 @@ def _graph_medium(matrix_world, grid, graph: shading.ShaderGraph, label: str, no
             _resolved.pop(next(iter(_resolved)))
         _resolved[key] = hit
     return _resolved_medium(hit, matrix_world, key, bool(grid.key), label, notes)
+
+
+def _fills_empty_voxels(graph: shading.ShaderGraph) -> bool:
+    """Whether the graph gives extinction or emission where every grid it reads is 0."""
+    if graph.reads_position:
+        return True
+    f = shading.evaluate(graph, {n: np.zeros(1, np.float32) for n in graph.grids}, 1)
+    return bool((f.sigma_a + f.sigma_s).max() > 0.0 or f.emission.max() > 0.0)
 
 
 def _supersample_budget(graph: shading.ShaderGraph) -> int:
@@ -555,15 +589,20 @@ def _resolved_medium(hit, matrix_world, key, keyed: bool, label: str, notes: lis
                   source_key=digest(*key) if keyed else None, **fields)
 
 
-def _volume_mask(grid, extras: tuple[str, ...], clipping: float, shape, simplify: int):
-    """Where Cycles renders the volume on the (simplified) lattice: inside its glow blocks."""
+def _volume_mask(grid, extras: tuple[str, ...], clipping: float, shape, simplify: int,
+                 before=(0, 0, 0), fine: int = 1):
+    """Where Cycles renders the volume on the (simplified, or padded by ``before``) lattice, or on
+    one ``fine`` times finer (shading.upsample): inside its glow blocks."""
+    shape = tuple(int(n) * fine for n in shape)
     if grid.bounds is not None:
         return None
     glow = glow_blocks(grid, extras, clipping)
     if glow is None:
         return np.zeros(shape, bool)
     f = 2 ** simplify
-    idx = np.stack(np.meshgrid(*[np.arange(n) * f + (f - 1) / 2.0 for n in shape], indexing="ij"), -1)
+    axes = [((np.arange(n) + 0.5) / fine - 0.5) * f + (f - 1) / 2.0 - b
+            for n, b in zip(shape, before, strict=True)]
+    idx = np.stack(np.meshgrid(*axes, indexing="ij"), -1)
     return glow.contains(idx.reshape(-1, 3)).reshape(shape)
 
 

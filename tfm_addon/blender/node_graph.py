@@ -53,6 +53,7 @@ KINDS = {
     'ShaderNodeValue': ("VALUE", lambda n: (("value", float(n.outputs[0].default_value)),)),
     'ShaderNodeRGB': ("RGB", lambda n: (("color", tuple(float(v) for v in n.outputs[0].default_value[:3])),)),
     'ShaderNodeMath': ("MATH", _props("operation", "use_clamp")),
+    'ShaderNodeVectorMath': ("VECTOR_MATH", _props("operation")),
     'ShaderNodeMapRange': ("MAP_RANGE", _props("interpolation_type", "clamp")),
     'ShaderNodeClamp': ("CLAMP", _props("clamp_type")),
     'ShaderNodeValToRGB': ("COLOR_RAMP", _ramp),
@@ -93,6 +94,8 @@ def _unsupported_setting(node) -> str | None:
     kind = node.bl_idname
     if kind == 'ShaderNodeAttribute' and node.attribute_type != 'GEOMETRY':
         return f"of type {node.attribute_type}"
+    if kind == 'ShaderNodeVectorMath' and node.operation in ('REFRACT',):
+        return f"({node.operation.lower()})"
     if kind == 'ShaderNodeTexCoord' and node.object is not None:
         return f"relative to object '{node.object.name}'"
     if kind == 'ShaderNodeMapRange' and node.data_type != 'FLOAT':
@@ -131,6 +134,13 @@ def _inputs(node):
     if kind == 'ShaderNodeMixRGB':
         return [("Factor", node.inputs["Fac"]), ("A", node.inputs["Color1"]), ("B", node.inputs["Color2"])]
     return [(s.identifier, s) for s in node.inputs if s.enabled and s.type != 'STRING']
+
+
+def _output_name(node, socket) -> str:
+    """The engine's name of an output: its identifier (the Mix node's typed results are "Result")."""
+    if node.bl_idname == 'ShaderNodeMix' and socket.identifier.startswith("Result"):
+        return "Result"
+    return socket.identifier
 
 
 def _constant(socket):
@@ -179,7 +189,7 @@ class _Compiler:
             self.notes.setdefault(f"the {out.name} output of '{node.name}' (Texture Coordinate) has no "
                                   f"meaning in a volume here; '{socket.name}' reads its own value", None)
             return Input(name, kind, _constant(socket))
-        return Input(name, kind, Link(index, out.identifier, out.type))
+        return Input(name, kind, Link(index, _output_name(node, out), out.type))
 
     def node(self, node) -> int | None:
         key = node.as_pointer()
@@ -224,6 +234,6 @@ def compile_volume(material, texspace=None) -> ShaderGraph | None:
     if index is None:
         c.notes.setdefault(f"node '{node.name}' ({node.bl_label}) is not a volume shader the engine "
                            f"reads", None)
-    link = None if index is None else Link(index, socket.identifier, socket.type)
+    link = None if index is None else Link(index, _output_name(node, socket), socket.type)
     kw = {} if texspace is None else {"texspace": tuple(tuple(float(x) for x in v) for v in texspace)}
     return ShaderGraph(tuple(c.nodes), link, tuple(c.notes), **kw)

@@ -320,7 +320,7 @@ MATH: dict[str, Callable] = {
     'LESS_THAN': lambda a, b, c: (a < b).astype(F),
     'GREATER_THAN': lambda a, b, c: (a > b).astype(F),
     'SIGN': lambda a, b, c: np.sign(a),
-    'COMPARE': lambda a, b, c: (np.abs(a - b) <= np.maximum(c, 1e-5)).astype(F),
+    'COMPARE': lambda a, b, c: ((a == b) | (np.abs(a - b) <= np.maximum(c, np.finfo(F).eps))).astype(F),
     'SMOOTH_MIN': lambda a, b, c: _smoothmin(a, b, c),
     'SMOOTH_MAX': lambda a, b, c: -_smoothmin(-a, -b, c),
     'ROUND': lambda a, b, c: np.floor(a + 0.5),
@@ -355,6 +355,53 @@ def _math(node, ins, ev):
     if node.param("use_clamp"):
         out = np.clip(out, 0.0, 1.0)
     return {"Value": out}
+
+
+def _norm(v):
+    return np.sqrt((np.asarray(v) ** 2).sum(axis=-1))
+
+
+def _dot(a, b):
+    return (np.asarray(a) * np.asarray(b)).sum(axis=-1)
+
+
+def _normalize(v):
+    n = _norm(v)[..., None]
+    return np.where(n > 0.0, v / np.where(n > 0.0, n, 1.0), 0.0)
+
+
+# Cycles' svm_vector_math: (a, b, c, scale) -> (vector, value); the elementwise operations reuse MATH.
+VECTOR_MATH: dict[str, Callable] = {
+    'CROSS_PRODUCT': lambda a, b, c, k: (np.cross(a, b), None),
+    'DOT_PRODUCT': lambda a, b, c, k: (None, (a * b).sum(axis=-1)),
+    'DISTANCE': lambda a, b, c, k: (None, _norm(a - b)),
+    'LENGTH': lambda a, b, c, k: (None, _norm(a)),
+    'SCALE': lambda a, b, c, k: (a * np.asarray(k)[..., None], None),
+    'NORMALIZE': lambda a, b, c, k: (_normalize(a), None),
+    'PROJECT': lambda a, b, c, k: (b * _safe_divide(_dot(a, b), _dot(b, b))[..., None], None),
+    'REFLECT': lambda a, b, c, k: (a - 2.0 * _dot(_normalize(b), a)[..., None] * _normalize(b), None),
+    'FACEFORWARD': lambda a, b, c, k: (np.where(((c * b).sum(axis=-1) < 0.0)[..., None], a, -a), None),
+    'FRACTION': lambda a, b, c, k: (a - np.floor(a), None),
+}
+_ELEMENTWISE = {'ADD', 'SUBTRACT', 'MULTIPLY', 'DIVIDE', 'MULTIPLY_ADD', 'ABSOLUTE', 'POWER', 'SIGN',
+                'MINIMUM', 'MAXIMUM', 'FLOOR', 'CEIL', 'MODULO', 'WRAP', 'SNAP', 'SINE', 'COSINE', 'TANGENT'}
+
+
+def _vector_math(node, ins, ev):
+    op = node.param("operation")
+    a, b, c = (np.asarray(ins.get(k, np.zeros(3, F))) for k in ("Vector", "Vector_001", "Vector_002"))
+    if op in _ELEMENTWISE:
+        vector, value = MATH[op](a, b, c), None
+    else:
+        vector, value = VECTOR_MATH[op](a, b, c, ins.get("Scale", np.ones((), F)))
+    out = {}
+    if vector is not None:
+        out["Vector"] = vector
+        out["Value"] = np.zeros((), F)
+    if value is not None:
+        out["Value"] = value
+        out["Vector"] = np.zeros(3, F)
+    return out
 
 
 def _smoothstep(e0, e1, x):
@@ -688,7 +735,8 @@ def _mix_shader(node, ins, ev):
 
 NODES: dict[str, Callable] = {
     "ATTRIBUTE": _attribute, "VOLUME_INFO": _volume_info, "VALUE": _value, "RGB": _rgb,
-    "MATH": _math, "MAP_RANGE": _map_range, "CLAMP": _clamp, "COLOR_RAMP": _color_ramp,
+    "MATH": _math, "VECTOR_MATH": _vector_math, "MAP_RANGE": _map_range, "CLAMP": _clamp,
+    "COLOR_RAMP": _color_ramp,
     "FLOAT_CURVE": _float_curve, "MIX": _mix, "INVERT": _invert, "GAMMA": _gamma,
     "RGB_TO_BW": _rgb_to_bw, "SEPARATE": _separate, "COMBINE": _combine, "BLACKBODY": _blackbody,
     "TEX_COORD": _tex_coord, "MAPPING": _mapping, "TEX_NOISE": _tex_noise,
@@ -765,11 +813,12 @@ def resolve(graph: ShaderGraph, grids: Mapping[str, np.ndarray], shape: tuple[in
     ``mask`` (shape, bool): where the volume is (Cycles renders nothing outside its volume mesh).
     ``supersample`` > 1 evaluates on a lattice that many times finer per axis, the grids
     interpolated onto it as Cycles interpolates them before its nodes (the result is on that
-    lattice: ``fine_to_coarse``). Evaluated ``CHUNK`` voxels at a time."""
+    lattice: ``fine_to_coarse``; ``mask`` may be given on either). Evaluated ``CHUNK`` voxels at
+    a time."""
     if supersample > 1:
         f = int(supersample)
         grids = {k: upsample(v, f) for k, v in grids.items()}
-        if mask is not None:
+        if mask is not None and np.shape(mask) == tuple(shape):     # a coarse mask: nearest voxel
             mask = np.asarray(mask, bool).repeat(f, 0).repeat(f, 1).repeat(f, 2)
         index_to_object = (np.eye(4) if index_to_object is None else index_to_object) @ fine_to_coarse(f)
         shape = tuple(int(n) * f for n in shape)
