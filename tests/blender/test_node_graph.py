@@ -241,3 +241,13 @@ def test_procedural_noise_cloud_in_a_cube_matches_cycles(blank, tmp_path):
     _link(nt, mul.outputs[0], pv.inputs["Density"])
     _link(nt, pv.outputs[0], out.inputs["Volume"])
     _compare(tmp_path)
+
+
+def test_render_report_says_what_auto_chose(blank, tmp_path):
+    _builder().build(smoke(width=64, height=48, n=24), str(tmp_path))     # the add-on's defaults: Auto
+    assert bpy.context.scene.tfm.quality == 'AUTO'
+    render_passes(tmp_path, "auto")
+    final = importlib.import_module(MODULE + ".tfm_addon.blender.final_render")
+    lines = [m for level, m in final.last_messages if m.startswith("Auto quality:")]
+    assert len(lines) == 1, final.last_messages
+    assert "view steps" in lines[0] and "coefficients" in lines[0] and "transmittance maps up to" in lines[0]

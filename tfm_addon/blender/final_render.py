@@ -103,6 +103,14 @@ def _warn(engine, message: str, preview: bool) -> None:
     _tell(engine, 'WARNING', message)
 
 
+def auto_line(chosen: dict) -> str:
+    """The report line saying what Auto chose for the frame."""
+    side = chosen.get("tfm_side", 0)
+    maps = f", transmittance maps up to {side}x{side}" if side else ""
+    return (f"Auto quality: {chosen['view_steps']} view steps, {chosen['light_steps']} light steps, "
+            f"{chosen['coefficients']} coefficients{maps}")
+
+
 def render(engine, depsgraph) -> None:
     """RenderEngine.render: one frame of one view layer."""
     last_messages.clear()
@@ -152,6 +160,8 @@ def render(engine, depsgraph) -> None:
         if message not in extraction.all_warnings:
             _warn(engine, message, preview)
     last_timings.update(output.timings_s)
+    if settings.quality == 'AUTO' and output.chosen and not preview:
+        _tell(engine, 'INFO', auto_line(output.chosen))
     write_result(engine, output, depsgraph.view_layer.name, width, height,
                  passes=enabled_passes(depsgraph.view_layer))
 

@@ -20,12 +20,15 @@ class RenderOutput:
     'transmittance' (view-ray transmittance to the solid or through the medium), each (h, w, 3).
     ``warnings``: one line per problem the user should hear about.
     ``timings_s``: seconds spent per stage.
+    ``chosen``: the quality the frame rendered with (view_steps, light_steps, coefficients and the
+    largest transmittance map side, tfm_side), for the render report under Auto.
     """
 
     combined: np.ndarray
     passes: dict[str, np.ndarray] = field(default_factory=dict)
     warnings: list[str] = field(default_factory=list)
     timings_s: dict[str, float] = field(default_factory=dict)
+    chosen: dict = field(default_factory=dict)
 
     @property
     def rgb(self) -> np.ndarray:

@@ -22,8 +22,9 @@ The rule and the sweeps it comes from are written down in ``docs/benchmark.md``:
 - the TFM filter: 'LINEAR' (as accurate as 'EXACT' on every benchmark scene, SSIM within 1e-4,
   for a quarter of the lookups; docs/benchmark.md);
 - the TFM's side from the medium's footprint in the light's view ('FOOTPRINT': one texel per
-  voxel where the medium is nearest to the light for a sharp density, one per three voxels for a
-  smooth one (``footprint_texels_per_voxel``), at most the map resolution); the shadow maps keep
+  voxel where the medium is nearest to the light for a sharp or optically thick density, one per
+  three voxels for a smooth thin one (``footprint_texels_per_voxel``), at most the map
+  resolution); the shadow maps keep
   the user's resolution;
 - map resolution, method and ambient are the user's.
 """
@@ -56,6 +57,7 @@ AUTO_COEFFICIENTS: tuple[tuple[float, int], ...] = ((2.0, 2), (8.0, 6), (16.0, 1
 AUTO_COEFFICIENTS_SMOOTH: tuple[tuple[float, int], ...] = ((0.625, 2), (5.0, 6), (10.0, 10), (math.inf, 16))
 SMOOTH_SHARPNESS_FLOOR = 0.1
 SHARP_FOOTPRINT = 0.5               # sharpness from which the TFM keeps one texel per voxel
+OPTICALLY_THICK_VOXEL = 1.0         # ... and the optical depth across a voxel from which it does too
 THICK_SHARP_DEPTH = 8.0             # a sharp density deeper than this gets up to twice the steps
 STEPS_PER_VOXEL = (0.1, 0.5)        # the range the sharpness may ask for
 MIN_STEPS = 32
@@ -244,15 +246,25 @@ def medium_stats(scene: Scene) -> MediumStats | None:
 
 def footprint_texels_per_voxel(m) -> float:
     """TFM texels per voxel of the 'FOOTPRINT' side for the medium ``m``: one for a sharp density
-    (sharpness >= SHARP_FOOTPRINT, a step of its maximum within two voxels), a third for a smooth
-    one, whose transmittance changes over several voxels (docs/benchmark.md; a density grid only:
-    other media get one)."""
+    (sharpness >= SHARP_FOOTPRINT, a step of its maximum within two voxels) or an optically thick
+    one (a voxel of its densest block-means at least OPTICALLY_THICK_VOXEL deep: the light dies
+    within a voxel or two, so its transmittance is as sharp as the voxels however smooth the
+    density), a third for a smooth thin one, whose transmittance changes over several voxels
+    (docs/benchmark.md; a density grid only: other media get one)."""
     from .passes import tfm
 
     if m is None or getattr(m, "density", None) is None:
         return tfm.TEXELS_PER_VOXEL
-    sharp = _summary(m)[2] >= SHARP_FOOTPRINT
+    coarse, _, sharpness_, _ = _summary(m)
+    sharp = sharpness_ >= SHARP_FOOTPRINT or voxel_optical_depth(m, coarse) >= OPTICALLY_THICK_VOXEL
     return tfm.TEXELS_PER_VOXEL if sharp else tfm.SMOOTH_TEXELS_PER_VOXEL
+
+
+def voxel_optical_depth(m, coarse: np.ndarray) -> float:
+    """The optical depth across one voxel where the medium is densest (``coarse``: its grid's
+    block means, quality._grid_summary), the largest channel's."""
+    voxel = float(np.mean(np.linalg.norm(np.asarray(m.index_to_world, np.float64)[:3, :3], axis=0)))
+    return float(coarse.max(initial=0.0)) * float(np.max(m.sigma_t)) * voxel
 
 
 def light_density_integral(m, light) -> float:

@@ -210,6 +210,7 @@ class Renderer:
         self._caches = [self._media, self._solids, self._shadows, self._tfms, self._gobos,
                         self._gbuffers, self._targets, self._attributes, self._medium_shadows]
         self._frame_memos: dict[str, _FrameMemo] = {}   # per client: what the samples of its frame share
+        self._tfm_sides: list[int] = []                 # the TFM side of each face of the last frame
 
     @property
     def gl(self) -> GLContext:
@@ -266,6 +267,7 @@ class Renderer:
         t_start = time.perf_counter()
         timings: dict[str, float] = {}
         warnings: list[str] = []
+        self._tfm_sides = []
         lights = [light for light in scene.lights if not is_dark(light)]
         faces_at_most = sum({"POINT": 6, "AREA": 5}.get(light.kind, 1) for light in lights)
         steps = [2 + len(lights) + max(faces_at_most, 1)]  # scene, maps per light, G-buffer, passes
@@ -416,7 +418,10 @@ class Renderer:
         warnings += _light_notes(lights)
         warnings = list(dict.fromkeys(warnings))       # once each, however many faces said it
         warnings += [w for w in map(cone_warning, lights) if w]
-        return RenderOutput(combined=combined, passes=passes, warnings=warnings, timings_s=timings)
+        chosen = dict(view_steps=settings.view_steps, light_steps=settings.light_steps,
+                      coefficients=settings.coefficients, tfm_side=max(self._tfm_sides, default=0))
+        return RenderOutput(combined=combined, passes=passes, warnings=warnings, timings_s=timings,
+                            chosen=chosen)
 
     def light_transmittance_at(self, scene: Scene, settings: RenderSettings | None, light_index: int,
                                points: np.ndarray) -> np.ndarray:
@@ -613,6 +618,7 @@ class Renderer:
                     else:
                         side = _face_side(settings, frame, medium_gpu.slots, reached, res,
                                           image_side or max(scene.camera.width_px, scene.camera.height_px))
+                        self._tfm_sides.append(side)
                         tfm, tfm_sigma = self._tfm(scene, settings, light, frame, medium_gpu, shadow,
                                                    side, reached, warnings)
                         light_t = LIGHT_T_TFM if tfm is not None else LIGHT_T_NONE

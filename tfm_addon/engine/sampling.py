@@ -193,7 +193,7 @@ class Accumulator:
             if self.pixel_samples is None:
                 self.pixel_samples = np.ones(sums.size[::-1], dtype=np.int32)
                 self._output = RenderOutput(combined=None, warnings=list(out.warnings),
-                                            timings_s=dict(out.timings_s))
+                                            timings_s=dict(out.timings_s), chosen=dict(out.chosen))
                 return
             self.pixel_samples += 1 if active is None else active
             self._merge(out)
@@ -202,7 +202,8 @@ class Accumulator:
             self._output = RenderOutput(combined=out.combined.astype(np.float32, copy=True),
                                         passes={k: v.astype(np.float32, copy=True)
                                                 for k, v in out.passes.items()},
-                                        warnings=list(out.warnings), timings_s=dict(out.timings_s))
+                                        warnings=list(out.warnings), timings_s=dict(out.timings_s),
+                                        chosen=dict(out.chosen))
             self.pixel_samples = np.ones(out.combined.shape[:2], dtype=np.int32)
             self._square_mean = np.square(self._output.combined)
             return
@@ -251,7 +252,8 @@ class Accumulator:
         acc = self.output
         return RenderOutput(combined=acc.combined.copy(),
                             passes={k: v.copy() for k, v in acc.passes.items()},
-                            warnings=list(acc.warnings), timings_s=dict(acc.timings_s))
+                            warnings=list(acc.warnings), timings_s=dict(acc.timings_s),
+                            chosen=dict(acc.chosen))
 
 
 def view_steps_per_sample(view_steps: int, samples: int) -> int:
