@@ -40,3 +40,11 @@ def test_auto_holds_on_a_dense_cloud(renderer):
     assert ssim >= 0.99
     assert abs(ratio - 1.0) <= 0.03
     assert auto.chosen["coefficients"] == 16 and auto.chosen["tfm_side"] > 0
+
+
+def test_a_sample_keeps_view_steps_where_the_medium_is_optically_deep():
+    from tfm_addon.engine.sampling import MIN_VIEW_STEPS, view_steps_per_sample
+
+    assert view_steps_per_sample(32, 16, 0.5) == MIN_VIEW_STEPS          # thin: spread over the samples
+    assert view_steps_per_sample(32, 16, 11.8) == 32                     # deep: 0.25 per step at most
+    assert view_steps_per_sample(96, 16, 11.8) == 48

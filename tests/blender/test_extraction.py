@@ -298,7 +298,7 @@ def test_noise_texture_colour_is_evaluated_per_voxel(blank, tmp_path):
     ob.data.tfm.sigma_s, ob.data.tfm.sigma_a, ob.data.tfm.density_scale = (0.5, 0.6, 0.7), (0, 0, 0.1), 2
     ex = _extract()
     assert not [w for w in ex.all_warnings if "Noise Texture" in w], ex.all_warnings
-    m = ex.medium
+    m = importlib.import_module(MODULE + ".tfm_addon.engine.shading").resolve_medium(ex.medium)
     assert m.color_grid is not None
     albedo = m.grids[m.color_grid][m.density > 0.05]
     assert float(albedo.std()) > 0.02 and 0.0 <= float(albedo.min()) and float(albedo.max()) <= 1.0

@@ -15,6 +15,11 @@ def _mod(name):
     return importlib.import_module(f"{MODULE}.tfm_addon.blender.{name}")
 
 
+def _resolved(medium):
+    """The medium with its node graph evaluated, as the render thread evaluates it."""
+    return importlib.import_module(f"{MODULE}.tfm_addon.engine.shading").resolve_medium(medium)
+
+
 def _material():
     mat = bpy.data.materials.new("Fire")
     nt = mat.node_tree
@@ -95,9 +100,10 @@ def test_color_ramp_into_emission_is_evaluated_per_voxel(blank, tmp_path):
     nt.links.new(ramp.outputs["Alpha"], pv.inputs["Emission Strength"])
     ex = _mod("extract").extract(bpy.context.evaluated_depsgraph_get())
     assert not [w for w in ex.all_warnings if "Flame Ramp" in w], ex.all_warnings
-    assert ex.medium.has_emission and ex.medium.emission_grid is not None
+    m = _resolved(ex.medium)         # what the render thread evaluates
+    assert m.has_emission and m.emission_grid is not None
     # the ramp's alpha at its unlinked factor (0.5) is 1: Emission Color x 1 wherever the volume is
-    e = ex.medium.grids[ex.medium.emission_grid]
+    e = m.grids[m.emission_grid]
     color = tuple(pv.inputs["Emission Color"].default_value)[:3]
     assert e.reshape(-1, 3).max(axis=0) == pytest.approx(color, rel=1e-5)
 
@@ -116,7 +122,8 @@ def test_unknown_node_is_named_once_and_the_rest_renders(blank, tmp_path):
     ex = _mod("extract").extract(bpy.context.evaluated_depsgraph_get())
     notes = [w for w in ex.all_warnings if "Swirl" in w]
     assert len(notes) == 1 and "Magic Texture" in notes[0], ex.all_warnings
-    assert ex.medium.has_emission and float(ex.medium.density.max()) > 0.0
+    m = _resolved(ex.medium)
+    assert m.has_emission and float(m.density.max()) > 0.0
 
 
 def test_panel_emission_fallback_scales_the_emission_grid(blank, tmp_path):

@@ -158,3 +158,51 @@ def test_domain_voxels_sit_where_blender_puts_them_and_a_missing_frame_names_the
     notes = [w for w in r["missing_warnings"] if "frame 2" in w]
     assert len(notes) == 1 and cache in notes[0], r["missing_warnings"]
     assert r["ground_lit"] > 0.05   # the rest of the scene renders
+
+
+def test_noise_cache_is_read_at_its_resolution_over_the_domain(tmp_path):
+    """With Noise on, Blender renders the noise cache (noise/fluid_noise_####.vdb: density_noise,
+    flame_noise, ... at noise_scale times the resolution): the engine reads it, placed over the
+    same cube with voxels noise_scale times smaller; without the file it says so and renders the
+    base resolution."""
+    cache, blend = _build(tmp_path, frames=(1,))
+    out = tmp_path / "noise.json"
+    _run(f"""
+        import json, os, sys
+        sys.path.insert(0, {ROOT!r})
+        import bpy, numpy as np, tfm_addon
+        tfm_addon.register()
+        from tfm_addon.blender import extract, fluid, scene_builder as sb, volumes
+        bpy.ops.wm.open_mainfile(filepath={blend!r})
+        ob = [o for o in bpy.data.objects if fluid.domain_modifier(o) is not None][0]
+        settings = fluid.domain_modifier(ob).domain_settings
+        settings.use_noise = True
+        settings.noise_scale = 2
+        result = {{}}
+        g, _a, w = fluid.read_domain(ob, 1, volumes.grid_cache, (), "domain")
+        result["missing"] = w
+        n = np.array({N!r}) * 2
+        d = np.zeros(tuple(n), np.float32)
+        d[13, 17, 21] = 1.0
+        d[12:15, 16:19, 20:23] = np.maximum(d[12:15, 16:19, 20:23], 0.5)
+        sb.write_vdb(fluid.noise_file({cache!r}, 1), d, voxel_size_m=1.0 / 48, name="density_noise",
+                     extra_grids=dict(flame_noise=d))
+        g, attributes, w = fluid.read_domain(ob, 1, volumes.grid_cache, ("flame",), "domain")
+        peak = np.unravel_index(np.argmax(g.density), g.density.shape)
+        result["peak_object"] = (g.index_to_object @ np.array([*peak, 1.0]))[:3].tolist()
+        corners = np.array([v.co[:] for v in ob.data.vertices])
+        result["cube"] = [corners.min(axis=0).tolist(), corners.max(axis=0).tolist()]
+        result["bounds"] = [(g.index_to_object @ np.array([*c, 1.0]))[:3].tolist() for c in g.bounds]
+        result["extras"] = sorted(g.extras)
+        result["warnings"] = w
+        json.dump(result, open({str(out)!r}, "w"))
+        sys.stdout.flush()
+        os._exit(0)
+    """, tmp_path)
+    r = json.loads(out.read_text())
+    assert any("no noise cache" in x for x in r["missing"]), r["missing"]
+    # voxel (13, 17, 21) of the 2x grid at p0 + (i + 0.5) * cell / 2, cell = 0.125 m
+    np.testing.assert_allclose(r["peak_object"], [-1 + 13.5 * 0.0625, -1 + 17.5 * 0.0625, 21.5 * 0.0625],
+                               atol=1e-6)
+    np.testing.assert_allclose(r["bounds"], r["cube"], atol=1e-6)
+    assert r["extras"] == ["flame"] and not r["warnings"]

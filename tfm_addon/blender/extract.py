@@ -296,11 +296,6 @@ def _walk_instances(depsgraph, parts: Change, cache: GridCache,
         # A scene without lights is the renderer's to explain (it says so in its warnings).
     for what, names in unrendered.items():
         notes[Change.SOLIDS].append(f"{what} are not rendered by TFM: " + ", ".join(names))
-    for m, source in zip(found_media, sources, strict=True):
-        if m.has_emission and max(m.sigma_s) > 0.0:
-            notes[Change.MEDIUM].append(
-                f"Medium '{source}' emits and scatters: its own emission is not scattered by it (Cycles "
-                f"lights the medium with it even with no bounces, a few per cent brighter)")
     medium = found_media[0] if found_media else None
     return {"lights": spots, "meshes": solids, "medium": medium,
             "medium_source": sources[0] if sources else None, "media": found_media,
@@ -442,6 +437,8 @@ def _volume_medium(instance, cache: GridCache, notes: list[str], simplify: int =
     matrix = np.array(instance.matrix_world)
     medium = _grid_medium(matrix, grid, read, label, notes, simplify,
                           float(getattr(volume.render, "clipping", 0.0)))
+    if medium is None:
+        return None
     if getattr(volume.render, "space", 'OBJECT') == 'OBJECT':
         medium = object_space(medium, matrix)
     return medium
@@ -456,6 +453,9 @@ def object_space(medium: Medium, matrix_world: np.ndarray) -> Medium:
     if length <= 0.0 or not math.isfinite(length) or abs(length - 1.0) < 1e-9:
         return medium
     f = 1.0 / length
+    if medium.shader is not None:      # a graph evaluated later: the factor goes with it
+        source = replace(medium.shader, density_scale=f, key=digest(medium.shader.key, f))
+        return replace(medium, shader=source, source_key=source.key)
     return replace(medium, sigma_a=tuple(f * c for c in medium.sigma_a),
                    sigma_s=tuple(f * c for c in medium.sigma_s),
                    emission_color=tuple(f * c for c in medium.emission_color),
@@ -463,7 +463,7 @@ def object_space(medium: Medium, matrix_world: np.ndarray) -> Medium:
 
 
 def _grid_medium(matrix_world, grid, read: dict, label: str, notes: list[str], simplify: int = 0,
-                 clipping: float = 0.0) -> Medium:
+                 clipping: float = 0.0) -> Medium | None:
     """The medium of a grid read for an object placed by ``matrix_world``; ``simplify`` halves
     the grids that many times (Simplify's volume resolution), ``clipping`` empties lower densities."""
     if read.get("graph") is not None:
@@ -501,9 +501,6 @@ def _grid_medium(matrix_world, grid, read: dict, label: str, notes: list[str], s
     return medium
 
 
-# The last evaluations of node graphs: (grid key, graph key, simplify, clipping) -> Resolved.
-_resolved: dict = {}
-EVALUATIONS = {"count": 0}      # how many node graphs were evaluated over a lattice (tests)
 # A graph is evaluated on a lattice this many times finer per axis (Cycles evaluates its nodes on
 # interpolated grid values; a finer lattice brings per-voxel evaluation closer to that) while the
 # fine lattice stays within SUPERSAMPLE_VOXELS.
@@ -512,52 +509,48 @@ SUPERSAMPLE, SUPERSAMPLE_VOXELS = 2, 1 << 21
 
 def _graph_medium(matrix_world, grid, graph: shading.ShaderGraph, label: str, notes: list[str],
                   simplify: int, clipping: float) -> Medium:
-    """The medium of a node graph evaluated per voxel over the grid's lattice: where Cycles' volume
-    mesh is (the grids' leaf blocks, or a fluid domain's cube), every voxel's coefficients and
-    emission; cached by the grids' and the graph's content, so only an edit of either evaluates.
-    A graph that gives a medium where the grids are 0 (a Clamp's minimum, a constant emission)
-    fills the whole of the leaf blocks, which reach up to 8 voxels beyond the grid's box: the
-    lattice is padded to them (at full resolution; a simplified grid keeps its box)."""
-    key = (grid.key or id(grid.density), graph.key, simplify, float(clipping))
-    hit = _resolved.get(key)
-    if hit is None:
-        name = getattr(grid, "grid_name", "density")
-        available = {name: grid.density, **grid.extras}
-        grids = {n: available[n] for n in graph.grids if n in available}
-        density, index_to_object = simplify_grid(grid.density, grid.index_to_object, simplify)
-        grids = _simplify_extras(grids, simplify) if simplify > 0 else grids
-        if clipping > 0.0 and name in grids:
-            d = np.asarray(grids[name])
-            grids[name] = np.where(d < clipping, np.float32(0.0), d)
-        extras = tuple(n for n in graph.grids if n in grid.extras)
-        shape, before = density.shape, np.zeros(3, np.int64)
-        glow = glow_blocks(grid, extras, clipping) if grid.bounds is None else None
-        fills = glow is not None and _fills_empty_voxels(graph)
-        if fills:
-            notes.append(f"{label}: its shader gives a medium where the grids are empty, up to Cycles' "
-                         f"volume bounds (the grids' 8³ leaf blocks), whose edge is drawn at voxel "
-                         f"resolution")
-        if fills and simplify == 0:
+    """The medium of a node graph over the grid's lattice, evaluated later on the render thread
+    (shading.ShaderSource): where Cycles' volume mesh is (the grids' leaf blocks, or a fluid
+    domain's cube), every voxel's coefficients and emission. A graph that gives a medium where the
+    grids are 0 (a Clamp's minimum, a constant emission) fills the whole of the leaf blocks, which
+    reach up to 8 voxels beyond the grid's box: the lattice is widened to them (at full
+    resolution; a simplified grid keeps its box)."""
+    name = getattr(grid, "grid_name", "density")
+    available = {name: grid.density, **grid.extras}
+    grids = {n: available[n] for n in graph.grids if n in available}
+    density, index_to_object = simplify_grid(grid.density, grid.index_to_object, simplify)
+    grids = _simplify_extras(grids, simplify) if simplify > 0 else grids
+    extras = tuple(n for n in graph.grids if n in grid.extras)
+    glow = glow_blocks(grid, extras, clipping) if grid.bounds is None else None
+    if glow is not None and simplify > 0:      # simplified block i's centre: i f + (f - 1) / 2
+        f = 2.0 ** simplify
+        glow = GlowBlocks(tuple((x - (f - 1.0) / 2.0) / f for x in glow.origin),
+                          tuple(x / f for x in glow.side), glow.mask)
+    pad = ((0, 0),) * 3
+    if glow is not None and _fills_empty_voxels(graph):
+        notes.append(f"{label}: its shader gives a medium where the grids are empty, up to Cycles' "
+                     f"volume bounds (the grids' 8³ leaf blocks), whose edge is drawn at voxel "
+                     f"resolution")
+        if simplify == 0:
             lo, hi = glow.box
             before = np.maximum(0, -np.ceil(np.asarray(lo))).astype(np.int64)
-            after = np.maximum(0, np.ceil(np.asarray(hi)).astype(np.int64) - np.asarray(shape))
-            pad = [(int(x), int(y)) for x, y in zip(before, after, strict=True)]
-            grids = {n: np.pad(g, pad + [(0, 0)] * (g.ndim - 3)) for n, g in grids.items()}
-            shape = tuple(int(n + x + y) for n, x, y in zip(shape, before, after, strict=True))
+            after = np.maximum(0, np.ceil(np.asarray(hi)).astype(np.int64) - np.asarray(density.shape))
+            pad = tuple((int(x), int(y)) for x, y in zip(before, after, strict=True))
             shift = np.eye(4)
             shift[:3, 3] = -before
             index_to_object = index_to_object @ shift
-        factor = SUPERSAMPLE if int(np.prod(shape)) * SUPERSAMPLE ** 3 <= _supersample_budget(graph) else 1
-        mask = _volume_mask(grid, extras, clipping, shape, simplify, before, factor)
-        resolved = shading.resolve(graph, grids, shape, index_to_object, mask, supersample=factor)
-        if factor > 1:
-            index_to_object = index_to_object @ shading.fine_to_coarse(factor)
-        EVALUATIONS["count"] += 1
-        hit = (resolved, index_to_object)
-        if len(_resolved) >= 8:
-            _resolved.pop(next(iter(_resolved)))
-        _resolved[key] = hit
-    return _resolved_medium(hit, matrix_world, key, bool(grid.key), label, notes)
+            glow = GlowBlocks(tuple(o + b for o, b in zip(glow.origin, before, strict=True)), glow.side,
+                              glow.mask)
+    elif glow is None and grid.bounds is None:
+        return None                                  # no voxel is active: Cycles renders nothing
+    size = int(np.prod([n + a + b for n, (a, b) in zip(density.shape, pad, strict=True)]))
+    factor = SUPERSAMPLE if size * SUPERSAMPLE ** 3 <= _supersample_budget(graph) else 1
+    key = digest("graph", grid.key or id(grid.density), graph.key, simplify, float(clipping), factor)
+    source = shading.ShaderSource(graph=graph, grids=grids, grid_shape=density.shape, key=key,
+                                  index_to_object=index_to_object, pad=pad, bounds=glow,
+                                  clip=(name, clipping) if clipping > 0.0 else None, supersample=factor,
+                                  label=label)
+    return shading.pending_medium(source, matrix_world)
 
 
 def _fills_empty_voxels(graph: shading.ShaderGraph) -> bool:
@@ -571,39 +564,6 @@ def _fills_empty_voxels(graph: shading.ShaderGraph) -> bool:
 def _supersample_budget(graph: shading.ShaderGraph) -> int:
     """Fine voxels a graph may be evaluated on: textures cost some 20 times more per voxel."""
     return SUPERSAMPLE_VOXELS // 8 if graph.reads_position else SUPERSAMPLE_VOXELS
-
-
-def _resolved_medium(hit, matrix_world, key, keyed: bool, label: str, notes: list[str]) -> Medium:
-    """The Medium of an evaluated graph (``hit``: the Resolved and its lattice's index_to_object)."""
-    resolved, index_to_object = hit
-    notes.extend(f"{label}: {note}" for note in resolved.notes)
-    grids, fields = {}, {}
-    if resolved.color is not None:
-        grids["__color"] = resolved.color
-        fields["color_grid"] = "__color"
-    if resolved.emission is not None:
-        grids["__emission"] = resolved.emission
-        fields["emission_grid"] = "__emission"
-    return Medium(density=resolved.density, index_to_world=matrix_world @ index_to_object, grids=grids,
-                  sigma_a=resolved.sigma_a, sigma_s=resolved.sigma_s, anisotropy=resolved.anisotropy,
-                  source_key=digest(*key) if keyed else None, **fields)
-
-
-def _volume_mask(grid, extras: tuple[str, ...], clipping: float, shape, simplify: int,
-                 before=(0, 0, 0), fine: int = 1):
-    """Where Cycles renders the volume on the (simplified, or padded by ``before``) lattice, or on
-    one ``fine`` times finer (shading.upsample): inside its glow blocks."""
-    shape = tuple(int(n) * fine for n in shape)
-    if grid.bounds is not None:
-        return None
-    glow = glow_blocks(grid, extras, clipping)
-    if glow is None:
-        return np.zeros(shape, bool)
-    f = 2 ** simplify
-    axes = [((np.arange(n) + 0.5) / fine - 0.5) * f + (f - 1) / 2.0 - b
-            for n, b in zip(shape, before, strict=True)]
-    idx = np.stack(np.meshgrid(*axes, indexing="ij"), -1)
-    return glow.contains(idx.reshape(-1, 3)).reshape(shape)
 
 
 LEAF = 8        # OpenVDB's leaf nodes: 8³ voxels, at indices that are multiples of 8
@@ -731,10 +691,10 @@ def _mesh_medium(instance, material, notes: list[str],
 
 def _mesh_graph_medium(instance, ob, mesh, graph: shading.ShaderGraph, label: str, notes: list[str],
                        resolution: int) -> Medium | None:
-    """A mesh medium whose material is a node graph: the graph evaluated over the voxelised inside
+    """A mesh medium whose material is a node graph: the graph over the voxelised inside
     (positions in object space, Generated from the mesh's texture space; a mesh has no grids, so
     Attribute nodes read 0 and the Density Attribute is ignored, as in Cycles), times the coverage
-    of each voxel. Cached like a volume's by the shape and the graph."""
+    of each voxel; evaluated on the render thread (shading.ShaderSource)."""
     occ = mesh_volume.occupancy_cache.get(mesh[0], mesh[1], resolution)
     if not occ.closed:
         notes.append(f"{label}: the mesh is not closed ({occ.open_edges} open edges); its medium fills "
@@ -745,22 +705,10 @@ def _mesh_graph_medium(instance, ob, mesh, graph: shading.ShaderGraph, label: st
     data = ob.data
     if hasattr(data, "texspace_location") and hasattr(data, "texspace_size"):
         graph = replace(graph, texspace=(tuple(data.texspace_location), tuple(data.texspace_size)))
-    key = ("mesh", occ.key, graph.key)
-    hit = _resolved.get(key)
-    if hit is None:
-        coverage = occ.coverage
-        factor = SUPERSAMPLE if coverage.size * SUPERSAMPLE ** 3 <= _supersample_budget(graph) else 1
-        resolved = shading.resolve(graph, {}, coverage.shape, occ.index_to_object, coverage > 0.0,
-                                   supersample=factor)
-        index_to_object = occ.index_to_object
-        if factor > 1:
-            coverage = shading.upsample(coverage, factor)
-            index_to_object = index_to_object @ shading.fine_to_coarse(factor)
-        emission = None if resolved.emission is None else resolved.emission * coverage[..., None]
-        resolved = replace(resolved, density=resolved.density * coverage, emission=emission)
-        EVALUATIONS["count"] += 1
-        hit = (resolved, index_to_object)
-        if len(_resolved) >= 8:
-            _resolved.pop(next(iter(_resolved)))
-        _resolved[key] = hit
-    return _resolved_medium(hit, np.array(instance.matrix_world), key, True, label, notes)
+    coverage = occ.coverage
+    factor = SUPERSAMPLE if coverage.size * SUPERSAMPLE ** 3 <= _supersample_budget(graph) else 1
+    source = shading.ShaderSource(graph=graph, grids={}, grid_shape=coverage.shape,
+                                  key=digest("mesh", occ.key, graph.key, factor),
+                                  index_to_object=occ.index_to_object, coverage=coverage, supersample=factor,
+                                  label=label)
+    return shading.pending_medium(source, np.array(instance.matrix_world))

@@ -36,6 +36,7 @@ frame read is the scene's frame less ``cache_frame_offset`` (``data_frame``).
 
 from __future__ import annotations
 
+import dataclasses
 import gzip
 import os
 import struct
@@ -64,6 +65,12 @@ def domain_modifier(ob, render: bool | None = None):
 def cache_file(directory: str, frame: int) -> str:
     """Where Mantaflow keeps a frame's grids."""
     return os.path.join(directory, "data", f"fluid_data_{int(frame):04d}.vdb")
+
+
+def noise_file(directory: str, frame: int) -> str:
+    """Where Mantaflow keeps a frame's noise (high resolution) grids: density_noise, flame_noise,
+    color_r_noise..., ``noise_scale`` times the domain's resolution."""
+    return os.path.join(directory, "noise", f"fluid_noise_{int(frame):04d}.vdb")
 
 
 def config_file(directory: str, frame: int) -> str:
@@ -110,6 +117,11 @@ def write_config(path: str, *, res, p0, p1, base_res, res_min, res_max, obmat=No
     return path
 
 
+def which_frame(frame: int, cached: int) -> str:
+    """A scene frame and, where they differ, the cache frame it reads, for messages."""
+    return f"frame {frame}" if cached == frame else f"frame {frame} (cache frame {cached})"
+
+
 def data_frame(settings, frame: int) -> int:
     """The cache frame Blender reads at scene ``frame``: the frame less the domain's
     ``cache_frame_offset`` for a baked cache (All, Modular); Replay reads the frame itself
@@ -119,17 +131,18 @@ def data_frame(settings, frame: int) -> int:
     return int(frame) - int(getattr(settings, "cache_frame_offset", 0))
 
 
-def adaptive_index_to_object(config: dict, matrix_world) -> tuple[np.ndarray, np.ndarray]:
+def adaptive_index_to_object(config: dict, matrix_world, upres: int = 1) -> tuple[np.ndarray, np.ndarray]:
     """An adaptive domain's voxel index to its object space, and its resolution: Blender draws the
     domain as the box p0 + cell_size * res_min .. p0 + cell_size * res_max (``create_smoke_geometry``
     in fluid.cc, p0 and the resolutions from the frame's configuration, cell_size = (p1 - p0) /
     base_res), moved by the domain's move since the bake, and Cycles spreads the res_max - res_min
-    voxels over that box."""
+    voxels over that box (``upres`` times as many of the noise grids)."""
     p0, p1 = np.asarray(config["p0"], np.float64), np.asarray(config["p1"], np.float64)
     base = np.maximum(np.asarray(config["base_res"], np.float64), 1.0)
     cell = (p1 - p0) / base
     lo = p0 + cell * np.asarray(config["res_min"], np.float64)
-    res = np.asarray(config["res_max"], np.int64) - np.asarray(config["res_min"], np.int64)
+    res = (np.asarray(config["res_max"], np.int64) - np.asarray(config["res_min"], np.int64)) * int(upres)
+    cell = cell / int(upres)
     # obj_shift_f: the bake-time location less the current one, in the object's local axes
     m = np.asarray(matrix_world, np.float64)
     shift_world = np.asarray(config["obmat"], np.float64)[:3, 3] - m[:3, 3]
@@ -153,10 +166,11 @@ def base_resolution(size: np.ndarray, resolution_max: int) -> np.ndarray:
     return res
 
 
-def domain_index_to_object(corner_min, corner_max, resolution_max: int) -> np.ndarray:
-    """Matrix from a domain's voxel index to its object space."""
+def domain_index_to_object(corner_min, corner_max, resolution_max: int, upres: int = 1) -> np.ndarray:
+    """Matrix from a domain's voxel index to its object space (``upres``: the noise grids'
+    factor, voxels ``upres`` times smaller)."""
     lo, hi = np.asarray(corner_min, np.float64), np.asarray(corner_max, np.float64)
-    cell = (hi - lo) / base_resolution(hi - lo, resolution_max)
+    cell = (hi - lo) / base_resolution(hi - lo, resolution_max) / int(upres)
     m = np.diag([*cell, 1.0])
     m[:3, 3] = lo + 0.5 * cell
     return m
@@ -201,20 +215,31 @@ def read_domain(ob, frame: int, cache: GridCache, wanted: tuple[str, ...], label
     cached = data_frame(settings, frame)
     path = cache_file(directory, cached)
     if not os.path.isfile(path):
-        which = f"frame {frame}" if cached == frame else f"frame {frame} (cache frame {cached})"
+        which = which_frame(frame, cached)
         raise FluidCacheMissing(f"Fluid domain '{label}': no baked data for {which} in cache "
                                 f"folder '{directory}' (expected {os.path.relpath(path, directory)})")
-    if settings.use_noise:
-        warnings.append(f"Fluid domain '{label}': the noise (high resolution) cache is not read; "
-                        f"rendering the base resolution")
-    grid = cache.read_path(path, "density", label, _CACHE_GRIDS)
+    upres = 1
+    grid = None
+    if settings.use_noise:           # Blender renders the noise grids where the domain has them
+        npath = noise_file(directory, cached)
+        if os.path.isfile(npath):
+            upres = max(1, int(settings.noise_scale))
+            noise = cache.read_path(npath, "density_noise", label, tuple(f"{g}_noise" for g in _CACHE_GRIDS))
+            grid = dataclasses.replace(noise, extras={k.removesuffix("_noise"): v
+                                                      for k, v in noise.extras.items()})
+        else:
+            warnings.append(f"Fluid domain '{label}': no noise cache for {which_frame(frame, cached)} "
+                            f"('{npath}'); rendering the base resolution")
+    if grid is None:
+        grid = cache.read_path(path, "density", label, _CACHE_GRIDS)
     mesh = ob.original.data
     corners = np.empty(len(mesh.vertices) * 3, dtype=np.float64)
     mesh.vertices.foreach_get("co", corners)
     corners = corners.reshape(-1, 3)
-    to_object = domain_index_to_object(corners.min(axis=0), corners.max(axis=0), settings.resolution_max)
+    to_object = domain_index_to_object(corners.min(axis=0), corners.max(axis=0), settings.resolution_max,
+                                       upres)
     # Cycles draws a domain by its cube: voxels 0 .. res - 1 of the domain, centres at integers.
-    res = base_resolution(corners.max(axis=0) - corners.min(axis=0), settings.resolution_max)
+    res = base_resolution(corners.max(axis=0) - corners.min(axis=0), settings.resolution_max) * upres
     key = grid.key + f"|fluid {settings.flame_ignition} {settings.flame_max_temp}"
     if settings.use_adaptive_domain:
         config_path = config_file(directory, cached)
@@ -225,7 +250,7 @@ def read_domain(ob, frame: int, cache: GridCache, wanted: tuple[str, ...], label
                             f"'{config_path}' cannot be read ({ex}); the smoke is placed as in a "
                             f"domain that does not adapt")
         else:
-            to_object, res = adaptive_index_to_object(config, ob.matrix_world)
+            to_object, res = adaptive_index_to_object(config, ob.matrix_world, upres)
             key += f"|adaptive {config['res_min']} {config['res_max']}"
     # The file's voxel index ijk is the domain's voxel index (its transform is a voxel size only).
     shift = np.eye(4)

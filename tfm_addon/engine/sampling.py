@@ -19,6 +19,7 @@ from collections.abc import Callable, Iterator
 
 import numpy as np
 
+from . import shading
 from .adaptive import (
     ADAPTIVE_FIRST_SAMPLES,
     ADAPTIVE_FIRST_THRESHOLD,
@@ -29,6 +30,7 @@ from .adaptive import (
     unconverged,
 )
 from .output import RenderOutput
+from .quality import medium_stats
 from .renderer import Renderer, effective_settings
 from .scene import Camera, RenderSettings, Scene
 
@@ -38,6 +40,7 @@ _FRAMES = itertools.count()       # Accumulator keys
 AUTO_SAMPLES = 16  # final-render samples when scene.tfm.samples is 0 (automatic)
 AUTO_POINTS_PER_STEP = 3  # under AUTO: view-march points per pixel and frame, in units of AUTO's steps
 MIN_VIEW_STEPS = 8
+VIEW_DEPTH_PER_STEP = 0.25   # under AUTO: the largest optical depth a sample's view step may span
 MANY_SAMPLES = 12        # under AUTO, a frame of at least this many samples ...
 MANY_SAMPLES_COEFFICIENTS = 4   # ... takes at least this many TFM coefficients (frame_settings)
 ADAPTIVE_FRAME_SAMPLES = 12  # frames of at least this many samples are adaptive (ADAPTIVE_MIN_SAMPLES + 4)
@@ -256,13 +259,17 @@ class Accumulator:
                             chosen=dict(acc.chosen))
 
 
-def view_steps_per_sample(view_steps: int, samples: int) -> int:
+def view_steps_per_sample(view_steps: int, samples: int, optical_depth: float = 0.0) -> int:
     """Under AUTO, the view steps of each of ``samples`` samples: the jittered starts stratify the
     march across samples, so the frame keeps at least AUTO_POINTS_PER_STEP x ``view_steps`` points
-    per pixel with fewer steps per sample (never below MIN_VIEW_STEPS, never above ``view_steps``)."""
+    per pixel with fewer steps per sample (never below MIN_VIEW_STEPS, never above ``view_steps``).
+    A sample's transmittance is the exponential of its own march's sum, which jitter does not
+    average out where a step is optically deep: each sample keeps at least ``optical_depth`` /
+    VIEW_DEPTH_PER_STEP steps (the medium's largest optical depth)."""
     if samples <= AUTO_POINTS_PER_STEP:
         return view_steps
-    return max(min(view_steps, MIN_VIEW_STEPS), math.ceil(AUTO_POINTS_PER_STEP * view_steps / samples))
+    floor = max(MIN_VIEW_STEPS, math.ceil(optical_depth / VIEW_DEPTH_PER_STEP))
+    return max(min(view_steps, floor), math.ceil(AUTO_POINTS_PER_STEP * view_steps / samples))
 
 
 def frame_settings(scene: Scene, settings: RenderSettings | None, samples: int) -> RenderSettings:
@@ -276,7 +283,10 @@ def frame_settings(scene: Scene, settings: RenderSettings | None, samples: int) 
     settings = settings or RenderSettings()
     chosen = effective_settings(scene, settings)
     if settings.quality == "AUTO":
-        chosen = dataclasses.replace(chosen, view_steps=view_steps_per_sample(chosen.view_steps, samples))
+        stats = medium_stats(scene)
+        depth = 0.0 if stats is None else stats.optical_depth
+        steps = view_steps_per_sample(chosen.view_steps, samples, depth)
+        chosen = dataclasses.replace(chosen, view_steps=steps)
         if samples >= MANY_SAMPLES and chosen.coefficients < MANY_SAMPLES_COEFFICIENTS:
             chosen = dataclasses.replace(chosen, coefficients=MANY_SAMPLES_COEFFICIENTS)
     return dataclasses.replace(chosen, quality="CUSTOM")
@@ -297,6 +307,7 @@ def iter_samples(renderer: Renderer, scene: Scene, settings: RenderSettings | No
     every sample. The frame's GPU sums are released once the last sample is yielded: a frame
     continued later (``first``) with the same ``accumulator`` is refused."""
     n = max(int(samples), 1)
+    scene = shading.resolve_scene(scene)     # node graphs evaluated once, here on the render thread
     settings = frame_settings(scene, settings, n)
     acc = accumulator or Accumulator()
     adaptive = adaptive_threshold is not None and n >= ADAPTIVE_FRAME_SAMPLES

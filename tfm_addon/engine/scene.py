@@ -277,6 +277,11 @@ class Medium:
     ``emission_grid``: an RGB grid of ``grids`` holding emitted radiance per metre per voxel (a
     node graph evaluated per voxel, engine/shading.py), added to the emission above times
     ``blackbody_tint``.
+
+    ``shader``: a node graph still to be evaluated over the medium's lattice (an
+    ``engine.shading.ShaderSource``; the density is then a one-voxel stand-in and ``source_key``
+    the source's key): ``shading.resolve_scene`` turns it into a plain medium on the render
+    thread, so that the host's thread never evaluates a graph.
     """
 
     sigma_a: RGB = (0.1, 0.1, 0.1)
@@ -297,6 +302,7 @@ class Medium:
     source_key: str | None = None
     glow: GlowBlocks | None = None
     emission_grid: str | None = None
+    shader: object | None = None
 
     def __post_init__(self):
         if self.density is not None:

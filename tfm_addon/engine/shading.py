@@ -26,14 +26,16 @@ names it in ``ShaderGraph.notes`` and feeds its consumer the socket's own defaul
 from __future__ import annotations
 
 import math
+import threading
+from collections import Counter, OrderedDict
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import cached_property
 
 import numpy as np
 
 from . import blackbody
-from .scene import _digest
+from .scene import GlowBlocks, Medium, Scene, _digest
 
 LUMINANCE = np.array([0.2126729, 0.7151522, 0.0721750])   # Cycles' Rec.709 colour -> float
 CUTOFF = 1e-5          # Cycles' CLOSURE_WEIGHT_CUTOFF
@@ -883,3 +885,126 @@ def resolve(graph: ShaderGraph, grids: Mapping[str, np.ndarray], shape: tuple[in
     return Resolved(density.reshape(shape), tuple(float(x) for x in sigma_a),
                     tuple(float(x) for x in sigma_s), float(np.clip(g, -0.99, 0.99)), color, emission,
                     tuple(notes))
+
+
+# ---- media whose graph is evaluated on the render thread ----------------------------------------
+
+@dataclass(frozen=True, eq=False)
+class ShaderSource:
+    """What a medium's node graph is evaluated from, handed to the renderer unevaluated so that the
+    evaluation runs on the render thread, not the host's: ``grids`` (by name, on one lattice of
+    ``grid_shape``), ``pad`` zero voxels (before, after) per axis that widen it to the lattice the
+    graph fills (Cycles' volume bounds), ``index_to_object`` the widened lattice's indices to
+    object space, ``bounds`` where the volume is in the widened lattice's index space (None:
+    everywhere), ``coverage`` (a mesh medium: the fraction of each voxel inside, multiplying the
+    result), ``clip`` (grid name, value) grid values below which read 0, ``supersample`` the finer
+    lattice's factor, ``key`` what all that depends on (the grids' source, the graph, the
+    settings), ``label`` the medium's name for the report, ``density_scale`` a factor on the
+    coefficients and the emission (Volume ▸ Render ▸ Space Object)."""
+
+    graph: ShaderGraph
+    grids: Mapping[str, np.ndarray]
+    grid_shape: tuple[int, int, int]
+    key: str
+    index_to_object: np.ndarray = field(default_factory=lambda: np.eye(4))
+    pad: tuple = ((0, 0), (0, 0), (0, 0))
+    bounds: GlowBlocks | None = None
+    coverage: np.ndarray | None = None
+    clip: tuple[str, float] | None = None
+    supersample: int = 1
+    label: str = ""
+    density_scale: float = 1.0
+
+    @property
+    def shape(self) -> tuple[int, int, int]:
+        return tuple(int(n + a + b) for n, (a, b) in zip(self.grid_shape, self.pad, strict=True))
+
+
+def pending_medium(source: ShaderSource, matrix_world: np.ndarray, name: str = "Medium") -> Medium:
+    """A medium to be evaluated by ``resolve_scene``: a one-voxel stand-in placed on the lattice."""
+    return Medium(density=np.zeros((1, 1, 1), np.float32), name=name, shader=source,
+                  index_to_world=np.asarray(matrix_world, np.float64) @ source.index_to_object,
+                  source_key=source.key)
+
+
+_RESOLVED: OrderedDict = OrderedDict()      # ShaderSource.key -> (Resolved, lattice scale)
+_LOCK = threading.Lock()
+RESOLVED_KEPT = 8
+EVALUATIONS: Counter = Counter()             # "count" and the threads that evaluated (tests)
+
+
+def _evaluate_source(src: ShaderSource) -> Resolved:
+    grids = dict(src.grids)
+    if src.clip is not None and src.clip[0] in grids:
+        g = np.asarray(grids[src.clip[0]])
+        grids[src.clip[0]] = np.where(g < src.clip[1], np.float32(0.0), g)
+    if any(a or b for a, b in src.pad):
+        grids = {k: np.pad(np.asarray(g), list(src.pad) + [(0, 0)] * (np.ndim(g) - 3))
+                 for k, g in grids.items()}
+    f = max(1, int(src.supersample))
+    shape = src.shape
+    mask = None
+    if src.bounds is not None:
+        axes = [(np.arange(n * f) + 0.5) / f - 0.5 for n in shape]
+        idx = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, 3)
+        mask = src.bounds.contains(idx).reshape(tuple(n * f for n in shape))
+    label = f"{src.label}: " if src.label else ""
+    r = resolve(src.graph, grids, shape, src.index_to_object, mask, label=label, supersample=f)
+    if src.coverage is not None:
+        c = upsample(src.coverage, f) if f > 1 else np.asarray(src.coverage, F)
+        emission = None if r.emission is None else r.emission * c[..., None]
+        r = replace(r, density=r.density * c, emission=emission)
+    return r
+
+
+def resolve_medium(medium: Medium) -> Medium:
+    """``medium`` with its node graph evaluated (itself when it has none); the evaluation is kept
+    by the source's key, so a frame that follows an edit of anything else evaluates nothing."""
+    src = getattr(medium, "shader", None)
+    if src is None:
+        return medium
+    with _LOCK:
+        r = _RESOLVED.get(src.key)
+        if r is not None:
+            _RESOLVED.move_to_end(src.key)
+    if r is None:
+        r = _evaluate_source(src)
+        EVALUATIONS["count"] += 1
+        EVALUATIONS[threading.current_thread().name] += 1
+        with _LOCK:
+            _RESOLVED[src.key] = r
+            while len(_RESOLVED) > RESOLVED_KEPT:
+                _RESOLVED.popitem(last=False)
+    f = max(1, int(src.supersample))
+    to_world = medium.index_to_world @ (fine_to_coarse(f) if f > 1 else np.eye(4))
+    grids, fields = {}, {}
+    if r.color is not None:
+        grids["__color"] = r.color
+        fields["color_grid"] = "__color"
+    if r.emission is not None:
+        grids["__emission"] = r.emission
+        fields["emission_grid"] = "__emission"
+    k = float(src.density_scale)
+    return Medium(density=r.density, index_to_world=to_world, grids=grids,
+                  sigma_a=tuple(k * c for c in r.sigma_a), sigma_s=tuple(k * c for c in r.sigma_s),
+                  blackbody_tint=(k, k, k), anisotropy=r.anisotropy, name=medium.name,
+                  source_key=src.key, **fields)
+
+
+def resolve_scene(scene: Scene) -> Scene:
+    """The scene with every medium's node graph evaluated (the same object when none has one)."""
+    if not any(getattr(m, "shader", None) is not None for m in scene.media):
+        return scene
+    return replace(scene, media=tuple(resolve_medium(m) for m in scene.media))
+
+
+def notes(scene: Scene) -> list[str]:
+    """What the evaluations of the scene's media approximated, one line each (for the report)."""
+    out = []
+    with _LOCK:
+        for m in scene.media:
+            r = _RESOLVED.get(m.source_key) if m.source_key is not None else None
+            if r is not None:
+                out.extend(r.notes)
+    return out
+
