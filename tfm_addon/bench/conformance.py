@@ -46,6 +46,7 @@ TFM_SAMPLES = 0
 # render-report line the user sees (``final_render.last_messages``).
 _NOT_READ = "is not read by the engine; using the TFM settings instead"
 EXPECT: dict[str, str] = {
+    "world_fog_beside_smoke": "Fog without bounds renders only alone; with other media it is skipped",
     "blackbody_node": "emits and scatters: its own emission is not scattered by it",
     "clamp": "gives a medium where the grids are empty, up to Cycles' volume bounds",
     "mix_float": "gives a medium where the grids are empty, up to Cycles' volume bounds",
@@ -794,6 +795,37 @@ def _(tmpdir):
     principled(nt, out)
     base(lights=None, world=(0.3, 0.4, 0.6))
     volume_object(tmpdir, mat=mat)
+
+
+def _world_volume(node_type: str, density: float) -> None:
+    import bpy
+
+    nt = bpy.context.scene.world.node_tree
+    out = next(n for n in nt.nodes if n.bl_idname == 'ShaderNodeOutputWorld')
+    node = nt.nodes.new(node_type)
+    node.inputs["Density"].default_value = density
+    nt.links.new(node.outputs[0], out.inputs["Volume"])
+
+
+@row("world_fog", "World ▸ Volume: Volume Scatter (density 0.08) filling the scene, spot light and ground")
+def _(tmpdir):
+    base(lights='SPOT')
+    _world_volume('ShaderNodeVolumeScatter', 0.08)
+
+
+@row("world_fog_principled", "World ▸ Volume: Principled Volume (density 0.05) filling the scene, point")
+def _(tmpdir):
+    base()
+    _world_volume('ShaderNodeVolumePrincipled', 0.05)
+
+
+@row("world_fog_beside_smoke", "World ▸ Volume: Volume Scatter fog beside a smoke volume")
+def _(tmpdir):
+    mat, nt, out = material()
+    principled(nt, out)
+    base()
+    volume_object(tmpdir, mat=mat)
+    _world_volume('ShaderNodeVolumeScatter', 0.05)
 
 
 ROW_BY_ID = {r.id: r for r in ROWS}

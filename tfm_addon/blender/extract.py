@@ -21,7 +21,7 @@ from . import lights as lights_module
 from .camera import camera_from_object
 from .changes import Change
 from .volumes import GridCache, NoGridThisFrame, VolumeReadError, grid_cache
-from .world import ambient_radiance
+from .world import ambient_radiance, world_fog
 
 RGB = tuple[float, float, float]
 
@@ -40,12 +40,15 @@ class Extraction:
     warnings: dict[Change, tuple[str, ...]] = field(default_factory=dict)
     media: tuple[Medium, ...] = ()    # every medium (volume objects, meshes with volume materials)
     medium_sources: tuple[str, ...] = ()   # the objects they come from
+    world_fog: Medium | None = None   # the World's Volume output, fog filling the scene
 
     def scene(self, camera: Camera | None = None) -> Scene:
         cam = camera if camera is not None else self.camera
         if cam is None:
             raise ValueError("no camera")
         media = self.media or ((self.medium,) if self.medium is not None else ())
+        if self.world_fog is not None:
+            media = (*media, self.world_fog)
         return Scene(camera=cam, lights=self.lights, media=media, meshes=self.meshes,
                      ambient=self.ambient if self.settings.ambient else (0.0, 0.0, 0.0),
                      world=self.ambient)
@@ -114,7 +117,9 @@ def extract(depsgraph, *, parts: Change = Change.ALL, previous: Extraction | Non
     if Change.WORLD in parts:
         ambient, note = ambient_radiance(scene.world)
         changes["ambient"] = tuple(float(c) for c in ambient)
-        warnings[Change.WORLD] = (note,) if note else ()
+        fog, fog_notes = world_fog(scene.world)
+        changes["world_fog"] = fog
+        warnings[Change.WORLD] = ((note,) if note else ()) + tuple(fog_notes)
 
     geometry = parts & Change.GEOMETRY
     if geometry:
