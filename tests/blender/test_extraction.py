@@ -368,7 +368,8 @@ def test_render_settings_come_from_the_panel(blank):
     expected = RenderSettings(view_steps=33, light_steps=44, coefficients=12, density_weight=7.5,
                               map_resolution=256, sampling='PROJECTIVE', method='BRUTE_FORCE',
                               ambient=False, quality='CUSTOM', tfm_filter='LINEAR',
-                              film_transparent=False)   # Blender's default film is opaque
+                              film_transparent=False,   # Blender's default film is opaque
+                              world_light='SHADOWED')   # the add-on's default: as Cycles
     assert vars(settings) == vars(expected)
     blank.render.film_transparent = True
     assert _mod("extract").render_settings(blank).film_transparent

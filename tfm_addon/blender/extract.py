@@ -73,6 +73,8 @@ def render_settings(scene) -> RenderSettings:
         ambient=tfm.ambient,
         quality=tfm.quality,
         film_transparent=bool(scene.render.film_transparent),
+        world_light=getattr(tfm, "world_light", 'UNSHADOWED'),
+        world_directions=int(getattr(tfm, "world_directions", 32)),
     )
 
 

@@ -18,8 +18,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import shading
 from .errors import RenderCancelled
+from .renderer import prepare_scene
 from .sampling import Accumulator, frame_settings, iter_samples
 from .scene import RenderSettings, Scene
 from .worker import RenderWorker, WorkerClosed
@@ -185,7 +185,7 @@ class ProgressiveView:
     def _refine(self, renderer, job, generation, t0, scene, settings, target):
         """The generator the worker steps: coarse image, full image, then samples 2..target."""
         try:
-            scene = shading.resolve_scene(scene)     # node graphs evaluated on the render thread
+            scene = prepare_scene(scene, settings)     # node graphs evaluated on the render thread
             settings = frame_settings(scene, settings, target)
             maps_key = _maps_key(scene, settings)
             w, h = scene.camera.width_px, scene.camera.height_px

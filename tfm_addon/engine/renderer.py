@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import medium_attributes, shading
+from . import medium_attributes, shading, world_light
 from .adaptive import ActivePixels
 from .camera import view_plane
 from .errors import RenderCancelled
@@ -67,6 +67,17 @@ from .passes.tfm import (
 )
 from .quality import auto_settings, footprint_texels_per_voxel, light_density_integral
 from .scene import Light, RenderSettings, Scene
+
+
+def prepare_scene(scene: Scene, settings: RenderSettings | None) -> Scene:
+    """What a frame renders of ``scene``: its media's node graphs evaluated and, with
+    ``world_light='SHADOWED'``, the world's light as shadowed suns. Idempotent (a prepared scene
+    comes back as it is), so every sample of a frame renders the same scene object."""
+    scene = shading.resolve_scene(scene)
+    s = settings or RenderSettings()
+    if s.world_light == "SHADOWED" and s.ambient:
+        scene = world_light.with_world_light(scene, s.world_directions)
+    return scene
 
 
 def _media_notes(scene: Scene) -> list[str]:
@@ -244,7 +255,7 @@ class Renderer:
         output's ``combined`` is None, its ``passes`` empty)."""
         gl = self.gl
         gl.check_thread()
-        scene = shading.resolve_scene(scene)     # node graphs evaluated here, on the render thread
+        scene = prepare_scene(scene, settings)   # node graphs evaluated here, on the render thread
         settings = effective_settings(scene, settings)
         with gl.ctx:     # current for the call, whatever other context the thread made current
             out = self._render(scene, settings, cancel, progress, passes, client, sweep, map_image_side,
@@ -419,10 +430,10 @@ class Renderer:
             cache.sweep(client, release=sweep)
         self.counters["renders"] += 1
         timings["total"] = time.perf_counter() - t_start
-        if not scene.lights:
+        if not [light for light in scene.lights if not light.from_world]:
             warnings.append("The scene has no spot light (nor any other light): only surfaces and "
                             "ambient light are rendered, and the medium scatters no light beam.")
-        elif not lights:
+        elif not [light for light in lights if not light.from_world]:
             warnings.append("Every light has zero power or colour (or a spot no cone angle): no "
                             "light beam.")
         warnings += _light_notes(lights)
@@ -440,7 +451,7 @@ class Renderer:
         Builds or reuses that light's maps like ``render``; for tests and diagnostics."""
         gl = self.gl
         gl.check_thread()
-        scene = shading.resolve_scene(scene)
+        scene = prepare_scene(scene, settings)
         with gl.ctx:
             return self._light_transmittance_at(scene, effective_settings(scene, settings), light_index,
                                                 points)

@@ -19,7 +19,6 @@ from collections.abc import Callable, Iterator
 
 import numpy as np
 
-from . import shading
 from .adaptive import (
     ADAPTIVE_FIRST_SAMPLES,
     ADAPTIVE_FIRST_THRESHOLD,
@@ -31,7 +30,7 @@ from .adaptive import (
 )
 from .output import RenderOutput
 from .quality import medium_stats
-from .renderer import Renderer, effective_settings
+from .renderer import Renderer, effective_settings, prepare_scene
 from .scene import Camera, RenderSettings, Scene
 
 _GOLDEN = 0.61803398874989484820  # R1, for the march start
@@ -307,7 +306,7 @@ def iter_samples(renderer: Renderer, scene: Scene, settings: RenderSettings | No
     every sample. The frame's GPU sums are released once the last sample is yielded: a frame
     continued later (``first``) with the same ``accumulator`` is refused."""
     n = max(int(samples), 1)
-    scene = shading.resolve_scene(scene)     # node graphs evaluated once, here on the render thread
+    scene = prepare_scene(scene, settings)     # node graphs evaluated once, here on the render thread
     settings = frame_settings(scene, settings, n)
     acc = accumulator or Accumulator()
     adaptive = adaptive_threshold is not None and n >= ADAPTIVE_FRAME_SAMPLES

@@ -115,7 +115,8 @@ class Light:
     spot of a non-uniformly scaled object as an elliptical cone whose half-widths at unit
     distance are tan(spot_size / 2) times these. ``cast_shadow`` False (Blender's
     ``use_shadow``): nothing shadows the light, neither the solids nor the media (as Cycles
-    renders it), for every kind.
+    renders it), for every kind. ``from_world``: a sun standing in for part of the world's light
+    (engine/world_light.py), not a light of the scene.
     """
 
     matrix_world: np.ndarray
@@ -130,6 +131,7 @@ class Light:
     size_m: tuple[float, float] = (0.0, 0.0)
     cone_scale: tuple[float, float] = (1.0, 1.0)
     cast_shadow: bool = True
+    from_world: bool = False
 
     def __post_init__(self):
         if self.kind not in LIGHT_KINDS:
@@ -473,6 +475,9 @@ class RenderSettings:
     ``alpha_from_probe``: set by ``quality.auto_settings`` (and kept in the per-sample settings a
     frame renders with, whose quality reads 'CUSTOM'): automatic alpha for a spot reaching one grid
     medium is the largest density integral of AUTO's numpy probe, not a GPU pass and its read-back.
+    ``world_light``: how the world colour (``Scene.ambient``) lights the media and the surfaces:
+    'UNSHADOWED' adds it as is; 'SHADOWED' as ``world_directions`` suns over the sphere, each
+    shadowed by the media and the solids like any light (engine/world_light.py: what Cycles does).
     """
 
     view_steps: int = 100
@@ -490,6 +495,8 @@ class RenderSettings:
     film_transparent: bool = True
     view_jitter: float | None = None
     alpha_from_probe: bool = False
+    world_light: Literal["UNSHADOWED", "SHADOWED"] = "UNSHADOWED"
+    world_directions: int = 32
 
 
 _UNSET = object()

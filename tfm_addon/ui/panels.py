@@ -40,6 +40,11 @@ class TFM_PT_render(_TFMPanel, bpy.types.Panel):
         custom.prop(tfm, "light_steps")
         custom.prop(tfm, "sampling")
         col.prop(tfm, "ambient")
+        world_col = col.column()
+        world_col.active = tfm.ambient
+        world_col.prop(tfm, "world_light")
+        if tfm.world_light == 'SHADOWED':
+            world_col.prop(tfm, "world_directions")
         col.prop(tfm, "viewport_scale")
         col.prop(tfm, "samples")
         col.prop(tfm, "viewport_samples")

@@ -85,6 +85,21 @@ class TFM_SceneSettings(bpy.types.PropertyGroup):
         name="Ambient", default=True,
         description="Light the medium and the solids with the world colour",
     )
+    world_light: EnumProperty(
+        name="World Light",
+        items=(
+            ('SHADOWED', "Shadowed", "The world's light reaches the medium and the surfaces through what "
+             "lies in its way, as in Cycles (world directions as shadowed suns)"),
+            ('UNSHADOWED', "Unshadowed", "The world's light is added as is: faster, brighter inside dense "
+             "smoke and under objects"),
+        ),
+        default='SHADOWED',
+        description="How the world colour lights the medium and the surfaces",
+    )
+    world_directions: IntProperty(
+        name="World Directions", default=32, min=4, max=128,
+        description="Directions the shadowed world light comes from: more is smoother and slower",
+    )
     viewport_scale: FloatProperty(
         name="Viewport Resolution", default=0.5, min=0.1, max=1.0, subtype='FACTOR',
         description="Resolution of the viewport image relative to the viewport",
