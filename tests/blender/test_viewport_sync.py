@@ -104,6 +104,11 @@ def test_a_selection_click_changes_nothing_and_keeps_the_converged_image(blank, 
         assert bar.name not in {m.name for m in session.extraction.meshes}
         assert updates.after(lambda: bar.hide_set(False)) & Change.SOLIDS
         assert bar.name in {m.name for m in session.extraction.meshes}
+        def simplify():
+            render.use_simplify, render.simplify_volumes = True, 0.5
+        full = session.extraction.medium.density.shape
+        assert Change.MEDIUM in updates.after(simplify)
+        assert session.extraction.medium.density.shape[0] < full[0]
         assert session.request(camera, 2)                      # those restart the image
     finally:
         _remove(updates)

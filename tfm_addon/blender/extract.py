@@ -262,9 +262,9 @@ def extract(depsgraph, *, parts: Change = Change.ALL, previous: Extraction | Non
 
 def scene_state(depsgraph) -> dict:
     """What a Scene update may change that renders, read without touching geometry: the render
-    settings, the world, the frame, the output size (a mesh medium's resolution follows it) and
-    the census of object instances (what shows, with its visibility). A selection or an active
-    object change leaves it equal."""
+    settings, the world, the frame, the output size (a mesh medium's resolution follows it),
+    Simplify's volume level and the census of object instances (what shows, with its
+    visibility). A selection or an active object change leaves it equal."""
     scene = depsgraph.scene
     census = []
     for instance in depsgraph.object_instances:
@@ -277,6 +277,7 @@ def scene_state(depsgraph) -> dict:
             "world": ambient_radiance(scene.world),
             "frame": (scene.frame_current, float(scene.frame_subframe)),
             "size": render_size(scene),
+            "simplify": volume_simplify_level(depsgraph),
             "census": tuple(census)}
 
 
@@ -289,7 +290,7 @@ def scene_changes(before: dict | None, after: dict) -> Change:
         flags |= Change.SETTINGS
     if before["world"] != after["world"]:
         flags |= Change.WORLD
-    if before["size"] != after["size"]:
+    if before["size"] != after["size"] or before["simplify"] != after["simplify"]:
         flags |= Change.MEDIUM
     if before["frame"] != after["frame"] or before["census"] != after["census"]:
         flags |= Change.GEOMETRY
