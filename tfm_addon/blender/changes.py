@@ -92,18 +92,24 @@ def _may_be_medium(ob, medium_source) -> bool:
     return False
 
 
-def changes_from_depsgraph(depsgraph, medium_source=_UNKNOWN) -> Change:
+def changes_from_depsgraph(depsgraph, medium_source=_UNKNOWN, scene: Change = Change.ALL) -> Change:
     """Fold ``depsgraph.updates`` into one set of flags.
 
     ``medium_source``: the label of the object the current medium comes from
     (``Extraction.medium_source``, None without a medium). Given, an edit of a mesh that is not
     the medium and has no volume shader flags the solids alone, so the grid is not re-read; a
     mesh data update is then the solids' (Blender sends its object's update with it). Not given,
-    every mesh update flags the medium too."""
+    every mesh update flags the medium too. ``scene``: what the Scene's own update made stale
+    (a selection click, an active object change leave nothing: the viewport compares the scene's
+    settings, world, frame and visible objects before and after, ``extract.scene_changes``);
+    everything when not given."""
     known = medium_source is not _UNKNOWN
     flags = Change.NONE
     for update in depsgraph.updates:
         ident = update.id
+        if ident.id_type == 'SCENE':
+            flags |= scene
+            continue
         object_type = ident.type if ident.id_type == 'OBJECT' else None
         is_medium = None
         if known and ident.id_type == 'MESH':

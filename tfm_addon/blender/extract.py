@@ -7,6 +7,7 @@ extraction, so the viewport re-reads only what an edit touched.
 from __future__ import annotations
 
 import math
+from collections import Counter
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -58,6 +59,127 @@ class Extraction:
         return [w for part in Change if part in self.warnings for w in self.warnings[part]]
 
 
+class WalkCache:
+    """What a viewport keeps between walks of the depsgraph, per object: the triangles of each
+    evaluated mesh, the grids of generated volumes and the last walk's ``Mesh`` values. The
+    depsgraph says which objects changed their geometry (``forget`` their entries); an object
+    that only moved keeps its triangles and grid and is placed anew by its matrix. ``counters``:
+    'triangulations' (meshes read), 'triangles_reused', 'grids_reused', 'solids_reused'."""
+
+    def __init__(self):
+        self.counters: Counter = Counter()
+        self._arrays: dict = {}     # key of an evaluated mesh -> [(vertices, triangles) | None, owners]
+        self._grids: dict = {}      # key of an evaluated volume -> [(grid, notes), owners]
+        self._solids: dict = {}     # label -> the Mesh of the last walk that read the solids
+        self._next_solids: dict = {}
+        self._used: set = set()     # keys of the triangles the current walk used
+
+    def clear(self) -> None:
+        self._arrays.clear()
+        self._grids.clear()
+        self._solids.clear()
+
+    def forget(self, names) -> None:
+        """Drop what was read from the objects or data-blocks named (their geometry changed)."""
+        names = set(names)
+        for table in (self._arrays, self._grids):
+            for key in [k for k, (_, owners) in table.items() if owners & names]:
+                del table[key]
+
+    def forget_grids(self) -> None:
+        self._grids.clear()
+
+    def walk(self) -> _Arrays:
+        return _Arrays(self)
+
+    def grid(self, key):
+        entry = self._grids.get(key)
+        if entry is None:
+            return None
+        self.counters["grids_reused"] += 1
+        return entry[0]
+
+    def keep_grid(self, key, value, owners) -> None:
+        self._grids[key] = [value, set(owners)]
+
+    def solid(self, mesh: Mesh) -> Mesh:
+        """``mesh``, or the last walk's equal Mesh (its arrays and keys already made)."""
+        prev = self._solids.get(mesh.name)
+        if prev is not None and _same_solid(prev, mesh):
+            self.counters["solids_reused"] += 1
+            mesh = prev
+        self._next_solids[mesh.name] = mesh
+        return mesh
+
+    def walked(self, solids: bool, everything: bool) -> None:
+        """End of a walk: keep its solids (when it read them); after a walk that visited every
+        mesh, drop the triangles of meshes it no longer has."""
+        if solids:
+            self._solids = self._next_solids
+        self._next_solids = {}
+        if everything:
+            used = self._used
+            for key in [k for k in self._arrays if k not in used]:
+                del self._arrays[key]
+        self._used = set()
+
+
+def _same_solid(a: Mesh, b: Mesh) -> bool:
+    def buffer(x):
+        return x.__array_interface__["data"][0], x.shape
+    return (buffer(a.vertices) == buffer(b.vertices) and buffer(a.triangles) == buffer(b.triangles)
+            and np.array_equal(a.matrix_world, b.matrix_world) and a.color == b.color
+            and (a.visible_camera, a.cast_shadow, a.holdout) == (b.visible_camera, b.cast_shadow, b.holdout))
+
+
+def _owners(instance) -> set[str]:
+    """The objects and data-blocks whose geometry update makes what was read from ``instance``
+    stale: the object, its data, and its instancer."""
+    ob = instance.object
+    names = {ob.name}
+    data = getattr(ob, "data", None)
+    if data is not None:
+        names.add(data.name)
+    if instance.is_instance and instance.parent is not None:
+        names.add(instance.parent.name)
+    return names
+
+
+class _Arrays:
+    """One walk's triangles: each evaluated mesh read once in the walk (its instances share it),
+    and taken from the WalkCache when an earlier walk read it and no geometry update came since."""
+
+    def __init__(self, kept: WalkCache):
+        self.kept = kept
+        self.seen: dict = {}
+
+    def get(self, instance):
+        ob = instance.object
+        if ob.type == 'MESH':
+            data = ob.data
+            key = ("mesh", data.as_pointer(), data.name, len(data.vertices), len(data.polygons))
+            lasting = True
+        else:      # a temporary instance object's address is reused by the next instance
+            key = ("object", ob.as_pointer(), ob.name)
+            lasting = not instance.is_instance
+        if key in self.seen:
+            return self.seen[key]
+        entry = self.kept._arrays.get(key) if lasting else None
+        if entry is None:
+            result = meshes.triangles(ob)
+            self.kept.counters["triangulations"] += 1
+            if lasting:
+                self.kept._arrays[key] = [result, _owners(instance)]
+        else:
+            result = entry[0]
+            entry[1] |= _owners(instance)
+            self.kept.counters["triangles_reused"] += 1
+        if lasting:
+            self.kept._used.add(key)
+        self.seen[key] = result
+        return result
+
+
 def render_settings(scene) -> RenderSettings:
     """RenderSettings from the scene's TFM properties."""
     tfm = scene.tfm
@@ -87,12 +209,15 @@ def render_size(scene) -> tuple[int, int]:
 
 def extract(depsgraph, *, parts: Change = Change.ALL, previous: Extraction | None = None,
             camera_object=None, size: tuple[int, int] | None = None, window=None,
-            cache: GridCache | None = None, volume_resolution: int | None = None) -> Extraction:
+            cache: GridCache | None = None, volume_resolution: int | None = None,
+            kept: WalkCache | None = None) -> Extraction:
     """Read ``parts`` of the scene from an evaluated depsgraph; take the rest from ``previous``.
 
     ``camera_object``: the camera to render through (default: the scene's); ``size``: image size
     in pixels (default: the scene's output size); ``window``: a render border's pixel window;
-    ``volume_resolution``: voxels along a mesh medium's longest side (default: from the size).
+    ``volume_resolution``: voxels along a mesh medium's longest side (default: from the size);
+    ``kept``: what earlier walks read per object (the viewport's), reused where the depsgraph
+    reported no geometry update (``WalkCache.forget``); None: everything is read afresh.
     """
     if previous is None:
         previous, parts = Extraction(), Change.ALL
@@ -127,7 +252,7 @@ def extract(depsgraph, *, parts: Change = Change.ALL, previous: Extraction | Non
     if geometry:
         if volume_resolution is None:
             volume_resolution = mesh_volume_resolution(size if size is not None else render_size(scene))
-        found = _walk_instances(depsgraph, geometry, cache, volume_resolution)
+        found = _walk_instances(depsgraph, geometry, cache, volume_resolution, kept)
         for part, key in ((Change.LIGHTS, "lights"), (Change.SOLIDS, "meshes")):
             if part in geometry:
                 changes[key] = tuple(found[key])
@@ -140,6 +265,43 @@ def extract(depsgraph, *, parts: Change = Change.ALL, previous: Extraction | Non
             warnings[Change.MEDIUM] = tuple(found["warnings"][Change.MEDIUM])
 
     return replace(previous, warnings=warnings, **changes)
+
+
+def scene_state(depsgraph) -> dict:
+    """What a Scene update may change that renders, read without touching geometry: the render
+    settings, the world, the frame, the output size (a mesh medium's resolution follows it),
+    Simplify's volume level and the census of object instances (what shows, with its
+    visibility). A selection or an active object change leaves it equal."""
+    scene = depsgraph.scene
+    census = []
+    for instance in depsgraph.object_instances:
+        ob = instance.object
+        entry = (_label(instance), ob.type, instance.show_self, instance.show_particles)
+        if ob.type in meshes.MESH_TYPES:
+            entry += tuple(meshes.visibility(instance, depsgraph.view_layer).values())
+        census.append(entry)
+    return {"settings": (render_settings(scene), tuple(_settings_warnings(scene))),
+            "world": ambient_radiance(scene.world),
+            "frame": (scene.frame_current, float(scene.frame_subframe)),
+            "size": render_size(scene),
+            "simplify": volume_simplify_level(depsgraph),
+            "census": tuple(census)}
+
+
+def scene_changes(before: dict | None, after: dict) -> Change:
+    """The parts a Scene update made stale, from the states (``scene_state``) before and after."""
+    if before is None:
+        return Change.ALL
+    flags = Change.NONE
+    if before["settings"] != after["settings"]:
+        flags |= Change.SETTINGS
+    if before["world"] != after["world"]:
+        flags |= Change.WORLD
+    if before["size"] != after["size"] or before["simplify"] != after["simplify"]:
+        flags |= Change.MEDIUM
+    if before["frame"] != after["frame"] or before["census"] != after["census"]:
+        flags |= Change.GEOMETRY
+    return flags
 
 
 def _settings_warnings(scene) -> list[str]:
@@ -212,7 +374,8 @@ def mesh_volume_resolution(size: tuple[int, int]) -> int:
 
 
 def _walk_instances(depsgraph, parts: Change, cache: GridCache,
-                    volume_resolution: int = mesh_volume.DEFAULT_RESOLUTION) -> dict:
+                    volume_resolution: int = mesh_volume.DEFAULT_RESOLUTION,
+                    kept: WalkCache | None = None) -> dict:
     """Lights, meshes and the medium among the depsgraph's object instances."""
     spots: list[SpotLight] = []
     solids: list[Mesh] = []
@@ -222,7 +385,8 @@ def _walk_instances(depsgraph, parts: Change, cache: GridCache,
     sources: list[str] = []
     medium = None
     notes = {Change.LIGHTS: [], Change.SOLIDS: [], Change.MEDIUM: []}
-    arrays: dict = {}  # evaluated mesh data -> (vertices, triangles), shared by its instances
+    kept = WalkCache() if kept is None else kept   # arrays shared by the instances of a mesh
+    arrays = kept.walk()
     simplify = volume_simplify_level(depsgraph) if Change.MEDIUM in parts else 0
     unrendered: dict[str, list[str]] = {}   # kind of object TFM does not render -> names
     colour_notes: list[str] = []
@@ -246,7 +410,7 @@ def _walk_instances(depsgraph, parts: Change, cache: GridCache,
                 skipped_lights.append(f"{ob.name} ({ob.data.type.lower()})")
         elif kind == 'VOLUME' and Change.MEDIUM in parts:
             media.append(_label(instance))
-            found = _volume_medium(instance, cache, notes[Change.MEDIUM], simplify)
+            found = _volume_medium(instance, cache, notes[Change.MEDIUM], simplify, kept, depsgraph)
             _medium_visibility_notes(depsgraph, instance, notes[Change.MEDIUM])
             if found is not None:
                 found_media.append(replace(found, name=_label(instance)))
@@ -281,19 +445,18 @@ def _walk_instances(depsgraph, parts: Change, cache: GridCache,
                 continue
             if _has_hair(ob):
                 unrendered.setdefault("Hair particles", []).append(_label(instance))
-            key = ob.data.as_pointer() if kind == 'MESH' else ob.as_pointer()
-            if key not in arrays:
-                arrays[key] = meshes.triangles(ob)
-            if arrays[key] is None:
+            mesh = arrays.get(instance)
+            if mesh is None:
                 continue
-            vertices, tris = arrays[key]
+            vertices, tris = mesh
             flags = meshes.visibility(instance, depsgraph.view_layer)
             if flags["visible_camera"] and materials.hidden_from_camera(material):
                 flags["visible_camera"] = False
             seen = colour_notes if flags["visible_camera"] else None   # an unseen colour needs no note
-            solids.append(Mesh(vertices=vertices, triangles=tris,
-                               matrix_world=np.array(instance.matrix_world),
-                               color=meshes.diffuse_color(ob, seen), name=_label(instance), **flags))
+            solids.append(kept.solid(Mesh(vertices=vertices, triangles=tris,
+                                          matrix_world=np.array(instance.matrix_world),
+                                          color=meshes.diffuse_color(ob, seen), name=_label(instance),
+                                          **flags)))
 
     notes[Change.SOLIDS].extend(dict.fromkeys(colour_notes))   # once per material
     if Change.LIGHTS in parts:
@@ -304,6 +467,7 @@ def _walk_instances(depsgraph, parts: Change, cache: GridCache,
     for what, names in unrendered.items():
         notes[Change.SOLIDS].append(f"{what} are not rendered by TFM: " + ", ".join(names))
     medium = found_media[0] if found_media else None
+    kept.walked(Change.SOLIDS in parts, (Change.SOLIDS | Change.MEDIUM) in parts)
     return {"lights": spots, "meshes": solids, "medium": medium,
             "medium_source": sources[0] if sources else None, "media": found_media,
             "medium_sources": sources, "warnings": notes}
@@ -404,7 +568,10 @@ def _drop_missing(fields: dict, extras: dict, label: str, notes: list[str],
     return out
 
 
-def _volume_medium(instance, cache: GridCache, notes: list[str], simplify: int = 0) -> Medium | None:
+def _volume_medium(instance, cache: GridCache, notes: list[str], simplify: int = 0,
+                   kept: WalkCache | None = None, depsgraph=None) -> Medium | None:
+    """A Volume object's medium. A generated volume's grids (saved and hashed to be read) are
+    kept in ``kept`` until its geometry changes: moving it only places them anew."""
     ob = instance.object
     volume = ob.data
     label = f"Volume '{_label(instance)}'"
@@ -426,9 +593,21 @@ def _volume_medium(instance, cache: GridCache, notes: list[str], simplify: int =
         lo, hi = corners.min(axis=0), corners.max(axis=0)
         read["graph"] = replace(read["graph"], texspace=(tuple((lo + hi) / 2.0), tuple((hi - lo) / 2.0)))
     material_grid = read["grid"]
+    memo, owners = None, _owners(instance)
+    if generated and kept is not None and depsgraph is not None:
+        memo = ("volume", volume.as_pointer(), volume.name, _label(instance), preferred,
+                tuple(read["grids"]))
+        shape = _mesh_to_volume_inputs(depsgraph, instance)
+        if shape is not None:     # what its grid is made of, however Blender flags the object
+            memo, owners = memo[2:] + shape[0], shape[1]
     try:
-        grid, grid_notes = cache.read(volume, preferred, _label(instance), generated=generated,
-                                      extras=tuple(read["grids"]))
+        found = kept.grid(memo) if memo is not None else None
+        if found is None:
+            found = cache.read(volume, preferred, _label(instance), generated=generated,
+                               extras=tuple(read["grids"]))
+            if memo is not None:
+                kept.keep_grid(memo, found, owners)
+        grid, grid_notes = found
     except NoGridThisFrame:
         return None
     except VolumeReadError as ex:
@@ -449,6 +628,41 @@ def _volume_medium(instance, cache: GridCache, notes: list[str], simplify: int =
     if getattr(volume.render, "space", 'OBJECT') == 'OBJECT':
         medium = object_space(medium, matrix)
     return medium
+
+
+_MESH_TO_VOLUME_SETTINGS = ("density", "interior_band_width", "resolution_mode", "voxel_amount",
+                            "voxel_size")
+
+
+def _mesh_to_volume_inputs(depsgraph, instance):
+    """For a Volume object (not an instance) whose modifiers are all Mesh to Volume: what its
+    grids are made of (each modifier's settings and its mesh's placement relative to the volume
+    object) and the names whose geometry update changes them (the meshes read); None otherwise.
+    Blender re-evaluates such a volume whenever either object moves; its grids change only when
+    the mesh moves relative to it, so a move of both together (a parent's) keeps them."""
+    if instance.is_instance:
+        return None
+    ob = instance.object
+    original = ob.original
+    modifiers = list(original.modifiers)
+    if not modifiers or any(m.type != 'MESH_TO_VOLUME' for m in modifiers):
+        return None
+    to_local = np.linalg.inv(np.array(ob.matrix_world))
+    parts, owners = [original.data.filepath, bool(original.data.is_sequence)], set()
+    for m in modifiers:
+        if not m.show_viewport:
+            parts.append(None)
+            continue
+        source = m.object
+        if source is None:
+            parts.append(("no mesh",))
+            continue
+        evaluated = source.evaluated_get(depsgraph)
+        relative = to_local @ np.array(evaluated.matrix_world)
+        parts.append((source.name, tuple(np.round(relative, 12).ravel()),
+                      tuple(getattr(m, k, None) for k in _MESH_TO_VOLUME_SETTINGS)))
+        owners |= {source.name, source.data.name if source.data is not None else source.name}
+    return tuple(parts), owners
 
 
 def object_space(medium: Medium, matrix_world: np.ndarray) -> Medium:
@@ -667,10 +881,10 @@ def _fluid_medium(instance, frame: int, cache: GridCache, notes: list[str],
 
 def _mesh_medium(instance, material, notes: list[str],
                  resolution: int = mesh_volume.DEFAULT_RESOLUTION,
-                 arrays: dict | None = None) -> Medium | None:
+                 arrays: _Arrays | None = None) -> Medium | None:
     """A mesh with a volume-only material: the medium inside its surface, a coverage grid
     voxelised once per shape (engine/mesh_volume.py) and placed by the instance's matrix.
-    ``arrays``: evaluated mesh data -> (vertices, triangles), shared by the instances of a walk."""
+    ``arrays``: the walk's triangles by evaluated mesh (shared by instances, kept across walks)."""
     ob = instance.object
     label = f"Object '{_label(instance)}'"
     read = _sigma(material, None, label, notes)
@@ -678,11 +892,8 @@ def _mesh_medium(instance, material, notes: list[str],
         # Principled Volume's Density Attribute ("density") reads 1 on a mesh, as in Cycles.
         notes.append(f"{label}: a mesh has no grid '{read['grid']}'; its medium has the material's "
                      f"constant density")
-    arrays = {} if arrays is None else arrays
-    key = ob.data.as_pointer() if ob.type == 'MESH' else ob.as_pointer()
-    if key not in arrays:        # instances of one mesh read and hash its triangles once
-        arrays[key] = meshes.triangles(ob)
-    mesh = arrays[key]
+    arrays = WalkCache().walk() if arrays is None else arrays
+    mesh = arrays.get(instance)     # instances of one mesh read its triangles once
     if mesh is None:
         notes.append(f"{label}: the mesh has no faces, so it holds no medium")
         return None

@@ -18,7 +18,7 @@ from ..engine.progressive import ProgressiveView, upload_pixels
 from ..engine.scene import Camera
 from ..engine.worker import WorkerClosed
 from .changes import Change, changes_from_depsgraph
-from .extract import Extraction, extract
+from .extract import Extraction, WalkCache, extract, scene_changes, scene_state
 from .render_worker import get_worker
 
 POLL_S = 0.03  # how often the timer looks for a finished frame
@@ -44,24 +44,63 @@ class ViewportSession:
         self._image_key = None
         self._generation = 0
         self._view: ProgressiveView | None = None
+        self.kept = WalkCache()     # per object: triangles, generated grids, last Mesh values
+        self._scene_state: dict | None = None
+        self.update_s = 0.0         # the last update's time on the calling thread
 
     def update(self, depsgraph, changes: Change | None = None) -> Change:
-        """Re-read what changed; return the flags used."""
+        """Re-read what changed; return the flags used. Without ``changes`` they come from the
+        depsgraph's updates, which also say whose geometry changed: only those objects' triangles
+        and grids are read again, a moved object is placed by its new matrix. A change that
+        renders nothing differently (a selection) leaves the image, converged or not, as it is."""
         t0 = time.perf_counter()
         if self.extraction is None:
             changes = Change.ALL
-            self.extraction = extract(depsgraph)
+            self.kept.clear()
+            self.extraction = extract(depsgraph, kept=self.kept)
+            self._scene_state = scene_state(depsgraph)
             self._generation += 1
         else:
             if changes is None:
-                changes = changes_from_depsgraph(depsgraph, self.extraction.medium_sources)
+                changes = self._changes(depsgraph)
+            else:      # flags worked out elsewhere: whose geometry changed is not known
+                if changes & (Change.SOLIDS | Change.MEDIUM):
+                    self.kept.clear()
+                self._scene_state = scene_state(depsgraph)
             parts = changes & ~Change.CAMERA  # the viewport's camera is the view
             if parts:
-                self.extraction = extract(depsgraph, parts=parts, previous=self.extraction)
+                self.extraction = extract(depsgraph, parts=parts, previous=self.extraction,
+                                          kept=self.kept)
                 self._generation += 1
         self.last_changes = changes
-        self.callback_s = max(self.callback_s, time.perf_counter() - t0)
+        self.update_s = time.perf_counter() - t0
+        self.callback_s = max(self.callback_s, self.update_s)
         return changes
+
+    def _changes(self, depsgraph) -> Change:
+        """The flags of the depsgraph's updates; forgets the kept geometry of the objects and
+        data whose geometry changed. A Scene update flags only what its settings, world, frame
+        or visible objects changed (compared with the state after the last update)."""
+        stale, scene_updated = set(), False
+        for update in depsgraph.updates:
+            ident = update.id
+            if ident.id_type == 'SCENE':
+                scene_updated = True
+            elif update.is_updated_geometry:
+                stale.add(ident.name)
+        scene = Change.NONE
+        s = depsgraph.scene
+        if self._scene_state is None or \
+                (s.frame_current, float(s.frame_subframe)) != self._scene_state["frame"]:
+            scene_updated = True      # a frame change may come without the Scene's update
+        if scene_updated:
+            state = scene_state(depsgraph)
+            scene = scene_changes(self._scene_state, state)
+            if self._scene_state is None or state["frame"] != self._scene_state["frame"]:
+                self.kept.forget_grids()
+            self._scene_state = state
+        self.kept.forget(stale)
+        return scene | changes_from_depsgraph(depsgraph, self.extraction.medium_sources, scene=scene)
 
     @property
     def view(self) -> ProgressiveView:

@@ -171,6 +171,7 @@ class GridCache:
         self._entries: OrderedDict[tuple, DensityGrid] = OrderedDict()
         self.reads = 0  # grids read from openvdb, for tests
         self.hits = 0
+        self.saves = 0   # generated volumes written with grids.save (then hashed), for tests
 
     def clear(self):
         self._entries.clear()
@@ -224,6 +225,7 @@ class GridCache:
 
         with tempfile.TemporaryDirectory(prefix="tfm_volume_") as tmp:
             saved = os.path.join(tmp, "grids.vdb")
+            self.saves += 1
             if not grids.save(saved):
                 raise VolumeReadError(f"Volume '{label}': cannot save its grids: {grids.error_message}")
             with open(saved, "rb") as f:
