@@ -41,3 +41,49 @@ def test_smoke_lit_by_a_white_world_matches_cycles(blank, tmp_path, density):
           f"brightness {ratio:.4f} (unshadowed: SSIM {metrics.ssim(unshadowed, cycles):.4f}, "
           f"{metrics.brightness_ratio(unshadowed, cycles):.4f})")
     assert ssim >= 0.98 and abs(ratio - 1.0) <= 0.03
+
+
+def _hdri(width=64, height=32):
+    """An equirectangular environment made by code: a blue sky over a dark ground and a small warm
+    patch of high radiance 30 degrees up, towards -X +Y (Blender's mapping)."""
+    import numpy as np
+
+    v = (np.arange(height)[::-1] + 0.5) / height          # image rows bottom first, as Blender's
+    u = (np.arange(width) + 0.5) / width
+    vv, uu = np.meshgrid(v, u, indexing="ij")
+    theta = np.pi * (1.0 - vv)                              # from +Z
+    phi = np.pi - 2.0 * np.pi * uu
+    d = np.stack([np.sin(theta) * np.cos(phi), np.sin(theta) * np.sin(phi), np.cos(theta)], -1)
+    rgb = np.where((d[..., 2] > 0)[..., None], [0.25, 0.45, 0.9], [0.05, 0.04, 0.03]).astype(np.float32)
+    sun = np.array([-0.6, 0.6, 0.5]) / np.linalg.norm([-0.6, 0.6, 0.5])
+    rgb[(d @ sun) > 0.96] = (40.0, 30.0, 20.0)
+    image = bpy.data.images.new("Sky", width, height, float_buffer=True)
+    rgba = np.concatenate([rgb, np.ones((height, width, 1), np.float32)], axis=-1)
+    image.pixels.foreach_set(rgba.ravel())
+    return image
+
+
+def test_smoke_lit_by_an_hdri_matches_cycles(blank, tmp_path):
+    scene = smoke(width=64, height=48, n=24, ambient=(1.0, 1.0, 1.0))
+    scene = dataclasses.replace(scene, lights=())
+    _builder().build(scene, str(tmp_path), settings=SETTINGS, samples=16)
+    world = bpy.context.scene.world
+    nt = world.node_tree
+    bg = next(n for n in nt.nodes if n.bl_idname == 'ShaderNodeBackground')
+    env = nt.nodes.new('ShaderNodeTexEnvironment')
+    env.image = _hdri()
+    nt.links.new(env.outputs["Color"], bg.inputs["Color"])
+    tfm_settings = bpy.context.scene.tfm
+    tfm_settings.world_light = 'SHADOWED'
+    tfm_settings.world_directions = int(os.environ.get("TFM_WORLD_DIRECTIONS", "64"))
+    tfm = render_passes(tmp_path, "tfm")["Combined"]
+    tfm_settings.world_light = 'UNSHADOWED'
+    flat = render_passes(tmp_path, "flat")["Combined"]
+    _builder().cycles_single_scattering(bpy.context.scene, samples=1024)
+    cycles = render_passes(tmp_path, "cycles")["Combined"]
+    ssim, ratio = metrics.ssim(tfm, cycles), metrics.brightness_ratio(tfm, cycles)
+    print(f"HDRI world, {tfm_settings.world_directions} directions: SSIM {ssim:.4f}, brightness {ratio:.4f} "
+          f"(its mean colour unshadowed: SSIM {metrics.ssim(flat, cycles):.4f}, "
+          f"{metrics.brightness_ratio(flat, cycles):.4f})")
+    assert float(cycles[..., :3].mean()) > 1e-3
+    assert ssim >= 0.95 and abs(ratio - 1.0) <= 0.10

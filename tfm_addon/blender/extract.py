@@ -22,7 +22,7 @@ from . import lights as lights_module
 from .camera import camera_from_object
 from .changes import Change
 from .volumes import GridCache, NoGridThisFrame, VolumeReadError, grid_cache
-from .world import ambient_radiance, world_fog
+from .world import ambient_radiance, environment, world_fog
 
 RGB = tuple[float, float, float]
 
@@ -42,6 +42,7 @@ class Extraction:
     media: tuple[Medium, ...] = ()    # every medium (volume objects, meshes with volume materials)
     medium_sources: tuple[str, ...] = ()   # the objects they come from
     world_fog: Medium | None = None   # the World's Volume output, fog filling the scene
+    environment: np.ndarray | None = None   # the world's radiance by direction (an HDRI), or None
 
     def scene(self, camera: Camera | None = None) -> Scene:
         cam = camera if camera is not None else self.camera
@@ -52,7 +53,7 @@ class Extraction:
             media = (*media, self.world_fog)
         return Scene(camera=cam, lights=self.lights, media=media, meshes=self.meshes,
                      ambient=self.ambient if self.settings.ambient else (0.0, 0.0, 0.0),
-                     world=self.ambient)
+                     world=self.ambient, environment=self.environment)
 
     @property
     def all_warnings(self) -> list[str]:
@@ -246,6 +247,7 @@ def extract(depsgraph, *, parts: Change = Change.ALL, previous: Extraction | Non
         changes["ambient"] = tuple(float(c) for c in ambient)
         fog, fog_notes = world_fog(scene.world)
         changes["world_fog"] = fog
+        changes["environment"] = environment(scene.world)[0] if scene.world is not None else None
         warnings[Change.WORLD] = ((note,) if note else ()) + tuple(fog_notes)
 
     geometry = parts & Change.GEOMETRY

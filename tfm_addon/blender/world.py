@@ -27,10 +27,53 @@ def background_node(world):
     return None
 
 
+ENVIRONMENT_SIDE = 128      # an environment image is averaged down to at most this many pixels wide
+
+
+def environment(world) -> tuple[np.ndarray | None, str | None]:
+    """The world's radiance by direction when its Background colour is an Environment Texture
+    (equirectangular, unmapped) times the Strength: an (h, w, 3) image, top row first, averaged down
+    to at most ENVIRONMENT_SIDE wide (its light, not its sharpness, is what lights the media); and
+    a note for a set-up read only in part."""
+    node = background_node(world)
+    if node is None or not node.inputs["Color"].is_linked:
+        return None, None
+    try:
+        tex = _linked_node(node.inputs["Color"])
+        strength = float(_constant(node.inputs["Strength"]))
+    except Unreadable:
+        return None, None
+    if tex is None or tex.bl_idname != 'ShaderNodeTexEnvironment' or tex.image is None:
+        return None, None
+    note = None
+    if tex.projection != 'EQUIRECTANGULAR':
+        return None, f"World '{world.name}': a {tex.projection.lower()} environment is not read"
+    if tex.inputs["Vector"].is_linked:
+        note = (f"World '{world.name}': the environment's mapping (its Vector input) is not read; it "
+                f"is placed as unmapped")
+    image = tex.image
+    w, h = image.size
+    if w < 1 or h < 1:
+        return None, f"World '{world.name}': image '{image.name}' could not be loaded"
+    px = np.empty(w * h * image.channels, np.float32)
+    image.pixels.foreach_get(px)
+    rgb = px.reshape(h, w, image.channels)[::-1, :, :3]        # Blender's rows are bottom first
+    f = max(1, int(np.ceil(w / ENVIRONMENT_SIDE)))
+    hh, ww = (h // f) * f, (w // f) * f
+    if f > 1 and hh > 0 and ww > 0:
+        rgb = rgb[:hh, :ww].reshape(hh // f, f, ww // f, f, 3).mean(axis=(1, 3))
+    return np.ascontiguousarray(rgb * np.float32(strength), np.float32), note
+
+
 def ambient_radiance(world) -> tuple[RGB, str | None]:
     """World radiance W/(sr m^2) per channel, and a warning when the world's nodes are not read."""
     if world is None:
         return (0.0, 0.0, 0.0), None
+    env, note = environment(world)
+    if env is not None:
+        from ..engine.world_light import mean_radiance
+
+        return mean_radiance(env), note
     node = background_node(world)
     if node is not None:
         try:

@@ -512,6 +512,10 @@ class Scene:
     that lights the media and the solids; ``world`` the radiance seen behind everything with an
     opaque film (None: ``ambient``).
 
+    ``environment``: the world's radiance by direction, an (h, w, 3) equirectangular image (top row
+    first, Blender's mapping: u = 0.5 - atan2(y, x) / 2 pi, v from the bottom = 1 - acos(z) / pi),
+    or None for a constant world; the shadowed world light (engine/world_light.py) reads it, and
+    ``ambient`` holds its mean.
     ``media``: every participating medium; where they overlap their coefficients add up.
     ``medium`` (a property) is the first of them, None without media. For compatibility the
     constructor (and ``dataclasses.replace``) also takes ``medium=``: a Medium replaces
@@ -526,6 +530,7 @@ class Scene:
     ambient: RGB = (0.0, 0.0, 0.0)
     media: tuple[Medium, ...] = ()
     world: RGB | None = None
+    environment: np.ndarray | None = None
 
     def __post_init__(self, medium):
         object.__setattr__(self, "lights", tuple(self.lights))

@@ -8,7 +8,8 @@ with ``n`` suns (orthographic transmittance-map faces, every kind of shadow incl
 over the sphere by a Fibonacci lattice, each carrying the irradiance of its share of the solid
 angle, L · 4π/n: the sum over the suns is a quadrature of that integral. Where nothing shadows,
 the sum of a surface's cos θ · 4π/n over the suns above it is close to π, the exact cosine
-integral, and a medium sample's sum of phase-weighted shares is close to L.
+integral, and a medium sample's sum of phase-weighted shares is close to L. An environment image
+(an HDRI) gives each direction the irradiance of the part of the sphere nearest to it.
 """
 
 from __future__ import annotations
@@ -54,6 +55,39 @@ def world_suns(radiance, n: int = DEFAULT_DIRECTIONS) -> tuple[Light, ...]:
                  for k, w in enumerate(directions(n)))
 
 
+def environment_directions(env: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(directions (h w, 3), solid angles (h w,)) of an equirectangular image's pixels (Scene's
+    convention)."""
+    h, w = env.shape[:2]
+    theta = math.pi * (np.arange(h) + 0.5) / h                 # from +Z, top row first
+    phi = math.pi - 2.0 * math.pi * (np.arange(w) + 0.5) / w
+    t, p = np.meshgrid(theta, phi, indexing="ij")
+    dirs = np.stack([np.sin(t) * np.cos(p), np.sin(t) * np.sin(p), np.cos(t)], axis=-1).reshape(-1, 3)
+    omega = (2.0 * math.pi / w) * (math.pi / h) * np.sin(t).reshape(-1)
+    return dirs, omega
+
+
+def environment_suns(env: np.ndarray, n: int = DEFAULT_DIRECTIONS) -> tuple[Light, ...]:
+    """Suns standing in for an environment image: each direction of the lattice carries the
+    irradiance of the pixels nearest to it, the sum of radiance times solid angle."""
+    env = np.asarray(env, np.float64)
+    dirs, omega = environment_directions(env)
+    centres = directions(n)
+    nearest = np.argmax(dirs @ centres.T, axis=1)
+    power = np.zeros((n, 3))
+    np.add.at(power, nearest, env.reshape(-1, 3) * omega[:, None])
+    return tuple(Light(matrix_world=_sun_matrix(w), color=tuple(float(c) for c in power[k]), power_w=1.0,
+                       kind="SUN", name=f"World {k + 1}/{n}", from_world=True)
+                 for k, w in enumerate(centres) if np.any(power[k] > 0.0))
+
+
+def mean_radiance(env: np.ndarray) -> tuple[float, float, float]:
+    """An environment's radiance averaged over the sphere (what it is as a constant world)."""
+    _, omega = environment_directions(env)
+    rgb = (np.asarray(env, np.float64).reshape(-1, 3) * omega[:, None]).sum(axis=0) / (4.0 * math.pi)
+    return tuple(float(c) for c in rgb)
+
+
 def with_world_light(scene: Scene, n: int = DEFAULT_DIRECTIONS) -> Scene:
     """``scene`` with its ambient light replaced by ``n`` shadowed world suns (what a frame renders
     when RenderSettings.world_light is 'SHADOWED'); the world seen behind everything is unchanged."""
@@ -61,5 +95,6 @@ def with_world_light(scene: Scene, n: int = DEFAULT_DIRECTIONS) -> Scene:
 
     if not any(c > 0.0 for c in scene.ambient):
         return scene
-    return replace(scene, lights=(*scene.lights, *world_suns(scene.ambient, n)), ambient=(0.0, 0.0, 0.0),
-                   world=scene.background)
+    env = scene.environment
+    suns = world_suns(scene.ambient, n) if env is None else environment_suns(env, n)
+    return replace(scene, lights=(*scene.lights, *suns), ambient=(0.0, 0.0, 0.0), world=scene.background)
