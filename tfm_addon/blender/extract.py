@@ -392,6 +392,7 @@ def _walk_instances(depsgraph, parts: Change, cache: GridCache,
     simplify = volume_simplify_level(depsgraph) if Change.MEDIUM in parts else 0
     unrendered: dict[str, list[str]] = {}   # kind of object TFM does not render -> names
     colour_notes: list[str] = []
+    light_sizes: list[str] = []       # lights whose size is rendered as a point
 
     for instance in depsgraph.object_instances:
         ob = instance.object
@@ -407,7 +408,7 @@ def _walk_instances(depsgraph, parts: Change, cache: GridCache,
         if kind == 'LIGHT' and Change.LIGHTS in parts:
             if ob.data.type in ('SPOT', 'POINT', 'SUN', 'AREA'):
                 spots.append(lights_module.light(ob, np.array(instance.matrix_world),
-                                                 notes[Change.LIGHTS]))
+                                                 notes[Change.LIGHTS], light_sizes))
             else:
                 skipped_lights.append(f"{ob.name} ({ob.data.type.lower()})")
         elif kind == 'VOLUME' and Change.MEDIUM in parts:
@@ -462,6 +463,9 @@ def _walk_instances(depsgraph, parts: Change, cache: GridCache,
 
     notes[Change.SOLIDS].extend(dict.fromkeys(colour_notes))   # once per material
     if Change.LIGHTS in parts:
+        note = lights_module.sizes_note(light_sizes)
+        if note:
+            notes[Change.LIGHTS].append(note)
         if skipped_lights:
             notes[Change.LIGHTS].append(
                 "Lights of unknown type are not rendered: " + ", ".join(skipped_lights))

@@ -72,28 +72,40 @@ def spot_light(light_object, matrix_world, warnings: list[str]) -> SpotLight:
     )
 
 
-def light(light_object, matrix_world, warnings: list[str]) -> Light:
+def sizes_note(sizes: list[str]) -> str | None:
+    """One report line for every light whose size the engine renders as a point (sharp shadows)."""
+    if not sizes:
+        return None
+    return ("Light sizes are rendered as points, with sharp shadows (Cycles softens them): "
+            + ", ".join(dict.fromkeys(sizes)))
+
+
+def light(light_object, matrix_world, warnings: list[str], sizes: list[str] | None = None) -> Light:
     """The renderer's Light for any evaluated light object placed at ``matrix_world``; what it
-    renders differently from Cycles goes into ``warnings`` (one line per light)."""
+    renders differently from Cycles goes into ``warnings`` (one line per light), a size rendered
+    as a point into ``sizes`` (``sizes_note`` makes one line of them; None: into ``warnings``)."""
     data = light_object.data
     name = light_object.name
+    if sizes is None:
+        sizes = warnings
     if getattr(data, "use_nodes", False):
         warnings.append(f"Light '{name}': light nodes are not rendered (its colour and power are used)")
     kind = data.type
     if kind == 'SPOT':
+        if float(getattr(data, "shadow_soft_size", 0.0)) > 0.0:
+            sizes.append(f"spot '{name}' radius {float(data.shadow_soft_size):.2g} m")
         return spot_light(light_object, matrix_world, warnings)
     common = dict(matrix_world=without_scale(matrix_world), color=light_color(data),
                   power_w=light_power_w(data), name=name,
                   cast_shadow=bool(getattr(data, "use_shadow", True)))
     if kind == 'POINT':
         if float(getattr(data, "shadow_soft_size", 0.0)) > 0.0:
-            warnings.append(f"Point light '{name}': its radius is treated as 0 (sharp shadows)")
+            sizes.append(f"point '{name}' radius {float(data.shadow_soft_size):.2g} m")
         return Light(kind="POINT", **common)
     if kind == 'SUN':
         angle = float(getattr(data, "angle", 0.0))
         if angle > 0.0:
-            warnings.append(f"Sun '{name}': its angle ({math.degrees(angle):.2g} degrees) is rendered as a "
-                            "sharp sun")
+            sizes.append(f"sun '{name}' angle {math.degrees(angle):.2g} degrees (a sharp sun)")
         return Light(kind="SUN", **common)
     if kind == 'AREA':
         scale = np.linalg.norm(np.array(matrix_world, dtype=np.float64).reshape(4, 4)[:3, :3], axis=0)
@@ -102,5 +114,9 @@ def light(light_object, matrix_world, warnings: list[str]) -> Light:
         size_y *= float(scale[1])
         if float(getattr(data, "spread", math.pi)) < math.pi - 1e-6:
             warnings.append(f"Area light '{name}': its spread is not rendered (180 degrees)")
+        if not getattr(data, "normalize", True):
+            # Normalize off: Cycles keeps the radiance of a 1 m² light, so the power grows with the area
+            area = size * size_y * (math.pi / 4.0 if data.shape in ('DISK', 'ELLIPSE') else 1.0)
+            common["power_w"] *= area
         return Light(kind="AREA", size_m=(size, size_y), **common)
     raise ValueError(f"light type {kind!r} is not known")

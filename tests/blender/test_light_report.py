@@ -1,0 +1,43 @@
+"""Lights as Cycles reads them, and what the report says about them: an area light with Normalize
+off (its power grows with its area; against Cycles), and the lights' sizes said in one line."""
+
+import dataclasses
+import importlib
+
+import bpy
+from blender_helpers import MODULE, render_passes, smoke
+
+from tfm_addon import scenes
+from tfm_addon.engine import Light, RenderSettings, metrics
+
+SETTINGS = RenderSettings(view_steps=96, light_steps=64, map_resolution=192, coefficients=12)
+
+
+def _mod(name):
+    return importlib.import_module(f"{MODULE}.tfm_addon.blender.{name}")
+
+
+def test_area_light_without_normalize_matches_cycles(blank, tmp_path):
+    scene = smoke(width=64, height=48, n=24, with_bar=False)    # no shadow for its size to soften
+    area = Light(matrix_world=scenes.look_at((-2.5, -1.0, 4.5), (0.0, 0.0, 1.2)), kind="AREA", power_w=400.0,
+                 size_m=(1.5, 1.5), name="Panel")
+    made = _mod("scene_builder").build(dataclasses.replace(scene, lights=(area,)), str(tmp_path),
+                                       settings=SETTINGS, samples=16)
+    made["lights"][0].data.normalize = False
+    tfm = render_passes(tmp_path, "tfm")["Combined"]
+    _mod("scene_builder").cycles_single_scattering(bpy.context.scene, samples=512)
+    cycles = render_passes(tmp_path, "cycles")["Combined"]
+    ssim, ratio = metrics.ssim(tfm, cycles), metrics.brightness_ratio(tfm, cycles)
+    print(f"area 1.5 x 1.5 m, Normalize off: SSIM {ssim:.4f}, brightness {ratio:.4f}")
+    assert ssim >= 0.98 and abs(ratio - 1.0) <= 0.10     # the point approximation's stated tolerance
+
+
+def test_light_sizes_are_said_in_one_line(blank):
+    for kind in ('SPOT', 'POINT', 'SUN'):
+        bpy.ops.object.light_add(type=kind)          # Blender's default sun angle
+        if kind != 'SUN':
+            bpy.context.object.data.shadow_soft_size = 0.1
+    ex = _mod("extract").extract(bpy.context.evaluated_depsgraph_get())
+    lines = [w for w in ex.all_warnings if "Light sizes" in w]
+    assert len(lines) == 1, ex.all_warnings
+    assert "spot 'Spot' radius" in lines[0] and "point 'Point' radius" in lines[0] and "sun 'Sun'" in lines[0]
