@@ -104,3 +104,42 @@ def test_a_volume_growing_from_scale_zero_renders_every_frame(blank, tmp_path):
     said = done.stdout + done.stderr
     assert "is not rendered in this frame: its scale is zero along some axis" in said
     assert "LinAlgError" not in said
+
+
+def _missing_vdb_file(tmp_path):
+    """The smoke scene saved with its volume reading a relative path to a .vdb that is not there."""
+    volume, blend = _smoke_file(tmp_path)
+    volume.data.filepath = "//caches/gone.vdb"
+    bpy.ops.wm.save_as_mainfile(filepath=blend, copy=True)
+    return blend
+
+
+def test_strict_mode_fails_a_missing_vdb_with_a_non_zero_exit(blank, tmp_path):
+    blend = _missing_vdb_file(tmp_path)
+    tried = os.path.normpath(str(tmp_path / "caches" / "gone.vdb"))
+
+    lenient = _worker(blend, 1, 1, tmp_path / "lenient")
+    assert lenient.returncode == 0, lenient.stdout[-2000:] + lenient.stderr[-2000:]
+    assert os.listdir(tmp_path / "lenient") == ["frame_0001.png"]     # rendered without the smoke
+    assert f"cannot read '{tried}'" in lenient.stdout + lenient.stderr   # the absolute path tried
+
+    strict = _worker(blend, 1, 1, tmp_path / "strict", TFM_STRICT="1")
+    said = strict.stdout + strict.stderr
+    assert strict.returncode != 0, said[-2000:]
+    assert f"Strict mode: Volume 'TFM Smoke': cannot read '{tried}'" in said
+    assert not os.path.exists(tmp_path / "strict") or os.listdir(tmp_path / "strict") == []
+
+
+def test_each_frame_prints_one_log_line(blank, tmp_path):
+    volume, blend = _smoke_file(tmp_path)
+    bpy.context.scene.frame_end = 2
+    bpy.ops.wm.save_as_mainfile(filepath=blend, copy=True)
+
+    done = _worker(blend, 1, 2, tmp_path / "out", TFM_EGL_DEVICE="7")
+    assert done.returncode == 0, done.stdout[-2000:] + done.stderr[-2000:]
+    lines = [line for line in done.stdout.splitlines() if line.startswith("TFM frame ")]
+    assert [line.split(" (")[0] for line in lines] == ["TFM frame 1", "TFM frame 2"]
+    assert "TFM frame 1 (ViewLayer) written in" in lines[0]
+    for line in lines:
+        assert " written in " in line and "| 32x24, 1 samples | add-on 0.1.0 | GL " in line
+        assert "TFM_EGL_DEVICE=7 cannot be used" in line      # a device this machine lacks

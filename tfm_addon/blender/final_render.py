@@ -8,6 +8,9 @@ into Blender's render result, and reports problems to the user; nothing raises i
 from __future__ import annotations
 
 import dataclasses
+import os
+import sys
+import time
 import traceback
 
 import numpy as np
@@ -31,6 +34,87 @@ _preview_reported: set[str] = set()
 
 # Voxels along a mesh medium's longest side in a preview (its shapes span ~100 px of 128).
 PREVIEW_VOLUME_RESOLUTION = 64
+
+STRICT_ENV = "TFM_STRICT"      # 1: every scene renders in strict mode (scene.tfm.strict)
+STRICT_EXIT_CODE = 1           # command-line Blender's exit status when strict mode fails a frame
+# Report lines that say a frame would render without something it needs (a missing or
+# unreadable file or grid): errors in strict mode. A grid with no active voxels is content.
+MISSING_MARKERS = ("rendering without it",)
+NOT_MISSING = ("has no active voxels",)
+
+
+def strict_mode(scene) -> bool:
+    """Strict mode: TFM_STRICT=1 (or true/yes/on) in the environment, or the scene's setting."""
+    if os.environ.get(STRICT_ENV, "").strip().lower() in ("1", "true", "yes", "on"):
+        return True
+    return bool(getattr(getattr(scene, "tfm", None), "strict", False))
+
+
+def missing_data(message: str) -> bool:
+    """True when the report line says the frame renders without something it needs."""
+    return any(m in message for m in MISSING_MARKERS) and not any(m in message for m in NOT_MISSING)
+
+
+def _background() -> bool:
+    import bpy
+
+    return bool(bpy.app.background)
+
+
+def exit_process(code: int) -> None:
+    """End command-line Blender at once with ``code`` (strict mode; tests replace it)."""
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os._exit(code)
+
+
+_addon_version: list[str] = []
+
+
+def addon_version() -> str:
+    """The extension's version from its blender_manifest.toml ('unknown' without one)."""
+    if not _addon_version:
+        version = "unknown"
+        manifest = os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(
+            os.path.abspath(__file__)))), "blender_manifest.toml")
+        try:
+            import tomllib
+
+            with open(manifest, "rb") as f:
+                version = str(tomllib.load(f).get("version", version))
+        except (OSError, ValueError, ImportError):
+            pass
+        _addon_version.append(version)
+    return _addon_version[0]
+
+
+_gl_description: dict = {}
+
+
+def gl_description(worker) -> str:
+    """'vendor / renderer (version)' of the worker's GL context, asked once per worker."""
+    key = id(worker)
+    if key not in _gl_description:
+        try:
+            text = worker.call(lambda r: r.gl.describe(), timeout_s=60.0)
+        except Exception as ex:  # no OpenGL: the log says why (and asks again next frame)
+            return f"unavailable ({type(ex).__name__}: {ex})"
+        _gl_description.clear()
+        _gl_description[key] = text
+    return _gl_description[key]
+
+
+def log_frame(scene, layer: str, width: int, height: int, samples: int, seconds: float,
+              status: str, worker) -> str:
+    """The one line per final-render frame on stdout (render farm logs): frame, view layer, size,
+    samples, time, outcome, add-on version and GL."""
+    gl = gl_description(worker)
+    outcome, _, why = status.partition(": ")
+    line = (f"TFM frame {scene.frame_current} ({layer}) {outcome} in {seconds:.2f} s | "
+            f"{width}x{height}, {samples} samples | add-on {addon_version()} | GL {gl}"
+            + (f" | {why}" if why else ""))
+    print(line, flush=True)
+    return line
 
 
 def preview_settings(settings, width: int, height: int):
@@ -112,9 +196,29 @@ def auto_line(chosen: dict) -> str:
 
 
 def render(engine, depsgraph) -> None:
-    """RenderEngine.render: one frame of one view layer."""
+    """RenderEngine.render: one frame of one view layer. A final render prints one log line
+    (``log_frame``); in strict mode a frame that would render without something it needs is an
+    error, and command-line Blender exits with STRICT_EXIT_CODE."""
     last_messages.clear()
     last_timings.clear()
+    if engine.is_preview:
+        _render(engine, depsgraph, strict=False)
+        return
+    scene = depsgraph.scene
+    strict = strict_mode(scene)
+    start = time.perf_counter()
+    status = _render(engine, depsgraph, strict)
+    width, height = engine.resolution_x, engine.resolution_y
+    log_frame(scene, depsgraph.view_layer.name, width, height, sample_count(scene),
+              time.perf_counter() - start, status, get_worker())
+    if strict and status.startswith("failed") and _background():
+        print(f"TFM strict mode: frame {scene.frame_current} failed ({status[len('failed: '):]}); "
+              f"exiting with status {STRICT_EXIT_CODE}", file=sys.stderr, flush=True)
+        exit_process(STRICT_EXIT_CODE)
+
+
+def _render(engine, depsgraph, strict: bool) -> str:
+    """One frame; returns its outcome for the log: 'written', 'cancelled' or 'failed: why'."""
     scene = depsgraph.scene
     _start_frame(scene.name, scene.frame_current, depsgraph.view_layer.name)
     width, height = engine.resolution_x, engine.resolution_y
@@ -125,10 +229,14 @@ def render(engine, depsgraph) -> None:
                              size=(width, height), window=window,
                              volume_resolution=PREVIEW_VOLUME_RESOLUTION if preview else None)
         if extraction.camera is None:
-            _tell(engine, 'ERROR', "The scene has no camera to render from")
-            return
+            return _fail(engine, "The scene has no camera to render from")
+        missing = [m for m in extraction.all_warnings if missing_data(m)] if strict else []
         for message in extraction.all_warnings:
-            _warn(engine, message, preview)
+            if message not in missing:
+                _warn(engine, message, preview)
+        if missing:
+            return _fail(engine, "Strict mode: " + "; ".join(
+                m.replace("; rendering without it", "") for m in missing))
         settings = extraction.settings
         if preview:
             settings = preview_settings(settings, width, height)
@@ -148,27 +256,32 @@ def render(engine, depsgraph) -> None:
                                      client="preview" if preview else "final")
     except RenderCancelled:
         last_messages.append(('INFO', "cancelled"))
-        return
+        return "cancelled"
     except RendererError as ex:
-        _tell(engine, 'ERROR', str(ex))
-        return
+        return _fail(engine, str(ex))
     except Exception as ex:
         traceback.print_exc()
-        _tell(engine, 'ERROR', f"TFM render failed: {type(ex).__name__}: {ex}")
-        return
+        return _fail(engine, f"TFM render failed: {type(ex).__name__}: {ex}")
     for message in output.warnings:
         if message not in extraction.all_warnings:
             _warn(engine, message, preview)
     last_timings.update(output.timings_s)
     if settings.quality == 'AUTO' and output.chosen and not preview:
         _tell(engine, 'INFO', auto_line(output.chosen))
-    write_result(engine, output, depsgraph.view_layer.name, width, height,
-                 passes=enabled_passes(depsgraph.view_layer))
+    written = write_result(engine, output, depsgraph.view_layer.name, width, height,
+                           passes=enabled_passes(depsgraph.view_layer))
+    return "written" if written else "failed: the render result could not be written"
 
 
-def write_result(engine, output, layer_name: str, width: int, height: int, passes=PASSES) -> None:
+def _fail(engine, message: str) -> str:
+    _tell(engine, 'ERROR', message)
+    return f"failed: {message}"
+
+
+def write_result(engine, output, layer_name: str, width: int, height: int, passes=PASSES) -> bool:
     """Copy a RenderOutput (top row first) into Blender's render result (bottom row first):
-    Combined and ``passes`` (pairs of Blender and RenderOutput pass names)."""
+    Combined and ``passes`` (pairs of Blender and RenderOutput pass names). False when it could
+    not (reported)."""
     for name, _ in passes:
         engine.add_pass(name, 3, "RGB", layer=layer_name)
     result = engine.begin_result(0, 0, width, height, layer=layer_name)
@@ -190,5 +303,6 @@ def write_result(engine, output, layer_name: str, width: int, height: int, passe
     except Exception as ex:
         engine.end_result(result, cancel=True)
         _tell(engine, 'ERROR', f"TFM could not write the render result: {ex}")
-        return
+        return False
     engine.end_result(result)
+    return True
