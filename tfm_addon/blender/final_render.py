@@ -43,6 +43,53 @@ MISSING_MARKERS = ("rendering without it",)
 NOT_MISSING = ("has no active voxels",)
 
 
+BUDGET_ENV = "TFM_MEMORY_BUDGET_GB"   # GiB; overrides scene.tfm.memory_budget_gb
+GIB = 1024 ** 3
+# Bytes a pixel of a final render takes at its peak beyond Blender's render result, measured with
+# python -m tfm_addon.bench.frame_memory (docs/benchmark.md) and rounded up: the renderer's GL
+# images (G-buffer, scattering targets, the samples' sums: host memory on a software GL, the
+# GPU's on a graphics card), the means read back, one pass copied into Blender at a time.
+ENGINE_BYTES_PER_PIXEL = 340
+
+
+def frame_estimate(width: int, height: int, passes: int) -> int:
+    """Bytes a final render of ``width`` x ``height`` with ``passes`` of the three passes needs:
+    the renderer's share and Blender's render result (the engine's and Blender's copy of it,
+    float32 RGBA plus RGB per pass)."""
+    return int(width) * int(height) * (ENGINE_BYTES_PER_PIXEL + 2 * 4 * (4 + 3 * passes))
+
+
+def memory_budget(scene) -> tuple[int | None, str]:
+    """(bytes, where the figure comes from) a final render may use; None: no budget known."""
+    raw = os.environ.get(BUDGET_ENV, "").strip()
+    if raw:
+        try:
+            if float(raw) > 0:
+                return int(float(raw) * GIB), BUDGET_ENV
+        except ValueError:
+            pass
+    gb = float(getattr(getattr(scene, "tfm", None), "memory_budget_gb", 0.0) or 0.0)
+    if gb > 0:
+        return int(gb * GIB), "Render Properties > Sampling > Memory Budget"
+    try:
+        total = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    except (AttributeError, ValueError, OSError):
+        return None, ""
+    return total // 2, "half of this machine's memory"
+
+
+def budget_refusal(scene, width: int, height: int, passes: int) -> str | None:
+    """The message refusing a frame whose estimate exceeds the memory budget, or None."""
+    budget, source = memory_budget(scene)
+    need = frame_estimate(width, height, passes)
+    if budget is None or need <= budget:
+        return None
+    return (f"The frame is {width}x{height} ({width * height / 1e6:.1f} megapixels): TFM would need "
+            f"about {need / GIB:.2f} GiB to render it, above the memory budget of {budget / GIB:.2f} "
+            f"GiB ({source}). Nothing was rendered: lower the resolution, turn off passes, or raise "
+            f"the budget (Memory Budget, or {BUDGET_ENV})")
+
+
 def strict_mode(scene) -> bool:
     """Strict mode: TFM_STRICT=1 (or true/yes/on) in the environment, or the scene's setting."""
     if os.environ.get(STRICT_ENV, "").strip().lower() in ("1", "true", "yes", "on"):
@@ -207,8 +254,13 @@ def render(engine, depsgraph) -> None:
     scene = depsgraph.scene
     strict = strict_mode(scene)
     start = time.perf_counter()
-    status = _render(engine, depsgraph, strict)
     width, height = engine.resolution_x, engine.resolution_y
+    try:
+        status = _render(engine, depsgraph, strict)
+    except KeyboardInterrupt:      # Ctrl+C in a script: the GL job was cancelled (wait_for)
+        print(f"TFM frame {scene.frame_current} ({depsgraph.view_layer.name}) interrupted after "
+              f"{time.perf_counter() - start:.2f} s", flush=True)
+        raise
     log_frame(scene, depsgraph.view_layer.name, width, height, sample_count(scene),
               time.perf_counter() - start, status, get_worker())
     if strict and status.startswith("failed") and _background():
@@ -224,6 +276,10 @@ def _render(engine, depsgraph, strict: bool) -> str:
     width, height = engine.resolution_x, engine.resolution_y
     window = border_window(scene.render, width, height)
     preview = engine.is_preview
+    if not preview:       # before anything the size of the frame is allocated
+        refusal = budget_refusal(scene, width, height, len(enabled_passes(depsgraph.view_layer)))
+        if refusal is not None:
+            return _fail(engine, refusal)
     try:
         extraction = extract(depsgraph, camera_object=engine.camera_override,
                              size=(width, height), window=window,
@@ -299,7 +355,9 @@ def write_result(engine, output, layer_name: str, width: int, height: int, passe
                 raise RendererError(
                     f"pass '{render_pass.name}' is {w}x{h}x{c}, Blender expects "
                     f"{len(render_pass.rect)} pixels of {render_pass.channels} channels")
-            render_pass.rect = np.ascontiguousarray(image[::-1].reshape(h * w, c), dtype=np.float32)
+            # Bottom row first; foreach_set copies the float32 buffer straight in (assigning
+            # ``rect`` would build a Python object per pixel: seconds and ~100 bytes a pixel).
+            render_pass.rect.foreach_set(np.ascontiguousarray(image[::-1], dtype=np.float32).reshape(-1))
     except Exception as ex:
         engine.end_result(result, cancel=True)
         _tell(engine, 'ERROR', f"TFM could not write the render result: {ex}")
