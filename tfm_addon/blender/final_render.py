@@ -46,17 +46,18 @@ NOT_MISSING = ("has no active voxels",)
 BUDGET_ENV = "TFM_MEMORY_BUDGET_GB"   # GiB; overrides scene.tfm.memory_budget_gb
 GIB = 1024 ** 3
 # Bytes a pixel of a final render takes at its peak beyond Blender's render result, measured with
-# python -m tfm_addon.bench.frame_memory (docs/benchmark.md) and rounded up: the renderer's GL
+# python -m tfm_addon.bench.frame_memory (docs/benchmark.md: 317) and rounded up: the renderer's GL
 # images (G-buffer, scattering targets, the samples' sums: host memory on a software GL, the
 # GPU's on a graphics card), the means read back, one pass copied into Blender at a time.
 ENGINE_BYTES_PER_PIXEL = 340
 
 
 def frame_estimate(width: int, height: int, passes: int) -> int:
-    """Bytes a final render of ``width`` x ``height`` with ``passes`` of the three passes needs:
-    the renderer's share and Blender's render result (the engine's and Blender's copy of it,
-    float32 RGBA plus RGB per pass)."""
-    return int(width) * int(height) * (ENGINE_BYTES_PER_PIXEL + 2 * 4 * (4 + 3 * passes))
+    """Bytes a final render of ``width`` x ``height`` with ``passes`` of the three passes needs
+    at its peak: the renderer's share and Blender's render result (float32 RGBA plus RGB per
+    pass). Measured 369 bytes a pixel in all at 1024² and 2048² with the three passes; this
+    gives 392."""
+    return int(width) * int(height) * (ENGINE_BYTES_PER_PIXEL + 4 * (4 + 3 * passes))
 
 
 def memory_budget(scene) -> tuple[int | None, str]:
