@@ -206,8 +206,8 @@ def mesh_volume_resolution(size: tuple[int, int]) -> int:
 
 def degenerate(matrix_world, placed: bool = True) -> str | None:
     """Why an object at ``matrix_world`` cannot be rendered, or None: a matrix with a NaN or an
-    infinity, or (``placed``: media and meshes, whose inverse the renderer needs) a zero scale
-    along some axis (a smoke that grows from scale 0, a flattened object)."""
+    infinity, or (``placed``: media, whose inverse the renderer needs) a zero scale along some
+    axis (a smoke that grows from scale 0, a flattened volume)."""
     m = np.asarray(matrix_world, np.float64)
     if not np.isfinite(m).all():
         return "its transform is not finite (NaN or infinity)"
@@ -247,7 +247,12 @@ def _walk_instances(depsgraph, parts: Change, cache: GridCache,
             unrendered.setdefault(UNRENDERED_TYPES[kind], []).append(_label(instance))
             continue
         if kind in PLACED_TYPES:
-            reason = degenerate(instance.matrix_world, placed=kind != 'LIGHT')
+            # A medium needs its matrix's inverse; a solid only its world triangles (a mesh
+            # flattened to a plane renders as one) and a light only finite numbers.
+            medium_like = kind == 'VOLUME' or (kind in meshes.MESH_TYPES and (
+                fluid.domain_modifier(ob, depsgraph.mode == 'RENDER') is not None
+                or materials.has_volume_only(meshes.first_material(ob))))
+            reason = degenerate(instance.matrix_world, placed=medium_like)
             if reason is not None:      # skipped with one line; the rest of the frame renders
                 part = Change.LIGHTS if kind == 'LIGHT' else (
                     Change.MEDIUM if Change.MEDIUM in parts else Change.SOLIDS)
