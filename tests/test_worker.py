@@ -209,3 +209,27 @@ def test_waiting_for_a_pass_lets_other_python_threads_run(renderer):
         pytest.skip(f"the GPU finished the passes in {waited * 1000:.1f} ms: nothing to wait for")
     # Held GIL: no wake-up at all during the wait. Released: one per 0.5 ms or so (fewer on busy cores).
     assert during >= 5, (during, waited)
+
+
+def test_an_interrupted_waiter_cancels_its_job():
+    # Ctrl+C in a script raises KeyboardInterrupt in the thread waiting for a render: the GL
+    # job must stop at its next check, not finish a frame nobody will read.
+    worker = RenderWorker(renderer_factory=Recorder)
+    recorder = worker.call(lambda r: r)
+    gate = threading.Event()
+    job = worker.submit(_slow("frame", gate, checks=500))     # 5 s if never cancelled
+    assert gate.wait(5)
+
+    def interrupt(fraction):
+        raise KeyboardInterrupt
+
+    from tfm_addon.engine.worker import wait_for
+    job.set_progress(0.5)
+    t0 = time.perf_counter()
+    with pytest.raises(KeyboardInterrupt):
+        wait_for(job, progress=interrupt)
+    assert job.cancelled()
+    assert worker.call(lambda r: "next", timeout_s=2) == "next"   # the thread is free again
+    assert time.perf_counter() - t0 < 2
+    assert recorder.ran == ["frame", "frame stopped"]
+    assert worker.close(5)

@@ -188,3 +188,34 @@ def test_a_warning_is_said_once_per_animation_render(blank, tmp_path):
     assert len([m for m in told if "'Sun'" in m and "sharp sun" in m]) == 1, told
     render_passes(tmp_path, "still")         # a new job: said again
     assert any("sharp sun" in m for level, m in _messages())
+
+
+def test_a_frame_above_the_memory_budget_is_refused_before_rendering(blank, tmp_path, monkeypatch):
+    _smoke_in_blender(tmp_path)
+    final_render = _mod("final_render")
+    asked = []
+
+    class Spy:
+        def render(self, *args, **kwargs):
+            asked.append("render")
+            raise AssertionError("the refused frame was rendered")
+
+        def call(self, fn, timeout_s=None):
+            return "spy GL"
+
+    monkeypatch.setattr(final_render, "get_worker", lambda: Spy())
+    monkeypatch.delenv(final_render.BUDGET_ENV, raising=False)
+    bpy.context.scene.tfm.memory_budget_gb = 0.01            # 10.2 MiB
+    engine = FakeEngine(256, 256)                            # ~26 MB estimated
+    final_render.render(engine, bpy.context.evaluated_depsgraph_get())
+    assert asked == [] and engine.results == 0
+    (message,) = engine.errors
+    need = final_render.frame_estimate(256, 256, 3)
+    assert need > 0.01 * 1024 ** 3
+    assert message.startswith(f"The frame is 256x256 (0.1 megapixels): TFM would need about "
+                              f"{need / 1024 ** 3:.2f} GiB")
+    assert "above the memory budget of 0.01 GiB (Render Properties > Sampling > Memory Budget)" in message
+
+    monkeypatch.setenv(final_render.BUDGET_ENV, "64")        # the environment overrides the scene
+    assert final_render.budget_refusal(bpy.context.scene, 256, 256, 3) is None
+    assert "TFM_MEMORY_BUDGET_GB" in final_render.budget_refusal(bpy.context.scene, 262144, 262144, 3)

@@ -375,6 +375,20 @@ def mesh_volume_resolution(size: tuple[int, int]) -> int:
     return max([n for n in steps if n <= want], default=steps[0])
 
 
+def degenerate(matrix_world, placed: bool = True) -> str | None:
+    """Why an object at ``matrix_world`` cannot be rendered, or None: a matrix with a NaN or an
+    infinity, or (``placed``: media, whose inverse the renderer needs) a zero scale along some
+    axis (a smoke that grows from scale 0, a flattened volume)."""
+    m = np.asarray(matrix_world, np.float64)
+    if not np.isfinite(m).all():
+        return "its transform is not finite (NaN or infinity)"
+    if placed:
+        s = np.linalg.svd(m[:3, :3], compute_uv=False)
+        if s[0] <= 0.0 or s[-1] <= 1e-9 * s[0]:
+            return "its scale is zero along some axis"
+    return None
+
+
 def _walk_instances(depsgraph, parts: Change, cache: GridCache,
                     volume_resolution: int = mesh_volume.DEFAULT_RESOLUTION,
                     kept: WalkCache | None = None) -> dict:
@@ -393,6 +407,7 @@ def _walk_instances(depsgraph, parts: Change, cache: GridCache,
     unrendered: dict[str, list[str]] = {}   # kind of object TFM does not render -> names
     colour_notes: list[str] = []
     light_sizes: list[str] = []       # lights whose size is rendered as a point
+    degenerate_notes: dict[Change, list[str]] = {}
 
     for instance in depsgraph.object_instances:
         ob = instance.object
@@ -405,6 +420,20 @@ def _walk_instances(depsgraph, parts: Change, cache: GridCache,
         if kind in UNRENDERED_TYPES and parts & Change.SOLIDS:
             unrendered.setdefault(UNRENDERED_TYPES[kind], []).append(_label(instance))
             continue
+        if kind in PLACED_TYPES:
+            # A medium needs its matrix's inverse; a solid only its world triangles (a mesh
+            # flattened to a plane renders as one) and a light only finite numbers.
+            medium_like = kind == 'VOLUME' or (kind in meshes.MESH_TYPES and (
+                fluid.domain_modifier(ob, depsgraph.mode == 'RENDER') is not None
+                or materials.has_volume_only(meshes.first_material(ob))))
+            reason = degenerate(instance.matrix_world, placed=medium_like)
+            if reason is not None:      # skipped with one line; the rest of the frame renders
+                part = Change.LIGHTS if kind == 'LIGHT' else (
+                    Change.MEDIUM if Change.MEDIUM in parts else Change.SOLIDS)
+                if part in parts:
+                    degenerate_notes.setdefault(part, []).append(
+                        f"Object '{_label(instance)}' is not rendered in this frame: {reason}")
+                continue
         if kind == 'LIGHT' and Change.LIGHTS in parts:
             if ob.data.type in ('SPOT', 'POINT', 'SUN', 'AREA'):
                 spots.append(lights_module.light(ob, np.array(instance.matrix_world),
@@ -462,6 +491,8 @@ def _walk_instances(depsgraph, parts: Change, cache: GridCache,
                                           **flags)))
 
     notes[Change.SOLIDS].extend(dict.fromkeys(colour_notes))   # once per material
+    for part, lines in degenerate_notes.items():
+        notes[part].extend(dict.fromkeys(lines))
     if Change.LIGHTS in parts:
         note = lights_module.sizes_note(light_sizes)
         if note:
@@ -486,6 +517,8 @@ def _has_hair(ob) -> bool:
 
 # Object types TFM does not render, and how the render report names them.
 UNRENDERED_TYPES = {'CURVES': "Hair curves", 'POINTCLOUD': "Point clouds"}
+# Objects whose matrix places what is rendered (degenerate() checks it before they are read).
+PLACED_TYPES = {'LIGHT', 'VOLUME'} | meshes.MESH_TYPES
 
 
 def _medium_visibility_notes(depsgraph, instance, notes: list[str]) -> None:

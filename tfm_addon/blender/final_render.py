@@ -8,6 +8,9 @@ into Blender's render result, and reports problems to the user; nothing raises i
 from __future__ import annotations
 
 import dataclasses
+import os
+import sys
+import time
 import traceback
 
 import numpy as np
@@ -31,6 +34,135 @@ _preview_reported: set[str] = set()
 
 # Voxels along a mesh medium's longest side in a preview (its shapes span ~100 px of 128).
 PREVIEW_VOLUME_RESOLUTION = 64
+
+STRICT_ENV = "TFM_STRICT"      # 1: every scene renders in strict mode (scene.tfm.strict)
+STRICT_EXIT_CODE = 1           # command-line Blender's exit status when strict mode fails a frame
+# Report lines that say a frame would render without something it needs (a missing or
+# unreadable file or grid): errors in strict mode. A grid with no active voxels is content.
+MISSING_MARKERS = ("rendering without it",)
+NOT_MISSING = ("has no active voxels",)
+
+
+BUDGET_ENV = "TFM_MEMORY_BUDGET_GB"   # GiB; overrides scene.tfm.memory_budget_gb
+GIB = 1024 ** 3
+# Bytes a pixel of a final render takes at its peak beyond Blender's render result, measured with
+# python -m tfm_addon.bench.frame_memory (docs/benchmark.md: 317) and rounded up: the renderer's GL
+# images (G-buffer, scattering targets, the samples' sums: host memory on a software GL, the
+# GPU's on a graphics card), the means read back, one pass copied into Blender at a time.
+ENGINE_BYTES_PER_PIXEL = 340
+
+
+def frame_estimate(width: int, height: int, passes: int) -> int:
+    """Bytes a final render of ``width`` x ``height`` with ``passes`` of the three passes needs
+    at its peak: the renderer's share and Blender's render result (float32 RGBA plus RGB per
+    pass). Measured 369 bytes a pixel in all at 1024² and 2048² with the three passes; this
+    gives 392."""
+    return int(width) * int(height) * (ENGINE_BYTES_PER_PIXEL + 4 * (4 + 3 * passes))
+
+
+def memory_budget(scene) -> tuple[int | None, str]:
+    """(bytes, where the figure comes from) a final render may use; None: no budget known."""
+    raw = os.environ.get(BUDGET_ENV, "").strip()
+    if raw:
+        try:
+            if float(raw) > 0:
+                return int(float(raw) * GIB), BUDGET_ENV
+        except ValueError:
+            pass
+    gb = float(getattr(getattr(scene, "tfm", None), "memory_budget_gb", 0.0) or 0.0)
+    if gb > 0:
+        return int(gb * GIB), "Render Properties > Sampling > Memory Budget"
+    try:
+        total = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    except (AttributeError, ValueError, OSError):
+        return None, ""
+    return total // 2, "half of this machine's memory"
+
+
+def budget_refusal(scene, width: int, height: int, passes: int) -> str | None:
+    """The message refusing a frame whose estimate exceeds the memory budget, or None."""
+    budget, source = memory_budget(scene)
+    need = frame_estimate(width, height, passes)
+    if budget is None or need <= budget:
+        return None
+    return (f"The frame is {width}x{height} ({width * height / 1e6:.1f} megapixels): TFM would need "
+            f"about {need / GIB:.2f} GiB to render it, above the memory budget of {budget / GIB:.2f} "
+            f"GiB ({source}). Nothing was rendered: lower the resolution, turn off passes, or raise "
+            f"the budget (Memory Budget, or {BUDGET_ENV})")
+
+
+def strict_mode(scene) -> bool:
+    """Strict mode: TFM_STRICT=1 (or true/yes/on) in the environment, or the scene's setting."""
+    if os.environ.get(STRICT_ENV, "").strip().lower() in ("1", "true", "yes", "on"):
+        return True
+    return bool(getattr(getattr(scene, "tfm", None), "strict", False))
+
+
+def missing_data(message: str) -> bool:
+    """True when the report line says the frame renders without something it needs."""
+    return any(m in message for m in MISSING_MARKERS) and not any(m in message for m in NOT_MISSING)
+
+
+def _background() -> bool:
+    import bpy
+
+    return bool(bpy.app.background)
+
+
+def exit_process(code: int) -> None:
+    """End command-line Blender at once with ``code`` (strict mode; tests replace it)."""
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os._exit(code)
+
+
+_addon_version: list[str] = []
+
+
+def addon_version() -> str:
+    """The extension's version from its blender_manifest.toml ('unknown' without one)."""
+    if not _addon_version:
+        version = "unknown"
+        manifest = os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(
+            os.path.abspath(__file__)))), "blender_manifest.toml")
+        try:
+            import tomllib
+
+            with open(manifest, "rb") as f:
+                version = str(tomllib.load(f).get("version", version))
+        except (OSError, ValueError, ImportError):
+            pass
+        _addon_version.append(version)
+    return _addon_version[0]
+
+
+_gl_description: dict = {}
+
+
+def gl_description(worker) -> str:
+    """'vendor / renderer (version)' of the worker's GL context, asked once per worker."""
+    key = id(worker)
+    if key not in _gl_description:
+        try:
+            text = worker.call(lambda r: r.gl.describe(), timeout_s=60.0)
+        except Exception as ex:  # no OpenGL: the log says why (and asks again next frame)
+            return f"unavailable ({type(ex).__name__}: {ex})"
+        _gl_description.clear()
+        _gl_description[key] = text
+    return _gl_description[key]
+
+
+def log_frame(scene, layer: str, width: int, height: int, samples: int, seconds: float,
+              status: str, worker) -> str:
+    """The one line per final-render frame on stdout (render farm logs): frame, view layer, size,
+    samples, time, outcome, add-on version and GL."""
+    gl = gl_description(worker)
+    outcome, _, why = status.partition(": ")
+    line = (f"TFM frame {scene.frame_current} ({layer}) {outcome} in {seconds:.2f} s | "
+            f"{width}x{height}, {samples} samples | add-on {addon_version()} | GL {gl}"
+            + (f" | {why}" if why else ""))
+    print(line, flush=True)
+    return line
 
 
 def preview_settings(settings, width: int, height: int):
@@ -112,23 +244,56 @@ def auto_line(chosen: dict) -> str:
 
 
 def render(engine, depsgraph) -> None:
-    """RenderEngine.render: one frame of one view layer."""
+    """RenderEngine.render: one frame of one view layer. A final render prints one log line
+    (``log_frame``); in strict mode a frame that would render without something it needs is an
+    error, and command-line Blender exits with STRICT_EXIT_CODE."""
     last_messages.clear()
     last_timings.clear()
+    if engine.is_preview:
+        _render(engine, depsgraph, strict=False)
+        return
+    scene = depsgraph.scene
+    strict = strict_mode(scene)
+    start = time.perf_counter()
+    width, height = engine.resolution_x, engine.resolution_y
+    try:
+        status = _render(engine, depsgraph, strict)
+    except KeyboardInterrupt:      # Ctrl+C in a script: the GL job was cancelled (wait_for)
+        print(f"TFM frame {scene.frame_current} ({depsgraph.view_layer.name}) interrupted after "
+              f"{time.perf_counter() - start:.2f} s", flush=True)
+        raise
+    log_frame(scene, depsgraph.view_layer.name, width, height, sample_count(scene),
+              time.perf_counter() - start, status, get_worker())
+    if strict and status.startswith("failed") and _background():
+        print(f"TFM strict mode: frame {scene.frame_current} failed ({status[len('failed: '):]}); "
+              f"exiting with status {STRICT_EXIT_CODE}", file=sys.stderr, flush=True)
+        exit_process(STRICT_EXIT_CODE)
+
+
+def _render(engine, depsgraph, strict: bool) -> str:
+    """One frame; returns its outcome for the log: 'written', 'cancelled' or 'failed: why'."""
     scene = depsgraph.scene
     _start_frame(scene.name, scene.frame_current, depsgraph.view_layer.name)
     width, height = engine.resolution_x, engine.resolution_y
     window = border_window(scene.render, width, height)
     preview = engine.is_preview
+    if not preview:       # before anything the size of the frame is allocated
+        refusal = budget_refusal(scene, width, height, len(enabled_passes(depsgraph.view_layer)))
+        if refusal is not None:
+            return _fail(engine, refusal)
     try:
         extraction = extract(depsgraph, camera_object=engine.camera_override,
                              size=(width, height), window=window,
                              volume_resolution=PREVIEW_VOLUME_RESOLUTION if preview else None)
         if extraction.camera is None:
-            _tell(engine, 'ERROR', "The scene has no camera to render from")
-            return
+            return _fail(engine, "The scene has no camera to render from")
+        missing = [m for m in extraction.all_warnings if missing_data(m)] if strict else []
         for message in extraction.all_warnings:
-            _warn(engine, message, preview)
+            if message not in missing:
+                _warn(engine, message, preview)
+        if missing:
+            return _fail(engine, "Strict mode: " + "; ".join(
+                m.replace("; rendering without it", "") for m in missing))
         settings = extraction.settings
         if preview:
             settings = preview_settings(settings, width, height)
@@ -148,27 +313,32 @@ def render(engine, depsgraph) -> None:
                                      client="preview" if preview else "final")
     except RenderCancelled:
         last_messages.append(('INFO', "cancelled"))
-        return
+        return "cancelled"
     except RendererError as ex:
-        _tell(engine, 'ERROR', str(ex))
-        return
+        return _fail(engine, str(ex))
     except Exception as ex:
         traceback.print_exc()
-        _tell(engine, 'ERROR', f"TFM render failed: {type(ex).__name__}: {ex}")
-        return
+        return _fail(engine, f"TFM render failed: {type(ex).__name__}: {ex}")
     for message in output.warnings:
         if message not in extraction.all_warnings:
             _warn(engine, message, preview)
     last_timings.update(output.timings_s)
     if settings.quality == 'AUTO' and output.chosen and not preview:
         _tell(engine, 'INFO', auto_line(output.chosen))
-    write_result(engine, output, depsgraph.view_layer.name, width, height,
-                 passes=enabled_passes(depsgraph.view_layer))
+    written = write_result(engine, output, depsgraph.view_layer.name, width, height,
+                           passes=enabled_passes(depsgraph.view_layer))
+    return "written" if written else "failed: the render result could not be written"
 
 
-def write_result(engine, output, layer_name: str, width: int, height: int, passes=PASSES) -> None:
+def _fail(engine, message: str) -> str:
+    _tell(engine, 'ERROR', message)
+    return f"failed: {message}"
+
+
+def write_result(engine, output, layer_name: str, width: int, height: int, passes=PASSES) -> bool:
     """Copy a RenderOutput (top row first) into Blender's render result (bottom row first):
-    Combined and ``passes`` (pairs of Blender and RenderOutput pass names)."""
+    Combined and ``passes`` (pairs of Blender and RenderOutput pass names). False when it could
+    not (reported)."""
     for name, _ in passes:
         engine.add_pass(name, 3, "RGB", layer=layer_name)
     result = engine.begin_result(0, 0, width, height, layer=layer_name)
@@ -186,9 +356,12 @@ def write_result(engine, output, layer_name: str, width: int, height: int, passe
                 raise RendererError(
                     f"pass '{render_pass.name}' is {w}x{h}x{c}, Blender expects "
                     f"{len(render_pass.rect)} pixels of {render_pass.channels} channels")
-            render_pass.rect = np.ascontiguousarray(image[::-1].reshape(h * w, c), dtype=np.float32)
+            # Bottom row first; foreach_set copies the float32 buffer straight in (assigning
+            # ``rect`` would build a Python object per pixel: seconds and ~100 bytes a pixel).
+            render_pass.rect.foreach_set(np.ascontiguousarray(image[::-1], dtype=np.float32).reshape(-1))
     except Exception as ex:
         engine.end_result(result, cancel=True)
         _tell(engine, 'ERROR', f"TFM could not write the render result: {ex}")
-        return
+        return False
     engine.end_result(result)
+    return True

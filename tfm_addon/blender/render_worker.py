@@ -5,6 +5,7 @@ Created on first use, closed when the add-on is unregistered (no GL context outl
 
 from __future__ import annotations
 
+import atexit
 import threading
 
 _lock = threading.Lock()
@@ -43,3 +44,8 @@ def close_worker() -> bool:
 
 def is_running() -> bool:
     return _worker is not None and _worker.alive
+
+
+# Python's exit (Blender quitting, a script ending, Ctrl+C in a script) ends the GL job and
+# releases the context too, as unregister does; close_worker is a no-op when nothing runs.
+atexit.register(close_worker)

@@ -189,7 +189,7 @@ class GridCache:
             raise VolumeReadError(f"Volume '{label}': frame {grids.frame} of the sequence, "
                                   f"'{_sequence_frame_path(volume, grids.frame)}', not found")
         if len(grids) == 0 and not grids.load():
-            where = grids.frame_filepath or volume.filepath
+            where = _file_path(volume) or volume.filepath      # the absolute path Blender tried
             raise VolumeReadError(f"Volume '{label}': cannot read '{where}': {grids.error_message}")
         return [(g.name, g.data_type) for g in grids]
 

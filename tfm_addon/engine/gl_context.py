@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import ctypes
+import os
 import sys
 import threading
 from pathlib import Path
@@ -21,19 +22,53 @@ def _backends() -> list[str | None]:
     return [None]
 
 
+EGL_DEVICE_ENV = "TFM_EGL_DEVICE"   # which EGL device (GPU) renders: its index, 0 the first
+# What the last create_context did with TFM_EGL_DEVICE, for the render log ('' when not set).
+device_note = ""
+
+
+def egl_device_request() -> tuple[int | None, str]:
+    """The EGL device index TFM_EGL_DEVICE asks for (None: not set, or not an index) and a note
+    saying why it is not used ('' when it is used or not set)."""
+    raw = os.environ.get(EGL_DEVICE_ENV, "").strip()
+    if not raw:
+        return None, ""
+    try:
+        index = int(raw)
+    except ValueError:
+        return None, f"{EGL_DEVICE_ENV}={raw!r} is not a device index (0, 1, ...); the default device is used"
+    if index < 0:
+        return None, f"{EGL_DEVICE_ENV}={raw!r} is negative; the default device is used"
+    if not sys.platform.startswith("linux"):
+        return None, f"{EGL_DEVICE_ENV} is ignored on {sys.platform} (no EGL); the default device is used"
+    return index, ""
+
+
 def create_context():
-    """A standalone OpenGL >= 3.3 context, current on the calling thread."""
+    """A standalone OpenGL >= 3.3 context, current on the calling thread. On Linux the EGL device
+    is TFM_EGL_DEVICE's index when set (glcontext's ``device_index``: the order of
+    eglQueryDevicesEXT); a device that cannot be used falls back to the default one and
+    ``device_note`` says so."""
+    global device_note
     try:
         import moderngl
     except ImportError as exc:  # pragma: no cover - packaging error
         raise GLUnavailableError(f"the moderngl package is missing ({exc})") from exc
+    index, device_note = egl_device_request()
     errors = []
+    attempts = []
     for backend in _backends():
+        if backend == "egl" and index is not None:
+            attempts.append((backend, {"backend": "egl", "device_index": index}))
+        attempts.append((backend, {"backend": backend} if backend else {}))
+    for backend, kwargs in attempts:
         try:
-            kwargs = {"backend": backend} if backend else {}
             ctx = moderngl.create_standalone_context(require=330, **kwargs)
         except Exception as exc:  # moderngl raises plain Exceptions
             errors.append(f"{backend or 'default'}: {exc}")
+            if "device_index" in kwargs:
+                device_note = (f"{EGL_DEVICE_ENV}={index} cannot be used ({exc}); "
+                               "the default device renders")
             continue
         return ctx
     hint = ("install an OpenGL driver with EGL (on Debian/Ubuntu: apt install libegl1 libgl1-mesa-dri)"
@@ -99,6 +134,7 @@ class GLContext:
 
     def __init__(self):
         self.ctx = create_context()
+        self.device_note = device_note
         GLContext.live += 1
         self.thread_id = threading.get_ident()
         self._programs: dict[tuple, object] = {}
@@ -108,6 +144,14 @@ class GLContext:
         self._rects: dict[tuple[int, int], tuple[object, object]] = {}
         self.max_3d_texture_size = int(self.ctx.info.get("GL_MAX_3D_TEXTURE_SIZE", 256))
         self.max_texture_size = int(self.ctx.info.get("GL_MAX_TEXTURE_SIZE", 4096))
+
+    def describe(self) -> str:
+        """'vendor / renderer (OpenGL version)', with the device note when TFM_EGL_DEVICE could
+        not be honoured: the GL the render log names."""
+        info = self.ctx.info
+        text = (f"{info.get('GL_VENDOR', '?')} / {info.get('GL_RENDERER', '?')} "
+                f"(OpenGL {info.get('GL_VERSION', '?')})")
+        return f"{text}; {self.device_note}" if self.device_note else text
 
     def check_thread(self) -> None:
         if threading.get_ident() != self.thread_id:

@@ -240,13 +240,17 @@ class Accumulator:
         sums = renderer.sample_sums(self.key)
         if sums is None or sums.count != self.count:
             raise RuntimeError("the frame's sample sums were released before they were read")
+        # The previous means go before the new ones are read: one copy of the frame at a time.
+        self._output.combined, self._output.passes, self._square_mean = None, {}, None
         with renderer.gl.ctx:
             renderer.gl.finish()      # the GIL-free wait: the read then only copies
             total, square, passes = sums.read()
         n = self.pixel_samples[..., None].astype(np.float32)
-        self._output.combined = total / n
-        self._output.passes = {name: image / n for name, image in passes.items()}
-        self._square_mean = square / n
+        for image in (total, square, *passes.values()):   # in place: no second copy of the frame
+            np.divide(image, n, out=image)
+        self._output.combined = total
+        self._output.passes = passes
+        self._square_mean = square
         self._stale = False
 
     def snapshot(self) -> RenderOutput:

@@ -346,18 +346,26 @@ def wait_for(job: Job, cancel: Callable[[], bool] | None = None,
              progress: Callable[[float], None] | None = None, poll_s: float = POLL_S):
     """Wait for ``job`` on the calling thread and return its result, calling ``progress`` with
     each fraction it reported and ``cancel()`` each time the job checks in (``Job.check_in``,
-    between passes; a true value cancels it). Waits in steps of ``poll_s`` seconds."""
+    between passes; a true value cancels it). Waits in steps of ``poll_s`` seconds. A waiter
+    that stops waiting without a result (Ctrl+C's KeyboardInterrupt, an error in a callback)
+    cancels the job first: the GL thread stops it at its next check instead of finishing a frame
+    nobody will read."""
     job.lockstep = cancel is not None
-    while True:
-        ended, asked = job._wait_event(poll_s)
-        if progress is not None:
-            for fraction in job.take_progress():
-                progress(fraction)
-        else:
-            job.take_progress()
-        if ended:
-            return job.result(0)
-        if asked:  # the GL thread finished a pass and waits: ask here, on the host's thread
-            if cancel is not None and not job.cancelled() and cancel():
-                job.cancel()
-            job._answer()
+    try:
+        while True:
+            ended, asked = job._wait_event(poll_s)
+            if progress is not None:
+                for fraction in job.take_progress():
+                    progress(fraction)
+            else:
+                job.take_progress()
+            if ended:
+                return job.result(0)
+            if asked:  # the GL thread finished a pass and waits: ask here, on the host's thread
+                if cancel is not None and not job.cancelled() and cancel():
+                    job.cancel()
+                job._answer()
+    except BaseException:
+        if not job.done:
+            job.cancel()
+        raise

@@ -48,6 +48,8 @@ class TFM_PT_render(_TFMPanel, bpy.types.Panel):
         col.prop(tfm, "viewport_scale")
         col.prop(tfm, "samples")
         col.prop(tfm, "viewport_samples")
+        col.prop(tfm, "strict")
+        col.prop(tfm, "memory_budget_gb")
 
 
 class TFM_PT_render_maps(_TFMPanel, bpy.types.Panel):

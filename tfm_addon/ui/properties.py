@@ -114,6 +114,20 @@ class TFM_SceneSettings(bpy.types.PropertyGroup):
         name="Viewport Samples", default=16, min=1, soft_max=256, max=4096,
         description="Samples the viewport accumulates while nothing changes",
     )
+    strict: BoolProperty(
+        name="Strict", default=False,
+        description="Fail a final render instead of rendering without something it needs (a "
+                    "missing or unreadable volume file or grid, no OpenGL): the frame is not written, "
+                    "and command-line Blender exits with a non-zero code. The environment variable "
+                    "TFM_STRICT=1 turns it on for every scene",
+    )
+    memory_budget_gb: FloatProperty(
+        name="Memory Budget", default=0.0, min=0.0, soft_max=256.0, unit='NONE',
+        description="Largest memory (GiB) a final render's image may use; a frame estimated above it "
+                    "is refused before anything is allocated, with its size and the estimate. 0: "
+                    "half of the machine's memory (the environment variable TFM_MEMORY_BUDGET_GB "
+                    "overrides it)",
+    )
 
     @classmethod
     def register(cls):

@@ -66,16 +66,17 @@ class SampleSums:
 
     def read(self) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]]:
         """(sum of combined, sum of its square) as (h, w, 4) float32 and the passes' sums as
-        (h, w, 3) float32 ({} without passes), top row first."""
+        (h, w, 3) float32 ({} without passes), top row first: views of the arrays read (rows
+        flipped, the passes' fourth channel left out), not copies, so that a frame's read-back
+        holds 16 bytes a pixel per texture and no more."""
         w, h = self.size
         images = []
         for t in self.textures:
             image = np.empty((h, w, 4), np.float32)
             t.read_into(image)
             images.append(image[::-1])
-        passes = {name: np.ascontiguousarray(image[..., :3])
-                  for name, image in zip(PASS_NAMES, images[2:], strict=False)}
-        return np.ascontiguousarray(images[0]), np.ascontiguousarray(images[1]), passes
+        passes = {name: image[..., :3] for name, image in zip(PASS_NAMES, images[2:], strict=False)}
+        return images[0], images[1], passes
 
     def release(self) -> None:
         """Back to the pool (at most SUMS_POOL free per size), else freed."""
