@@ -99,14 +99,14 @@ def test_an_emission_edit_in_the_viewport_uploads_nothing(blank, tmp_path, flags
     session.close()
 
 
-def test_a_strength_grid_with_negative_voxels_glows_as_in_cycles(blank, tmp_path, monkeypatch):
+def test_a_strength_grid_with_negative_voxels_glows_as_in_cycles(blank, tmp_path):
     """A strength grid alone whose every other voxel is negative: Cycles looks the grid up one voxel
     at a time, so the negative voxels emit nothing and the others their own emission. The add-on's
     render (the strength combined per voxel, its clamp per voxel) agrees with Cycles within 3 % in
-    brightness; the clamp of the trilinear blend (the grid kept apart, COMBINE_EMISSION off, as
-    the numpy reference models it) is less than 0.7 of it."""
-    from tfm_addon.engine import Renderer, metrics
-    from tfm_addon.engine.passes import emission
+    brightness; the clamp of the trilinear blend (as the numpy reference models it) is less than
+    0.7 of it."""
+    from tfm_addon.engine import metrics
+    from tfm_addon.engine.reference import render_reference
 
     scene = scenes.fire_scene(64, 36, 24, kind="EMISSION")
     m = scene.medium
@@ -116,12 +116,8 @@ def test_a_strength_grid_with_negative_voxels_glows_as_in_cycles(blank, tmp_path
     scene = dataclasses.replace(scene, medium=dataclasses.replace(m, grids={**m.grids, "flame": signed}))
     made = _mod("scene_builder").build(scene, str(tmp_path), settings=SETTINGS)
     tfm = render_passes(tmp_path, "tfm")["Combined"][..., :3]
-    monkeypatch.setattr(emission, "COMBINE_EMISSION", False)
-    r = Renderer()
-    try:
-        blend = r.render(scene, SETTINGS).combined[..., :3]
-    finally:
-        r.release()
+    blend = render_reference(scene, view_steps=SETTINGS.view_steps,
+                             light_steps=SETTINGS.light_steps).combined[..., :3]
     _mod("scene_builder").cycles_single_scattering(bpy.context.scene, samples=256)
     made["medium"].visible_diffuse = False
     made["medium"].visible_volume_scatter = False

@@ -27,7 +27,6 @@ from .light import (
 )
 from .medium_grid import grid_allowances, prepare_grid
 from .output import RenderOutput
-from .passes import scattering
 from .passes.accumulate import SampleSums
 from .passes.bindings import (
     MAX_GRIDS,
@@ -351,7 +350,7 @@ class Renderer:
             # of a clear are read only where a frame composed whole has pixels no pass drew.
             # A lone pass writes the combined image itself (no composite pass): over every pixel
             # of a frame, or (an antialiasing sample) added into the frame's sums.
-            lone = (scattering.LONE_PASS_COMPOSES and len(plans) <= 1
+            lone = (len(plans) <= 1
                     and (accumulate is not None or active is None))
             compose = (settings.film_transparent, scene.background) if lone else None
             sums = None

@@ -27,8 +27,6 @@ GRID_FORMATS = {"R32F": ("f4", np.float32), "R16F": ("f2", np.float16), "R16": (
                 "R8": ("nu1", np.uint8)}
 GRID_FORMAT = "R16"
 OCCUPANCY_BLOCK = 8     # voxels per side of an occupancy cell (empty-space skipping)
-LIGHT_SKIP = 0          # 1: the light marches (TFM build, brute force) jump over empty cells, exactly
-# (tfm_build.frag); 0, the default: every step (slower with 1 on llvmpipe, docs/benchmark.md)
 
 MEDIUM_NONE, MEDIUM_BOX, MEDIUM_EVERYWHERE, MEDIUM_GRID = 0, 1, 2, 3
 """MEDIUM_GRID marches every medium (density grids and homogeneous boxes, several of them)."""
@@ -348,7 +346,7 @@ class MediaGPU:
         index = {id(g): i for i, g in enumerate(self.grids)}
         slots = [index[id(s.grid)] if s.grid is not None else -1 for s in self.slots]
         slots += [-1] * (MAX_MEDIA - len(slots))
-        return {"N_MEDIA": len(self.slots), "N_GRIDS": max(len(self.grids), 1), "LIGHT_SKIP": int(LIGHT_SKIP),
+        return {"N_MEDIA": len(self.slots), "N_GRIDS": max(len(self.grids), 1),
                 "MEDIA_SLOTS": "int[{}]({})".format(MAX_MEDIA, ", ".join(str(s) for s in slots))}
 
     def bind(self, prog, weights=None) -> None:
