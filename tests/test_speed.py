@@ -11,9 +11,10 @@ from scipy import ndimage
 
 from tfm_addon.engine import Medium, RenderSettings
 from tfm_addon.engine import reference as reference_module
+from tfm_addon.engine.boxes import nonzero_bounds
 from tfm_addon.engine.light import LightFrame
 from tfm_addon.engine.metrics import brightness_ratio, ssim
-from tfm_addon.engine.passes.bindings import OCCUPANCY_BLOCK, nonzero_bounds, occupancy
+from tfm_addon.engine.passes.bindings import OCCUPANCY_BLOCK, occupancy
 from tfm_addon.engine.passes.tfm import footprint_resolution, tfm_resolution
 from tfm_addon.engine.reference import render_reference
 from tfm_addon.scenes import grid_to_world, smoke_density, smoke_scene

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..boxes import nonzero_bounds
 from ..gl_context import GLContext, mat4_bytes, set_matrix, set_uniforms
 from ..light import LightFrame
 from ..medium_grid import PreparedGrid
@@ -164,19 +165,6 @@ class MediumGPU:
         for t in (self.texture, self.occupancy, self.occupancy1):
             if t is not None:
                 t.release()
-
-
-def nonzero_bounds(density: np.ndarray) -> tuple[tuple[float, ...], tuple[float, ...]]:
-    """(lo, hi) in index space of the tightest box outside which the trilinear density is 0:
-    one voxel beyond the first and last non-zero voxel centres on each axis."""
-    lo, hi = [], []
-    for axis in range(3):
-        other = tuple(a for a in range(3) if a != axis)
-        nz = np.flatnonzero(np.any(density > 0, axis=other))
-        first, last = (int(nz[0]), int(nz[-1])) if nz.size else (1, -1)     # empty: lo = hi
-        lo.append(float(first - 1))
-        hi.append(float(last + 1))
-    return tuple(lo), tuple(hi)
 
 
 def stored_grid(density: np.ndarray, numpy_type, scale: float) -> np.ndarray:
