@@ -19,21 +19,21 @@ SETTINGS = RenderSettings(view_steps=96, light_steps=96, map_resolution=128, coe
 
 
 def _colored(scene: Scene) -> Scene:
-    m = scene.medium
-    return dataclasses.replace(scene, medium=dataclasses.replace(
-        m, grids={**m.grids, "color": scenes.color_grid_for(m.density)}, color_grid="color"))
+    m = scene.media[0]
+    return dataclasses.replace(scene, media=(dataclasses.replace(
+        m, grids={**m.grids, "color": scenes.color_grid_for(m.density)}, color_grid="color"),))
 
 
 def _instanced(scene: Scene) -> Scene:
     """The fire and a second, darker instance of its density grid beside it (one texture, two
     media: only the first reads the packed density, the other the density texture)."""
-    m = scene.medium
+    m = scene.media[0]
     placed = m.index_to_world.copy()
     placed[0, 3] += 1.6
     dark = dict(emission_strength=GridValue(offset=0.0), blackbody_intensity=GridValue(offset=0.0),
                 temperature=GridValue(offset=1000.0))
     other = dataclasses.replace(m, name="Smoke", index_to_world=placed, grids={}, **dark)
-    return dataclasses.replace(scene, medium=None, media=(m, other))
+    return dataclasses.replace(scene, media=(m, other))
 
 
 def _scene(case: str) -> Scene:
@@ -104,7 +104,8 @@ def test_emission_edits_of_a_packed_fire_upload_nothing(fresh):
         scene = scenes.fire_scene(48, 27, 24, kind=kind, with_light=True)
         first = fresh.render(scene, SETTINGS).combined
         for change in changes:
-            edited = scene = dataclasses.replace(scene, medium=dataclasses.replace(scene.medium, **change))
+            edited = scene = dataclasses.replace(
+                scene, media=(dataclasses.replace(scene.media[0], **change),))
             before = dict(fresh.counters)
             out = fresh.render(edited, SETTINGS).combined
             for counter in ("attribute_uploads", "grid_uploads", "shadow_maps", "tfms"):
@@ -127,7 +128,7 @@ def test_the_packed_values_are_the_density_texture_and_the_attributes():
     r = Renderer()
     try:
         scene = scenes.fire_scene(48, 27, 24, kind="QUICK_FIRE")
-        m = scene.medium
+        m = scene.media[0]
         grid = prepare_grid(m.density, np.eye(4), 256, 1 << 30, m.clipping)
         density = bindings.MediumGPU(r.gl, m, grid)
         prepared = prepare_attributes(m, 1)
@@ -170,7 +171,7 @@ def test_the_emission_compiled_for_its_grids_matches_the_reference(fresh, case):
     reference."""
     grids = 4
     scene = scenes.fire_scene(64, 36, 24, kind="FIRE")
-    m = scene.medium
+    m = scene.media[0]
     if case.startswith("strength"):     # the strength grid with an offset, a constant blackbody (1800 K)
         m = dataclasses.replace(m, emission_strength=GridValue("flame", 4.0, 0.05),
                                 temperature=GridValue(offset=1800.0),
@@ -179,7 +180,7 @@ def test_the_emission_compiled_for_its_grids_matches_the_reference(fresh, case):
         m = dataclasses.replace(m, emission_strength=GridValue(offset=0.1), blackbody_tint=(1.0, 0.8, 0.6))
     else:               # both grids, the strength with an offset
         m = dataclasses.replace(m, emission_strength=GridValue("flame", 4.0, 0.05))
-    scene = dataclasses.replace(scene, medium=m)
+    scene = dataclasses.replace(scene, media=(m,))
     out = fresh.render(scene, SETTINGS).combined[..., :3]
     compiled = {dict(k[2]).get("EMISSION_GRIDS") for k in fresh.gl._programs if k[1] == "scatter.frag"}
     assert compiled == {grids}
@@ -216,7 +217,7 @@ def test_grids_combined_per_voxel_give_the_reference_frame(fresh, kind):
     assert attributes.grids_read() == 4 and attributes.combines == 1
     edited = scene
     for k, change in enumerate(edits):
-        edited = dataclasses.replace(edited, medium=dataclasses.replace(edited.medium, **change))
+        edited = dataclasses.replace(edited, media=(dataclasses.replace(edited.media[0], **change),))
         before = dict(fresh.counters)
         got.append(fresh.render(edited, SETTINGS).combined[..., :3])
         expected.append(_reference(edited))

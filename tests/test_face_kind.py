@@ -25,7 +25,7 @@ def _scenes() -> dict:
              "area": Light(matrix_world=look_at((-1.5, -1.5, 3.5), (0, 0, 1.0)), power_w=1500.0, kind="AREA",
                            size_m=(0.5, 0.5))}
     for name, light in kinds.items():
-        lit[name] = Scene(camera=spot.camera, lights=(light,), medium=spot.medium,
+        lit[name] = Scene(camera=spot.camera, lights=(light,), media=(spot.media[0],),
                           meshes=(plane_mesh((0, 0, 0), 8.0), box_mesh((0.8, 0.0, 0.5), (0.3, 0.3, 1.0))))
     return lit
 

@@ -66,7 +66,7 @@ def _analytic(medium: Medium) -> MediaGPU:
 
 def _scene(*lights, medium=None) -> Scene:
     base = homogeneous_box_scene(width=64, height=36)
-    return dataclasses.replace(base, lights=tuple(lights), medium=medium or base.medium)
+    return dataclasses.replace(base, lights=tuple(lights), media=(medium or base.media[0],))
 
 
 def _plan(scene, media, settings=SETTINGS, casts_shadows=True, seen_bounds=None, **kw):

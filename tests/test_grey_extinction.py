@@ -22,12 +22,12 @@ def _scene(grey: bool, method: str):
     scene = scenes.smoke_scene(width=64, height=36, n=32, with_ground=True,
                                sigma_s=(1.5, 1.5, 1.5), sigma_a=(0.2, 0.2, 0.2) if grey else (0.1, 0.2, 0.4))
     if method == "two media":     # a second, grey or coloured, instance beside the first
-        m = scene.medium
+        m = scene.media[0]
         placed = m.index_to_world.copy()
         placed[0, 3] += 0.8
         other = dataclasses.replace(m, name="Other", index_to_world=placed,
                                     sigma_a=(0.3, 0.3, 0.3) if grey else (0.3, 0.1, 0.05))
-        scene = dataclasses.replace(scene, medium=None, media=(m, other))
+        scene = dataclasses.replace(scene, media=(m, other))
     return scene
 
 

@@ -42,7 +42,7 @@ def _scene(density: np.ndarray):
     base = smoke_scene(width=64, height=40, n=density.shape[0], with_bar=False)
     medium = Medium(sigma_a=(0.2, 0.2, 0.2), sigma_s=(3.0, 3.0, 3.0), density=density,
                     index_to_world=grid_to_world(density.shape, 2.0, (0, 0, 1.2)))
-    return dataclasses.replace(base, medium=medium)
+    return dataclasses.replace(base, media=(medium,))
 
 
 @pytest.fixture(scope="module")

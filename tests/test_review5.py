@@ -31,7 +31,7 @@ def _fire(width=48, height=27, light=False):
     and its temperature burning in a third block touching the opposite faces, so that the
     emission's box is not the whole grid and reaches the texture's border."""
     scene = scenes.fire_scene(width, height, 24, kind="FIRE", with_light=light, with_occluder=light)
-    m = scene.medium
+    m = scene.media[0]
     nx, ny, nz = m.density.shape
     flame = np.zeros(m.density.shape, np.float32)
     rng = np.random.default_rng(5)
@@ -40,11 +40,11 @@ def _fire(width=48, height=27, light=False):
     temperature = np.zeros(m.density.shape, np.float32)
     temperature[16:nx, 14:ny, 26:nz] = 1.5 + 1.5 * rng.random((nx - 16, ny - 14, nz - 26))
     m = dataclasses.replace(m, grids={"flame": flame, "temperature": temperature})
-    return dataclasses.replace(scene, medium=m)
+    return dataclasses.replace(scene, media=(m,))
 
 
 def _with(scene, **fields):
-    return dataclasses.replace(scene, medium=dataclasses.replace(scene.medium, **fields))
+    return dataclasses.replace(scene, media=(dataclasses.replace(scene.media[0], **fields),))
 
 
 def _expected_texels(medium, stored_r):
@@ -97,11 +97,11 @@ def test_the_combined_texture_is_the_per_voxel_emission_everywhere(fresh):
     wherever that is 0 (outside the emission's box above all), and R the density texture's own
     values (packed), untouched by the edits."""
     scene = _fire()
-    flame = scene.medium.grids["flame"].copy()
+    flame = scene.media[0].grids["flame"].copy()
     flame[3, 2, 4] = np.nan
     flame[10, 9, 13] = -0.8          # a negative voxel among emitting ones
     flame[20, 20, 2] = -0.5          # and one alone, where nothing emits
-    scene = _with(scene, grids={**scene.medium.grids, "flame": flame})
+    scene = _with(scene, grids={**scene.media[0].grids, "flame": flame})
     for k, (name, change) in enumerate(EDITS):
         edited = _with(scene, **change)
         fresh.render(edited, SETTINGS)
@@ -110,7 +110,7 @@ def test_the_combined_texture_is_the_per_voxel_emission_everywhere(fresh):
         assert attributes.packed == emission.PACKED_ATTRS_R
         assert attributes.combines == k + 1        # each edit recomputed it once
         got, stored = _read(fresh, attributes)
-        want = _expected_texels(edited.medium, stored)
+        want = _expected_texels(edited.media[0], stored)
         peak = float(np.abs(want[..., 1:]).max())
         diff = float(np.abs(got - want).max())
         print(f"{name}: peak {peak:.4g}, largest texel difference {diff:.2e}")
@@ -151,7 +151,7 @@ def _cases():
     """(name, scene, the reference scene whose emission is the per-voxel clamp written out, or a
     list of (weight, scene) whose references add up to it; None: the scene's own reference)."""
     scene = _fire_scene()
-    m = scene.medium
+    m = scene.media[0]
     flame = m.grids["flame"]
     nan = flame.copy()
     nan[flame > 0.5] = np.nan
@@ -233,12 +233,12 @@ def test_edits_kind_switches_instances_and_clears_keep_the_combination_right(fre
     clear_maps: every frame is a fresh renderer's, and the combined texture is recomputed
     exactly when its uniforms changed."""
     scene = scenes.fire_scene(48, 27, 24, kind="FIRE", with_light=True, with_occluder=True)
-    m = scene.medium
+    m = scene.media[0]
     placed = m.index_to_world.copy()
     placed[0, 3] += 1.4
     twin = dataclasses.replace(m, name="Twin", index_to_world=placed, emission_color=(0.0, 0.0, 0.0),
                                blackbody_intensity=GridValue(offset=0.0))
-    pair = dataclasses.replace(scene, medium=None, media=(m, twin))
+    pair = dataclasses.replace(scene, media=(m, twin))
     green = dataclasses.replace(m, emission_color=(0.2, 0.9, 0.3))
     steps = [
         ("alone", scene, True),
@@ -374,11 +374,11 @@ def test_a_downsampled_fire_is_combined_on_the_density_lattice(fresh):
     of the full grids (the downsampling blurs it); so does the pair of the fire and its
     instance."""
     scene = scenes.fire_scene(48, 27, 24, kind="FIRE", with_light=True, with_occluder=True)
-    settings = dataclasses.replace(SETTINGS, max_grid_bytes=scene.medium.density.size * 4 // 5)
-    m = scene.medium
+    settings = dataclasses.replace(SETTINGS, max_grid_bytes=scene.media[0].density.size * 4 // 5)
+    m = scene.media[0]
     placed = m.index_to_world.copy()
     placed[0, 3] += 1.4
-    pair = dataclasses.replace(scene, medium=None, media=(m, dataclasses.replace(
+    pair = dataclasses.replace(scene, media=(m, dataclasses.replace(
         m, name="Twin", index_to_world=placed, emission_color=(0.0, 0.0, 0.0),
         blackbody_intensity=GridValue(offset=0.0))))
     for name, s in [("fire", scene), ("fire and its instance", pair)]:
@@ -404,7 +404,7 @@ def test_the_lone_grid_march_needs_no_box_test(fresh):
     from tfm_addon.engine import mesh_volume as mv
 
     base = scenes.fire_scene(48, 27, 24, kind="QUICK_FIRE", with_light=True, with_occluder=True)
-    m = base.medium
+    m = base.media[0]
     rng = np.random.default_rng(9)
     d = (0.2 + rng.random(m.density.shape)).astype(np.float32)
     a = np.asarray(m.index_to_world, np.float64)
@@ -425,15 +425,15 @@ def test_the_lone_grid_march_needs_no_box_test(fresh):
                  grids={k: np.ones_like(g) * 1.2 for k, g in m.grids.items()}),
              "mesh volume": sphere}
     for name, medium in cases.items():
-        scene = dataclasses.replace(base, medium=medium)
+        scene = dataclasses.replace(base, media=(medium,))
         packed = fresh.render(scene, SETTINGS).combined
         (attributes,) = fresh._attributes.items.values()
         assert attributes.packed == emission.PACKED_ATTRS_R, name
         fresh.clear_maps()
         ratio, ssim, diff = _agree(packed[..., :3], _ref(scene))
         assert np.all(np.abs(ratio - 1.0) <= 0.01) and ssim >= 0.99, (name, ratio, ssim)
-        unlit = dataclasses.replace(scene, lights=(), medium=dataclasses.replace(
-            medium, emission_strength=GridValue(offset=0.0), blackbody_intensity=GridValue(offset=0.0)))
+        unlit = dataclasses.replace(scene, lights=(), media=(dataclasses.replace(
+            medium, emission_strength=GridValue(offset=0.0), blackbody_intensity=GridValue(offset=0.0)),))
         dark = render_reference(unlit, view_steps=96, light_steps=8)
         alpha = fresh.render(unlit, SETTINGS).combined[..., 3]
         compiled = {dict(k[2]).get("PACKED_DENSITY") for k in fresh.gl._programs if k[1] == "scatter.frag"}
@@ -452,7 +452,7 @@ def test_the_emission_box_at_the_texture_corners(fresh, spots):
     uniform): the combined texture is the per-voxel emission, for a positive, a negative scale
     and a negative offset."""
     base = scenes.fire_scene(32, 18, 16, kind="FIRE")
-    shape = base.medium.density.shape
+    shape = base.media[0].density.shape
     high = tuple(n - 1 for n in shape)
     at = {"low corner": [(0, 0, 0)], "high corner": [high], "both corners": [(0, 0, 0), high], "none": []}
     flame, temperature = np.zeros(shape, np.float32), np.zeros(shape, np.float32)
@@ -474,7 +474,7 @@ def test_the_emission_box_at_the_texture_corners(fresh, spots):
             else:
                 assert attributes._block is None
             got, stored = _read(r, attributes)
-            want = _expected_texels(scene.medium, stored)
+            want = _expected_texels(scene.media[0], stored)
             assert np.abs(got - want).max() <= 1e-6 * max(float(np.abs(want).max()), 1e-30)
             assert np.all(got[..., 1:][want[..., 1:] == 0.0] == 0.0)
         finally:

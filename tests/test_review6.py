@@ -26,7 +26,7 @@ COUNTERS = ("attribute_uploads", "grid_uploads", "shadow_maps", "tfms")
 
 
 def _with(scene, **fields):
-    return dataclasses.replace(scene, medium=dataclasses.replace(scene.medium, **fields))
+    return dataclasses.replace(scene, media=(dataclasses.replace(scene.media[0], **fields),))
 
 
 def _grid_value(medium, v):
@@ -66,13 +66,13 @@ def _texels(renderer, attributes):
 def _flame_with_holes(scene):
     """The flame grid with a NaN and a negative voxel among the emitting ones, and a negative voxel
     where nothing emits."""
-    flame = scene.medium.grids["flame"].copy()
+    flame = scene.media[0].grids["flame"].copy()
     hot = np.argwhere(flame > 0.3)
     flame[tuple(hot[0])] = np.nan
     flame[tuple(hot[len(hot) // 2])] = -0.8
     flame[-1, -1, -1] = -0.5
-    assert scene.medium.grids["flame"][-1, -1, -1] == 0.0
-    return _with(scene, grids={**scene.medium.grids, "flame": flame})
+    assert scene.media[0].grids["flame"][-1, -1, -1] == 0.0
+    return _with(scene, grids={**scene.media[0].grids, "flame": flame})
 
 
 LONE_EDITS = {
@@ -128,7 +128,7 @@ def test_a_lone_grid_combined_holds_the_per_voxel_emission_after_each_edit(fresh
         assert attributes.combines == k + 1, name        # each edit differs from the one before
         got, stored = _texels(fresh, attributes)
         want = np.zeros_like(got, dtype=np.float64)
-        e = _per_voxel_emission(edited.medium, strength, blackbody)
+        e = _per_voxel_emission(edited.media[0], strength, blackbody)
         want[1:-1, 1:-1, 1:-1, 1:] = e.transpose(2, 1, 0, 3)
         peak = float(np.abs(want[..., 1:]).max())
         diff = float(np.abs(got[..., 1:] - want[..., 1:]).max())
@@ -137,8 +137,8 @@ def test_a_lone_grid_combined_holds_the_per_voxel_emission_after_each_edit(fresh
         assert np.array_equal(got[..., 0], stored), name
         assert diff <= 1e-6 * max(peak, 1e-30), name
         assert np.all(got[..., 1:][want[..., 1:] == 0.0] == 0.0), name
-        offset = edited.medium.emission_strength.offset
-        glows = offset > 0.0 and any(edited.medium.emission_color) or "constant blackbody" in name
+        offset = edited.media[0].emission_strength.offset
+        glows = offset > 0.0 and any(edited.media[0].emission_color) or "constant blackbody" in name
         assert kinds == {3 if glows else 2}, name
 
 
@@ -169,7 +169,7 @@ def _strength_cases():
     """(name, scene, the reference scene whose emission is the per-voxel clamp written out, or a
     list of (weight, scene) whose references add up to it; None: the scene's own reference)."""
     scene = scenes.fire_scene(48, 27, 24, kind="EMISSION", with_light=True)
-    m = scene.medium
+    m = scene.media[0]
     flame = m.grids["flame"]
     nan = flame.copy()
     nan[flame > 0.5] = np.nan
@@ -209,7 +209,7 @@ def _strength_cases():
 
 def _quick_fire_cases():
     scene = scenes.fire_scene(48, 27, 24, kind="QUICK_FIRE", with_light=True)
-    m = scene.medium
+    m = scene.media[0]
     color = {**m.grids, "color": scenes.color_grid_for(m.density)}
     yield "as made", scene
     yield "tint", _with(scene, blackbody_tint=(0.5, 0.7, 1.0))
@@ -287,7 +287,7 @@ def test_an_emission_turned_off_and_on_again_uploads_nothing(fresh, kind, colore
     of its peak), the emission gone where it is off and back where it is on."""
     scene = scenes.fire_scene(48, 27, 24, kind=kind, with_light=True)
     if colored:
-        m = scene.medium
+        m = scene.media[0]
         scene = _with(scene, grids={**m.grids, "color": scenes.color_grid_for(m.density)}, color_grid="color")
     first = fresh.render(scene, SETTINGS).combined[..., :3]
     dark = fresh.render(_with(scene, emission_color=(0.0, 0.0, 0.0), blackbody_tint=(0.0, 0.0, 0.0)),
@@ -302,7 +302,7 @@ def test_an_emission_turned_off_and_on_again_uploads_nothing(fresh, kind, colore
         want = _fresh_frame(fresh, edited)
         diff = float(np.abs(out - want).max())
         assert diff <= 1e-6 * float(want.max()), change
-        if not edited.medium.has_emission:
+        if not edited.media[0].has_emission:
             assert float(np.abs(out - dark).max()) <= 1e-6 * float(dark.max()), change
 
 
@@ -319,7 +319,7 @@ def _boxed_fire(kind):
     negative strength voxels everywhere else, and an instance of its density beside it that emits
     nothing (rays through it sample the packed texture outside the fire's box)."""
     scene = scenes.fire_scene(48, 27, 24, kind=kind, with_light=True, with_occluder=True)
-    m = scene.medium
+    m = scene.media[0]
     rng = np.random.default_rng(3)
     flame = -(0.2 + 0.8 * rng.random(m.density.shape)).astype(np.float32)
     flame[8:16, 8:16, 4:14] = 0.3 + 0.7 * rng.random((8, 8, 10))
@@ -331,7 +331,7 @@ def _boxed_fire(kind):
     dark = dict(emission_strength=GridValue(offset=0.0), blackbody_intensity=GridValue(offset=0.0),
                 temperature=GridValue(offset=1000.0))
     twin = dataclasses.replace(m, name="Twin", index_to_world=placed, grids={}, **dark)
-    return dataclasses.replace(scene, medium=None, media=(m, twin))
+    return dataclasses.replace(scene, media=(m, twin))
 
 
 SHORTCUT = {
@@ -467,16 +467,16 @@ def test_a_downsampled_lone_grid_is_combined_on_the_density_lattice(fresh, kind)
     numpy reference of the full grids (the downsampling blurs it), with an offset above 0 too
     (EMISSION 3)."""
     scene = scenes.fire_scene(48, 27, 24, kind=kind, with_light=True, with_occluder=True)
-    settings = dataclasses.replace(SETTINGS, max_grid_bytes=scene.medium.density.size * 4 // 5)
+    settings = dataclasses.replace(SETTINGS, max_grid_bytes=scene.media[0].density.size * 4 // 5)
     offset = GridValue("flame", 4.0, 0.2) if kind == "EMISSION" else GridValue(offset=0.2)
     for s in (scene, _with(scene, emission_strength=offset)):
         out = fresh.render(s, settings)
         assert any("downsampled by 2" in w for w in out.warnings), out.warnings
         (attributes,) = fresh._attributes.items.values()
         assert attributes.combined and attributes.packed == emission.PACKED_ATTRS_R
-        assert attributes.attrs_size == tuple(-(-n // 2) + 2 for n in scene.medium.density.shape)
+        assert attributes.attrs_size == tuple(-(-n // 2) + 2 for n in scene.media[0].density.shape)
         ratio, ssim, _ = _agree(out.combined[..., :3], _ref(s))
-        print(f"{kind}, {s.medium.emission_strength}: brightness {np.round(ratio, 4)}, SSIM {ssim:.5f} "
+        print(f"{kind}, {s.media[0].emission_strength}: brightness {np.round(ratio, 4)}, SSIM {ssim:.5f} "
               "against the full grid's reference")
         # seen: 3-12 % brighter, SSIM 0.928-0.977 (the full grid's reference): the frame is that
         # fire, the downsampling's blur aside

@@ -110,7 +110,7 @@ def build(scene: Scene, directory: str, name: str = "bench") -> dict:
         mo.matrix_world = to_blender_matrix(mesh.matrix_world)
         made["meshes"].append(mo)
 
-    medium = scene.medium
+    medium = scene.media[0]
     if medium is not None and medium.density is None:
         if medium.box_to_world is None:
             raise ValueError("fog filling the whole scene is not built for Cycles/EEVEE")
@@ -185,7 +185,7 @@ def eevee(preset: str, scene: Scene) -> None:
     e = bl.eevee
     for key, value in EEVEE_PRESETS[preset].items():
         setattr(e, key, value)
-    if preset == "high" and scene.medium is not None:
+    if preset == "high" and scene.media:
         near, far = medium_depth_range(scene)
         e.use_volume_custom_range = True
         e.volumetric_start = max(near, scene.camera.clip_start)
@@ -195,7 +195,7 @@ def eevee(preset: str, scene: Scene) -> None:
 
 def medium_depth_range(scene: Scene) -> tuple[float, float]:
     """Nearest and farthest camera depth (m along the view axis) of the medium's bounds."""
-    m = scene.medium
+    m = scene.media[0]
     if m.density is not None:
         n = np.asarray(m.density.shape, dtype=np.float64)
         corners = np.array([[x, y, z, 1.0] for x in (-1, n[0]) for y in (-1, n[1]) for z in (-1, n[2])])

@@ -44,13 +44,13 @@ def _scene(size: Size, kind: str, emits: bool, colored: bool):
     base = "FIRE" if kind == "CONSTANT" else kind
     scene = fire_scene(size.width, size.height, size.grid, kind=base, with_light=True,
                        with_occluder=True, with_ground=True)
-    m = scene.medium
+    m = scene.media[0]
     if not emits or kind == "CONSTANT":
         m = dataclasses.replace(m, emission_strength=GridValue(offset=0.3 if emits else 0.0),
                                 blackbody_intensity=GridValue(offset=0.0))
     if colored:
         m = dataclasses.replace(m, grids={**m.grids, "color": _color(m)}, color_grid="color")
-    return dataclasses.replace(scene, medium=m)
+    return dataclasses.replace(scene, media=(m,))
 
 
 def run(size: Size, log=print) -> list[dict]:
@@ -110,7 +110,7 @@ def edit_rows(size: Size, log=print) -> list[dict]:
     from .speed import _moved_camera
 
     scene = _scene(size, "FIRE", True, False)
-    scene = dataclasses.replace(scene, medium=dataclasses.replace(scene.medium, source_key="bench plume"))
+    scene = dataclasses.replace(scene, media=(dataclasses.replace(scene.media[0], source_key="bench plume"),))
     settings = RenderSettings(map_resolution=size.map_resolution)
     renderer = Renderer()
     state = {"scene": scene, "k": 0}
@@ -122,9 +122,9 @@ def edit_rows(size: Size, log=print) -> list[dict]:
     def edit(change):
         def go():
             state["k"] += 1
-            m = state["scene"].medium
+            m = state["scene"].media[0]
             m = dataclasses.replace(m, **change(m, state["k"]))
-            state["scene"] = dataclasses.replace(state["scene"], medium=m)
+            state["scene"] = dataclasses.replace(state["scene"], media=(m,))
             renderer.render(state["scene"], settings, passes=False)
         return go
 

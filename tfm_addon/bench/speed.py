@@ -64,9 +64,9 @@ def _moved_camera(scene, k):
 
 
 def _sigma_edit(scene, k):
-    med = scene.medium
+    med = scene.media[0]
     s = tuple(x * (1.0 + 1e-3 * k) for x in med.sigma_s)
-    return dataclasses.replace(scene, medium=dataclasses.replace(med, sigma_s=s))
+    return dataclasses.replace(scene, media=(dataclasses.replace(med, sigma_s=s),))
 
 
 def contender(renderer, scene, settings, change=_moved_light):
@@ -126,7 +126,7 @@ def settings_for(scene, map_resolution=512):
     auto = effective_settings(scene, dataclasses.replace(base, quality="AUTO"))
     out = {"AUTO": dataclasses.replace(base, quality="AUTO")}
     out["floor (AUTO steps)"] = floor_of(scene, auto)
-    if scene.medium is not None and scene.medium.density is not None:
+    if scene.media and scene.media[0].density is not None:
         out["TFM-8 EXACT"] = dataclasses.replace(base, coefficients=8, tfm_filter="EXACT")
         out["TFM-8 LINEAR"] = dataclasses.replace(base, coefficients=8, tfm_filter="LINEAR")
         out["floor (100 steps)"] = floor_of(scene, base)
@@ -143,7 +143,7 @@ def run_scene(renderer, name, scene, repeats, reference=None, clock="wall"):
         sc, st = s if isinstance(s, tuple) else (scene, s)
         contenders[label] = contender(renderer, sc, st)
     auto = cases["AUTO"]
-    if scene.medium is not None:
+    if scene.media:
         contenders["AUTO camera move"] = contender(renderer, scene, auto, _moved_camera)
         contenders["AUTO sigma edit"] = contender(renderer, scene, auto, _sigma_edit)
     times = time_side_by_side(contenders, repeats, CLOCKS[clock])

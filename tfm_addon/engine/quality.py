@@ -117,7 +117,7 @@ def _affine_inverse(m) -> np.ndarray:
 
 
 def _bounds(scene: Scene):
-    return _bounds_of(scene.medium)
+    return _bounds_of(scene.media[0] if scene.media else None)
 
 
 def _bounds_of(m):
@@ -207,9 +207,9 @@ def medium_stats(scene: Scene) -> MediumStats | None:
     the optical depth and light chord by the placed density and light (not sigma: the optical
     depth is sigma times a density integral), so that a camera, light or volume move costs
     milliseconds and a sigma edit nothing."""
-    m = scene.medium
-    if m is None:
+    if not scene.media:
         return None
+    m = scene.media[0]
     lights = [light for light in scene.lights if not is_dark(light)]
     to_local, lo, hi, _ = _bounds(scene)
     grid = _summary(m) if m.density is not None else None
@@ -488,7 +488,7 @@ def auto_settings(scene: Scene, settings: RenderSettings | None = None) -> Rende
     stats = medium_stats(scene)
     if stats is None:
         return settings
-    if scene.medium.density is None:
+    if scene.media[0].density is None:
         return dataclasses.replace(settings, sampling="PROJECTIVE", view_steps=HOMOGENEOUS_VIEW_STEPS)
     n = auto_coefficients(stats.optical_depth, stats.sharpness)
     thick = thick_steps_factor(stats.optical_depth, stats.sharpness)

@@ -326,7 +326,8 @@ class Renderer:
         warnings += medium_warnings
         # The medium that emits and reads its colour grid: the first one marched (the scene's
         # first may have been skipped: unbounded fog beside other media, an empty grid).
-        medium = medium_gpu.slots[0].medium if medium_gpu.kind == MEDIUM_GRID else scene.medium
+        medium = (medium_gpu.slots[0].medium if medium_gpu.kind == MEDIUM_GRID
+                  else scene.media[0] if scene.media else None)
         attributes = self._medium_attributes(medium, medium_gpu)
         warnings += attributes.warnings if attributes is not None else []
         note = attributes.glow_note(medium) if attributes is not None and medium is not None else None
@@ -448,7 +449,8 @@ class Renderer:
             if not mine.any():
                 continue
             out[mine] = probe_light_transmittance(
-                gl, pts[mine], medium=scene.medium, medium_gpu=medium_gpu, settings=settings,
+                gl, pts[mine], medium=scene.media[0] if scene.media else None, medium_gpu=medium_gpu,
+                settings=settings,
                 light=(plan.frame, plan.light.intensity_w_per_sr, plan.shadow, None),
                 light_t=plan.light_t, tfm=plan.tfm, tfm_sigma_t=plan.tfm_sigma_t)
         for cache in self._caches:
