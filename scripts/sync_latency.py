@@ -52,8 +52,8 @@ def main(segments: int, rings: int, volume: bool) -> None:
     first = time.perf_counter() - t0
     triangles = sum(len(m.triangles) for m in session.extraction.meshes)
     print(f"{triangles} triangles in the scene; first extraction {1000 * first:.0f} ms")
-    if session.extraction.medium is not None:
-        print(f"medium grid {session.extraction.medium.density.shape}")
+    if session.extraction.media:
+        print(f"medium grid {session.extraction.media[0].density.shape}")
 
     timed = []
 

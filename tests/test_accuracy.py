@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from tfm_addon.engine import Camera, Medium, RenderSettings, Scene, SpotLight
+from tfm_addon.engine import Camera, Light, Medium, RenderSettings, Scene
 from tfm_addon.engine.metrics import brightness_ratio, psnr, ssim
 from tfm_addon.engine.reference import render_reference
 from tfm_addon.scenes import (
@@ -87,7 +87,7 @@ def test_density_weighting_reduces_the_error_of_a_thick_medium(renderer):
 
     rng = np.random.default_rng(0)
     idx = rng.uniform(-1, 64, (4000, 3))
-    points = (np.c_[idx, np.ones(len(idx))] @ scene.medium.index_to_world.T)[:, :3]
+    points = (np.c_[idx, np.ones(len(idx))] @ scene.media[0].index_to_world.T)[:, :3]
     for alpha in (1.0, None):
         t = renderer.light_transmittance_at(scene, RenderSettings(coefficients=4, density_weight=alpha,
                                                                   map_resolution=256), 0, points)
@@ -100,11 +100,11 @@ def _inside_scene(camera_eye, camera_target, light_eye, light_target, g=0.0, siz
     medium = Medium(sigma_a=(0.1, 0.1, 0.1), sigma_s=(1.2, 1.0, 0.8), anisotropy=g,
                     density=0.3 + 0.7 * smoke_density(n, seed=3),
                     index_to_world=grid_to_world((n, n, n), 4.0, (0, 0, 0)))
-    light = SpotLight(matrix_world=look_at(light_eye, light_target), power_w=800.0,
+    light = Light(matrix_world=look_at(light_eye, light_target), power_w=800.0,
                       spot_size_rad=math.radians(50), spot_blend=0.3)
     camera = Camera(matrix_world=look_at(camera_eye, camera_target), width_px=size[0], height_px=size[1],
                     lens_mm=30.0, clip_start=0.05)
-    return Scene(camera=camera, lights=(light,), medium=medium)
+    return Scene(camera=camera, lights=(light,), media=(medium,))
 
 
 @pytest.mark.parametrize("case", ["light_inside", "camera_inside", "looking_at_light"])
@@ -132,7 +132,7 @@ def test_camera_projections_match_reference(renderer):
                sensor_height_mm=30.0, shift_x=0.1, shift_y=-0.05),
     ]
     for cam in cameras:
-        scene = Scene(camera=cam, lights=base.lights, medium=base.medium, meshes=base.meshes)
+        scene = Scene(camera=cam, lights=base.lights, media=(base.media[0],), meshes=base.meshes)
         ref = render_reference(scene, view_steps=128, light_steps=16)
         out = renderer.render(scene, RenderSettings(view_steps=128, map_resolution=512))
         assert ssim(out.rgb, ref.rgb) >= 0.99, cam.projection
@@ -145,7 +145,7 @@ def test_render_border_is_the_matching_crop(renderer):
     cam = scene.camera
     bordered = Camera(**{**{f: getattr(cam, f) for f in cam.__dataclass_fields__},
                          "border": (0.25, 0.5, 0.75, 1.0)})
-    crop = renderer.render(Scene(camera=bordered, lights=scene.lights, medium=scene.medium,
+    crop = renderer.render(Scene(camera=bordered, lights=scene.lights, media=(scene.media[0],),
                                  meshes=scene.meshes), RenderSettings(view_steps=64)).combined
     assert crop.shape == (24, 32, 4)
     # y up in Blender's border: (0.5, 1.0) is the top half, rows 0..23 of a top-first array.
@@ -157,12 +157,12 @@ def test_fog_filling_the_scene_with_two_spots_matches_reference(renderer):
     two spot lights (one through a gobo), a solid: the analytic path against the reference."""
     base = homogeneous_box_scene(width=64, height=48)
     fog = Medium(sigma_a=(0.01, 0.01, 0.01), sigma_s=(0.08, 0.06, 0.05), anisotropy=0.5)
-    second = SpotLight(matrix_world=look_at((3.0, -2.0, 3.5), (0.5, 0.5, 0.0)), power_w=1500.0,
+    second = Light(matrix_world=look_at((3.0, -2.0, 3.5), (0.5, 0.5, 0.0)), power_w=1500.0,
                        color=(1.0, 0.6, 0.3), spot_size_rad=math.radians(30), spot_blend=0.4,
                        gobo=stripes_gobo(32, 8))
     cam = Camera(matrix_world=look_at((3.5, -5.0, 2.5), (0, 0, 1.2)), width_px=64, height_px=48,
                  lens_mm=35.0, clip_end=20.0)
-    scene = Scene(camera=cam, lights=(base.lights[0], second), medium=fog, meshes=base.meshes)
+    scene = Scene(camera=cam, lights=(base.lights[0], second), media=(fog,), meshes=base.meshes)
     ref = render_reference(scene, view_steps=512, light_steps=8)
     out = renderer.render(scene, RenderSettings(view_steps=256, map_resolution=512))
     assert ssim(out.rgb, ref.rgb) >= 0.99
@@ -192,10 +192,10 @@ def test_auto_summarises_a_grid_once_whatever_its_placement():
     scene = smoke_scene(width=32, height=18, n=24)
     quality._cache.clear()
     quality.auto_settings(scene)
-    placed = scene.medium.index_to_world.copy()
+    placed = scene.media[0].index_to_world.copy()
     for dx in (0.1, 0.2):
         placed[0, 3] += dx
-        medium = dataclasses.replace(scene.medium, index_to_world=placed.copy())
-        quality.auto_settings(dataclasses.replace(scene, medium=medium))
+        medium = dataclasses.replace(scene.media[0], index_to_world=placed.copy())
+        quality.auto_settings(dataclasses.replace(scene, media=(medium,)))
     assert sum(k[0] == "grid" for k in quality._cache) == 1
     assert sum(k[0] == "light" for k in quality._cache) == 3      # the light part per placement

@@ -16,7 +16,7 @@ HIGH = RenderSettings(view_steps=512, light_steps=512, coefficients=16, map_reso
 
 def _dense_cloud():
     scene = scenes.cloud_scene(160, 90, shape=(240, 160, 80))
-    m = scene.medium
+    m = scene.media[0]
     k = 50.0 / 6.0
     dense = dataclasses.replace(m, sigma_a=tuple(k * c for c in m.sigma_a),
                                 sigma_s=tuple(k * c for c in m.sigma_s))
@@ -24,8 +24,8 @@ def _dense_cloud():
 
 
 def test_optically_thick_voxels_get_a_texel_each():
-    thin = scenes.cloud_scene(160, 90, shape=(240, 160, 80)).medium
-    thick = _dense_cloud().medium
+    thin = scenes.cloud_scene(160, 90, shape=(240, 160, 80)).media[0]
+    thick = _dense_cloud().media[0]
     assert quality.footprint_texels_per_voxel(thin) == pytest.approx(tfm.SMOOTH_TEXELS_PER_VOXEL)
     assert quality.footprint_texels_per_voxel(thick) == pytest.approx(tfm.TEXELS_PER_VOXEL)
 

@@ -17,11 +17,11 @@ from tfm_addon.engine.reference import render_reference
 
 def _smoke_at(tau: float):
     base = scenes.paper_smoke_scene(96, 54, 48)
-    m = base.medium
+    m = base.media[0]
     k = tau / quality.medium_stats(base).optical_depth
     medium = dataclasses.replace(m, sigma_a=tuple(x * k for x in m.sigma_a),
                                  sigma_s=tuple(x * k for x in m.sigma_s))
-    return dataclasses.replace(base, medium=medium)
+    return dataclasses.replace(base, media=(medium,))
 
 
 @pytest.mark.parametrize("tau,coefficients", [(7.0, 6), (30.0, 16)])
@@ -48,11 +48,11 @@ def test_a_thick_sharp_density_gets_the_steps_its_edges_need(fresh):
     base = scenes.paper_smoke_scene(96, 54, 128)
     d = np.zeros((128, 128, 128), np.float32)
     d[16:112, 16:112, 16:112] = 1.0
-    m = dataclasses.replace(base.medium, density=d)
-    k = 16.0 / quality.medium_stats(dataclasses.replace(base, medium=m)).optical_depth
+    m = dataclasses.replace(base.media[0], density=d)
+    k = 16.0 / quality.medium_stats(dataclasses.replace(base, media=(m,))).optical_depth
     m = dataclasses.replace(m, sigma_a=tuple(x * k for x in m.sigma_a),
                             sigma_s=tuple(x * k for x in m.sigma_s))
-    scene = dataclasses.replace(base, medium=m)
+    scene = dataclasses.replace(base, media=(m,))
     stats = quality.medium_stats(scene)
     assert stats.sharpness == pytest.approx(1.0) and stats.optical_depth == pytest.approx(16.0)
     assert quality.thick_steps_factor(stats.optical_depth, stats.sharpness) == pytest.approx(2.0)

@@ -15,8 +15,8 @@ import pytest
 
 from tfm_addon import scenes
 from tfm_addon.engine import RenderSettings, quality
+from tfm_addon.engine.boxes import nonzero_bounds, slab
 from tfm_addon.engine.medium_grid import clean_density, downsample
-from tfm_addon.engine.passes.bindings import nonzero_bounds
 from tfm_addon.engine.scene import Light
 
 
@@ -57,7 +57,7 @@ def _old_light_part(m, light, grid):
     o_w, d_w = quality._face_rays(light, m, quality._LIGHT_RAYS)
     o = o_w @ to_local[:3, :3].T + to_local[:3, 3]
     d = d_w @ to_local[:3, :3].T
-    t0, t1 = quality._slab(o, d, lo, hi)
+    t0, t1 = slab(o, d, lo, hi)
     t0 = np.maximum(t0, 0.0)
     hit = t1 > t0
     if not hit.any():
@@ -85,7 +85,7 @@ def _old_light_part(m, light, grid):
 
 
 def _with_density(scene, density):
-    return dataclasses.replace(scene, medium=dataclasses.replace(scene.medium, density=density))
+    return dataclasses.replace(scene, media=(dataclasses.replace(scene.media[0], density=density),))
 
 
 def _scenes():
@@ -100,7 +100,8 @@ def _scenes():
                 power_w=3.0, name="Sun")
     return {
         "smoke 48^3": smoke,
-        "smoke clipped": dataclasses.replace(smoke, medium=dataclasses.replace(smoke.medium, clipping=0.2)),
+        "smoke clipped": dataclasses.replace(
+            smoke, media=(dataclasses.replace(smoke.media[0], clipping=0.2),)),
         "paper smoke 80^3 (coarse factor 2)": scenes.paper_smoke_scene(64, 36, 80),
         "dense smoke": scenes.dense_smoke_scene(64, 36, 32, thickness=30.0),
         "demo plume": scenes.demo_scene(64, 36, 40),
@@ -117,20 +118,20 @@ def test_auto_statistics_and_settings_equal_the_old_code_path(name, monkeypatch)
     base = RenderSettings(quality="AUTO", map_resolution=128)
     quality._cache.clear()
     new_stats, new_settings = quality.medium_stats(scene), quality.auto_settings(scene, base)
-    new_texels = quality.footprint_texels_per_voxel(scene.medium)
-    if scene.medium.density is not None:
-        density, _ = clean_density(scene.medium.density, scene.medium.clipping)
+    new_texels = quality.footprint_texels_per_voxel(scene.media[0])
+    if scene.media[0].density is not None:
+        density, _ = clean_density(scene.media[0].density, scene.media[0].clipping)
         assert quality.sharpness(density) == _old_sharpness(density)       # the defaults, no mask
     with monkeypatch.context() as patch:
         patch.setattr(quality, "_grid_summary", _old_grid_summary)
         patch.setattr(quality, "_light_part", _old_light_part)
         quality._cache.clear()
         old_stats, old_settings = quality.medium_stats(scene), quality.auto_settings(scene, base)
-        old_texels = quality.footprint_texels_per_voxel(scene.medium)
+        old_texels = quality.footprint_texels_per_voxel(scene.media[0])
     quality._cache.clear()
     assert new_stats == old_stats           # exactly: the same floating-point operations
     assert new_settings == old_settings and new_texels == old_texels
-    assert new_stats.optical_depth > 0.0 or scene.medium.density is None
+    assert new_stats.optical_depth > 0.0 or scene.media[0].density is None
 
 
 def test_sharpness_reads_the_non_zero_box_like_the_whole_grid():
@@ -146,7 +147,9 @@ def test_sharpness_reads_the_non_zero_box_like_the_whole_grid():
         if seed % 3 == 0:
             d[int(rng.integers(0, shape[0]))] = 0.0
         assert quality.sharpness(d) == _old_sharpness(d), seed
-        assert quality._mask_bounds(d > 0) == nonzero_bounds(d), seed
+        idx = np.argwhere(d > 0)        # one voxel beyond the first and last non-zero ones
+        want = (tuple(float(v) for v in idx.min(axis=0) - 1), tuple(float(v) for v in idx.max(axis=0) + 1))
+        assert nonzero_bounds(d > 0) == nonzero_bounds(d) == want, seed
 
 
 def test_a_sampled_auto_frame_takes_alpha_from_the_probe_not_a_gpu_pass():
@@ -160,9 +163,9 @@ def test_a_sampled_auto_frame_takes_alpha_from_the_probe_not_a_gpu_pass():
     auto = RenderSettings(quality="AUTO", map_resolution=64)
     chosen = frame_settings(scene, auto, 4)
     assert chosen.quality == "CUSTOM" and chosen.alpha_from_probe and chosen.density_weight is None
-    probed = quality.light_density_integral(scene.medium, scene.lights[0])
+    probed = quality.light_density_integral(scene.media[0], scene.lights[0])
     fixed = dataclasses.replace(chosen, alpha_from_probe=False,
-                                density_weight=probed * float(scene.medium.sigma_t.max()))
+                                density_weight=probed * float(scene.media[0].sigma_t.max()))
     renderer = Renderer()
     try:
         image = render_samples(renderer, scene, auto, 4, passes=False).combined

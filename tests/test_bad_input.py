@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from tfm_addon.engine import GLUnavailableError, RenderCancelled, Renderer, RenderSettings, SpotLight
+from tfm_addon.engine import GLUnavailableError, Light, RenderCancelled, Renderer, RenderSettings
 from tfm_addon.engine.gl_context import GLContext
 from tfm_addon.engine.metrics import ssim
 from tfm_addon.engine.worker import RenderWorker
@@ -21,12 +21,12 @@ def replace(obj, **changes):
 
 
 def with_density(scene, density):
-    return replace(scene, medium=replace(scene.medium, density=density))
+    return replace(scene, media=(replace(scene.media[0], density=density),))
 
 
 def test_nan_inf_and_negative_densities_are_cleaned_with_a_warning(renderer):
     scene = smoke_scene(width=48, height=32, n=32)
-    d = np.array(scene.medium.density)
+    d = np.array(scene.media[0].density)
     clean = renderer.render(scene, SETTINGS)
     assert clean.warnings == []
     d[0, 0, 0], d[1, 2, 3], d[4, 4, 4], d[5, 5, 5] = np.nan, np.inf, -np.inf, -3.0
@@ -58,7 +58,7 @@ def test_grid_over_the_gl_3d_texture_limit_is_downsampled(fresh_renderer):
 def test_empty_grid_renders_the_surfaces_alone(renderer):
     scene = smoke_scene(width=48, height=32, n=32)
     out = renderer.render(with_density(scene, np.zeros((32, 32, 32), np.float32)), SETTINGS)
-    alone = renderer.render(replace(scene, medium=None), SETTINGS)
+    alone = renderer.render(replace(scene, media=()), SETTINGS)
     assert any("empty" in w for w in out.warnings)
     np.testing.assert_allclose(out.combined, alone.combined, atol=1e-6)
     assert alone.rgb.max() > 0
@@ -128,7 +128,7 @@ def test_worker_renders_like_the_renderer_and_releases_its_context(renderer):
 
 def test_light_with_cone_wider_than_the_map_still_renders(renderer):
     scene = smoke_scene(width=48, height=32, n=32)
-    wide = SpotLight(matrix_world=look_at((-2.5, -1.0, 4.0), (0, 0, 1.0)), power_w=500.0,
+    wide = Light(matrix_world=look_at((-2.5, -1.0, 4.0), (0, 0, 1.0)), power_w=500.0,
                      spot_size_rad=math.radians(179.0))
     out = renderer.render(replace(scene, lights=(wide,)), SETTINGS)
     assert np.isfinite(out.combined).all() and out.rgb.max() > 0

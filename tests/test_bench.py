@@ -188,19 +188,19 @@ def test_auto_rule_follows_optical_depth_sharpness_and_medium_kind():
     # A block of constant density: sharpness 1, half a step per voxel crossed.
     d = np.zeros((40, 40, 40), np.float32)
     d[4:36, 4:36, 4:36] = 1.0
-    block = dataclasses.replace(thin, medium=dataclasses.replace(thin.medium, density=d))
+    block = dataclasses.replace(thin, media=(dataclasses.replace(thin.media[0], density=d),))
     stats = medium_stats(block)
     assert stats.sharpness == pytest.approx(1.0)
     assert auto_settings(block, base).view_steps == max(32, math.ceil(0.5 * stats.view_voxels))
     assert auto_settings(block, base).light_steps == max(32, math.ceil(0.2 * stats.light_voxels))
-    sharp = dataclasses.replace(block, medium=dataclasses.replace(block.medium, sigma_s=(3.0, 3.0, 3.0)))
+    sharp = dataclasses.replace(block, media=(dataclasses.replace(block.media[0], sigma_s=(3.0, 3.0, 3.0)),))
     assert medium_stats(sharp).optical_depth > 2.0
     assert auto_settings(sharp, base).coefficients == auto_coefficients(medium_stats(sharp).optical_depth) > 2
 
     fog = scenes.gobo_box_scene(64, 36)
     a_fog = auto_settings(fog, base)
     assert (a_fog.sampling, a_fog.view_steps) == ("PROJECTIVE", 32)
-    empty = dataclasses.replace(thin, medium=None)
+    empty = dataclasses.replace(thin, media=())
     assert auto_settings(empty, base) == base
 
 

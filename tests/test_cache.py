@@ -5,7 +5,7 @@ import math
 
 import numpy as np
 
-from tfm_addon.engine import Camera, Medium, RenderSettings, Scene, SpotLight
+from tfm_addon.engine import Camera, Light, Medium, RenderSettings, Scene
 from tfm_addon.engine.metrics import ssim
 from tfm_addon.engine.reference import render_reference
 from tfm_addon.scenes import look_at, smoke_scene
@@ -41,7 +41,7 @@ def test_camera_move_reuses_the_light_maps(fresh):
 def test_sigma_change_rebuilds_nothing_light_side_and_changes_the_image(fresh):
     scene = smoke_scene(width=48, height=32, n=32)
     _, first = built(fresh, scene)
-    redder = replace(scene, medium=replace(scene.medium, sigma_s=(3.0, 1.0, 0.5)))
+    redder = replace(scene, media=(replace(scene.media[0], sigma_s=(3.0, 1.0, 0.5)),))
     delta, second = built(fresh, redder)
     assert sum(delta.get(k, 0) for k in ("shadow_maps", "tfms", "gbuffers", "grid_uploads")) == 0
     assert not np.allclose(first.rgb, second.rgb)
@@ -54,14 +54,14 @@ def test_fixed_density_weight_ties_the_map_to_sigma(fresh):
     settings = dataclasses.replace(SETTINGS, density_weight=4.0)
     scene = smoke_scene(width=48, height=32, n=32)
     built(fresh, scene, settings)
-    denser = replace(scene, medium=replace(scene.medium, sigma_s=(6.0, 6.0, 6.0)))
+    denser = replace(scene, media=(replace(scene.media[0], sigma_s=(6.0, 6.0, 6.0)),))
     delta, _ = built(fresh, denser, settings)
     assert delta["tfms"] == 1 and delta.get("shadow_maps", 0) == 0
 
 
 def test_light_move_rebuilds_only_that_light(fresh):
     scene = smoke_scene(width=48, height=32, n=32)
-    second = SpotLight(matrix_world=look_at((2.5, -1.0, 4.0), (0, 0, 1.0)), power_w=1500.0,
+    second = Light(matrix_world=look_at((2.5, -1.0, 4.0), (0, 0, 1.0)), power_w=1500.0,
                        spot_size_rad=math.radians(35))
     scene = replace(scene, lights=(scene.lights[0], second))
     delta, _ = built(fresh, scene)
@@ -85,7 +85,7 @@ def test_solids_change_rebuilds_shadow_maps_and_tfms(fresh):
 
 def test_light_missing_the_medium_gets_no_tfm_but_still_lights_surfaces(fresh):
     scene = smoke_scene(width=64, height=48, n=32)
-    away = SpotLight(matrix_world=look_at((3.0, 2.0, 3.0), (3.5, 3.0, 0.0)), power_w=1500.0,
+    away = Light(matrix_world=look_at((3.0, 2.0, 3.0), (3.5, 3.0, 0.0)), power_w=1500.0,
                      spot_size_rad=math.radians(30))
     scene = replace(scene, lights=(scene.lights[0], away))
     delta, out = built(fresh, scene)
@@ -103,6 +103,6 @@ def test_scene_without_solids_builds_no_shadow_map(fresh):
 
 def test_homogeneous_medium_builds_no_tfm(fresh):
     cam = Camera(matrix_world=look_at((0, -5, 1), (0, 0, 1)), width_px=32, height_px=24)
-    light = SpotLight(matrix_world=look_at((-2, -2, 3), (0, 0, 1)))
-    delta, _ = built(fresh, Scene(camera=cam, lights=(light,), medium=Medium(box_to_world=np.eye(4))))
+    light = Light(matrix_world=look_at((-2, -2, 3), (0, 0, 1)))
+    delta, _ = built(fresh, Scene(camera=cam, lights=(light,), media=(Medium(box_to_world=np.eye(4)),)))
     assert delta.get("tfms", 0) == 0 and delta.get("grid_uploads", 0) == 0

@@ -36,9 +36,9 @@ def test_matches_reference(renderer, case):
 
 def test_homogeneous_box_emission(renderer):
     base = scenes.homogeneous_box_scene(width=48, height=32)
-    medium = dataclasses.replace(base.medium, emission_color=(0.2, 0.5, 1.0),
+    medium = dataclasses.replace(base.media[0], emission_color=(0.2, 0.5, 1.0),
                                  emission_strength=GridValue(offset=0.8))
-    scene = dataclasses.replace(base, lights=(), medium=medium, meshes=())
+    scene = dataclasses.replace(base, lights=(), media=(medium,), meshes=())
     out = renderer.render(scene, SETTINGS).combined[..., :3]
     ref = render_reference(scene, view_steps=256).combined[..., :3]
     ratio = out.sum(axis=(0, 1)) / ref.sum(axis=(0, 1))
@@ -51,8 +51,8 @@ def test_constant_emission_in_a_grid_stays_in_the_grid_box(renderer):
     """A constant strength emits in the grid's box [-1, n] only (the reference's march), not out
     to the far clip (it was 73x too bright: the emission box defaulted to [-2, 1e30])."""
     base = scenes.fire_scene(64, 36, 24, kind="EMISSION")
-    scene = dataclasses.replace(base, medium=dataclasses.replace(
-        base.medium, emission_strength=GridValue(offset=0.5)))
+    scene = dataclasses.replace(base, media=(dataclasses.replace(
+        base.media[0], emission_strength=GridValue(offset=0.5)),))
     out = renderer.render(scene, SETTINGS).combined[..., :3]
     ref = render_reference(scene, view_steps=96, light_steps=96).combined[..., :3]
     ratio = out.sum(axis=(0, 1)) / ref.sum(axis=(0, 1))
@@ -76,7 +76,7 @@ def test_blackbody_colour_is_cycles_fit(colour):
 def _edits(r, scene, edits):
     before = dict(r.counters)
     first = r.render(scene, SETTINGS).combined
-    images = [r.render(dataclasses.replace(scene, medium=dataclasses.replace(scene.medium, **edit)),
+    images = [r.render(dataclasses.replace(scene, media=(dataclasses.replace(scene.media[0], **edit),)),
                        SETTINGS).combined for edit in edits]
     delta = {k: r.counters[k] - before.get(k, 0) for k in r.counters}
     return first, images, delta
@@ -131,10 +131,10 @@ def test_grids_must_share_the_lattice():
 
 def test_bad_attribute_voxels_are_named_once_and_rendered_as_zero(renderer):
     scene = scenes.fire_scene(48, 27, 16, kind="FIRE")
-    flame = np.array(scene.medium.grids["flame"])
+    flame = np.array(scene.media[0].grids["flame"])
     flame[3, 4, 5], flame[6, 7, 8] = np.nan, np.inf
-    medium = dataclasses.replace(scene.medium, grids={**scene.medium.grids, "flame": flame})
-    out = renderer.render(dataclasses.replace(scene, medium=medium), SETTINGS)
+    medium = dataclasses.replace(scene.media[0], grids={**scene.media[0].grids, "flame": flame})
+    out = renderer.render(dataclasses.replace(scene, media=(medium,)), SETTINGS)
     assert np.isfinite(out.combined).all()
     assert [w for w in out.warnings if "'flame'" in w] == [
         "Grid 'flame' had 2 NaN/infinite values; they were set to 0."]
@@ -145,7 +145,7 @@ def test_attributes_are_downsampled_with_the_density():
     try:
         scene = scenes.fire_scene(48, 27, 24, kind="FIRE")
         full = r.render(scene, SETTINGS).combined
-        small = dataclasses.replace(SETTINGS, max_grid_bytes=scene.medium.density.nbytes // 8)
+        small = dataclasses.replace(SETTINGS, max_grid_bytes=scene.media[0].density.nbytes // 8)
         out = r.render(scene, small)
         assert any("downsampled by 2" in w for w in out.warnings)
         (attributes,) = r._attributes.items.values()
@@ -208,9 +208,9 @@ def test_moving_an_emitting_medium_uploads_no_attribute_grid(fresh):
     renderer that builds everything."""
     scene = scenes.fire_scene(48, 27, 24, kind="FIRE", with_light=True)
     fresh.render(scene, SETTINGS)
-    placed = scene.medium.index_to_world.copy()
+    placed = scene.media[0].index_to_world.copy()
     placed[0, 3] += 0.3
-    moved = dataclasses.replace(scene, medium=dataclasses.replace(scene.medium, index_to_world=placed))
+    moved = dataclasses.replace(scene, media=(dataclasses.replace(scene.media[0], index_to_world=placed),))
     before = dict(fresh.counters)
     out = fresh.render(moved, SETTINGS).combined
     assert fresh.counters["attribute_uploads"] == before["attribute_uploads"]

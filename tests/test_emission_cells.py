@@ -31,7 +31,7 @@ def _glow_apart_scene() -> Scene:
                     index_to_world=scenes.grid_to_world((n, n, n), 2.0, (0, 0, 1.2)),
                     emission_color=(1.0, 0.5, 0.2), emission_strength=GridValue("flame", 3.0, 0.0))
     base = scenes.smoke_scene(width=64, height=40, n=16, with_bar=False)
-    return dataclasses.replace(base, medium=medium, lights=(), meshes=())
+    return dataclasses.replace(base, media=(medium,), lights=(), meshes=())
 
 
 def test_a_flame_where_there_is_no_density_glows(renderer):
@@ -49,13 +49,13 @@ def test_a_flame_where_there_is_no_density_glows(renderer):
 
 def _fire(kind: str) -> Scene:
     scene = scenes.fire_scene(64, 36, 24, kind="FIRE", with_light=True, with_occluder=True)
-    m = scene.medium
+    m = scene.media[0]
     if kind == "grid and constant":       # a strength offset glows in the whole grid box too
         m = dataclasses.replace(m, emission_strength=GridValue("flame", 4.0, 0.15))
     elif kind == "constant":              # reads no grid at all
         m = dataclasses.replace(m, emission_strength=GridValue(offset=0.3),
                                 blackbody_intensity=GridValue(offset=0.0))
-    return dataclasses.replace(scene, medium=m)
+    return dataclasses.replace(scene, media=(m,))
 
 
 @pytest.mark.parametrize("kind", ["grids", "grid and constant", "constant"])
@@ -90,8 +90,8 @@ def test_a_strength_offset_edit_widens_the_emission_box(fresh):
     box of the flame's voxels (an edit from offset 0 to 0.3 left the image 47 % of the peak off
     a fresh render), and the edit re-uploads nothing."""
     scene = scenes.fire_scene(48, 27, 24, kind="EMISSION")
-    edited = dataclasses.replace(scene, medium=dataclasses.replace(
-        scene.medium, emission_strength=GridValue("flame", 4.0, 0.3)))
+    edited = dataclasses.replace(scene, media=(dataclasses.replace(
+        scene.media[0], emission_strength=GridValue("flame", 4.0, 0.3)),))
     fresh.render(scene, SETTINGS)
     before = dict(fresh.counters)
     out = fresh.render(edited, SETTINGS).combined
@@ -144,8 +144,8 @@ def test_a_flame_inside_dense_smoke_stops_where_the_view_is_opaque(renderer):
     """A dense fire (optical depth ~20 across): the march stops at view transmittance 1e-3,
     skipped cells and all, and still matches the reference that marches every sample."""
     scene = scenes.fire_scene(64, 36, 24, kind="FIRE")
-    scene = dataclasses.replace(scene, medium=dataclasses.replace(
-        scene.medium, sigma_s=(12.0,) * 3, sigma_a=(6.0,) * 3))
+    scene = dataclasses.replace(scene, media=(dataclasses.replace(
+        scene.media[0], sigma_s=(12.0,) * 3, sigma_a=(6.0,) * 3),))
     out = renderer.render(scene, SETTINGS).combined[..., :3]
     ref = render_reference(scene, view_steps=96, light_steps=96).combined[..., :3]
     ratio = out.sum(axis=(0, 1)) / ref.sum(axis=(0, 1))

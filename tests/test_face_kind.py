@@ -1,6 +1,6 @@
 """The light face's kind compiled into its light pass (passes/scattering.face_defines: sun or not,
-emission profile, shadow map, gobo) in place of uniforms: each light kind gives the frame the
-uniforms give, and each face kind compiles its own program."""
+emission profile, shadow map, gobo): each face kind compiles its own program, and each light kind
+gives the numpy reference's frame."""
 
 import dataclasses
 
@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 from tfm_addon.engine import Light, Renderer, RenderSettings, Scene
-from tfm_addon.engine.passes import scattering
+from tfm_addon.engine.metrics import ssim
+from tfm_addon.engine.reference import render_reference
 from tfm_addon.scenes import box_mesh, gobo_box_scene, look_at, plane_mesh, smoke_scene, translate_scale
 
 SETTINGS = RenderSettings(view_steps=64, light_steps=64, map_resolution=96, coefficients=6)
@@ -24,13 +25,12 @@ def _scenes() -> dict:
              "area": Light(matrix_world=look_at((-1.5, -1.5, 3.5), (0, 0, 1.0)), power_w=1500.0, kind="AREA",
                            size_m=(0.5, 0.5))}
     for name, light in kinds.items():
-        lit[name] = Scene(camera=spot.camera, lights=(light,), medium=spot.medium,
+        lit[name] = Scene(camera=spot.camera, lights=(light,), media=(spot.media[0],),
                           meshes=(plane_mesh((0, 0, 0), 8.0), box_mesh((0.8, 0.0, 0.5), (0.3, 0.3, 1.0))))
     return lit
 
 
-def _frame(scene, on: bool, monkeypatch):
-    monkeypatch.setattr(scattering, "FACE_KIND", on)
+def _frame(scene):
     r = Renderer()
     try:
         image = r.render(scene, SETTINGS).combined
@@ -42,17 +42,20 @@ def _frame(scene, on: bool, monkeypatch):
 
 
 @pytest.mark.parametrize("name", ["spot, shadow", "spot, no solid", "gobo", "sun", "point", "area"])
-def test_each_face_kind_gives_the_uniforms_frame(monkeypatch, name):
+def test_each_face_kind_compiles_its_program_and_gives_the_reference(name):
     scene = _scenes()[name]
-    compiled, kinds = _frame(scene, True, monkeypatch)
-    uniforms, plain = _frame(scene, False, monkeypatch)
-    assert plain == {(None, None, None, None)}
+    image, kinds = _frame(scene)
     ortho = {"sun": 1}.get(name, 0)
     shadow = 0 if name == "spot, no solid" else 1
     assert {k[0] for k in kinds} == {ortho} and {k[2] for k in kinds} <= {0, 1}
     assert {k[3] for k in kinds} == {int(name == "gobo")}
     if name != "point":          # a point light's faces may see no solid: their maps are skipped
         assert {k[2] for k in kinds} == {shadow}
-    peak = float(uniforms[..., :3].max())
+    ref = render_reference(scene, SETTINGS, view_steps=64, light_steps=64).combined[..., :3]
+    peak = float(ref.max())
     assert peak > 0.02
-    assert np.abs(compiled - uniforms).max() <= 1e-5 * peak
+    s = ssim(image[..., :3], ref)
+    ratio = image[..., :3].sum(axis=(0, 1)) / ref.sum(axis=(0, 1))
+    print(f"{name}: SSIM {s:.4f}, brightness {np.round(ratio, 4)}")
+    assert s >= 0.98
+    assert np.all(np.abs(ratio - 1.0) <= 0.015), ratio

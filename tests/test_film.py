@@ -91,35 +91,3 @@ def test_a_lone_pass_composes_the_image_the_composite_pass_makes(renderer, smoke
         for name, image in composed.passes.items():
             top = max(float(np.abs(image).max()), 1.0)
             assert np.abs(lone.passes[name] - image).max() <= 1e-6 * top, name
-
-
-@pytest.mark.parametrize("transparent", [True, False])
-def test_a_lone_pass_adds_its_sample_into_the_sums_as_the_composite_pass_does(renderer, smoke, monkeypatch,
-                                                                              transparent):
-    """Antialiasing samples of one light pass add themselves into the frame's sums (scatter.frag
-    SUMS, no composite pass); with LONE_PASS_COMPOSES off the composite pass adds them. The means,
-    passes and adaptive decisions (12 samples: two decisions) are the same, holdout included."""
-    import dataclasses
-
-    from tfm_addon.engine.passes import scattering
-    from tfm_addon.engine.sampling import Accumulator, iter_samples
-
-    holes = tuple(dataclasses.replace(m, holdout=True) if i == 0 else m for i, m in enumerate(smoke.meshes))
-    scene = dataclasses.replace(smoke, meshes=holes)
-    out = {}
-    for flag in (True, False):
-        monkeypatch.setattr(scattering, "LONE_PASS_COMPOSES", flag)
-        acc = Accumulator()
-        before = renderer.counters["light_passes"]
-        for _ in iter_samples(renderer, scene, _settings(transparent), 12, passes=True, accumulator=acc):
-            pass
-        assert renderer.counters["light_passes"] - before == 12
-        out[flag] = (acc.output, acc.active.mask.copy() if acc.active is not None else None)
-    (a, mask_a), (b, mask_b) = out[True], out[False]
-    assert mask_a is not None and np.array_equal(mask_a, mask_b) and 0 < mask_a.mean() < 1
-    peak = float(np.abs(b.combined).max())
-    assert peak > 0.05
-    assert np.abs(a.combined - b.combined).max() <= 1e-6 * peak
-    for name, image in b.passes.items():
-        top = max(float(np.abs(image).max()), 1.0)
-        assert np.abs(a.passes[name] - image).max() <= 1e-6 * top, name

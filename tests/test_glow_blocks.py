@@ -17,7 +17,7 @@ SETTINGS = RenderSettings(view_steps=96, light_steps=96, map_resolution=128, coe
 
 def _glowing(with_light: bool):
     scene = scenes.fire_scene(64, 36, 24, kind="EMISSION", with_light=with_light)
-    m = scene.medium
+    m = scene.media[0]
     n = np.asarray(m.density.shape)
     # Blocks of 8 voxels from index -6 (beyond the grid), every other one in along x.
     shape = tuple(int(k) for k in np.ceil((n + 12) / 8.0))
@@ -25,7 +25,7 @@ def _glowing(with_light: bool):
     mask[1::2, :, :] = False
     glow = GlowBlocks((-6.0, -6.0, -6.0), 8.0, mask)
     medium = dataclasses.replace(m, emission_strength=GridValue("flame", 4.0, 0.3), glow=glow)
-    return dataclasses.replace(scene, medium=medium), glow
+    return dataclasses.replace(scene, media=(medium,)), glow
 
 
 def test_glow_blocks_know_their_box_and_points():
@@ -44,7 +44,7 @@ def test_a_constant_emission_glows_in_its_blocks_as_the_reference(fresh, with_li
     compiled = {dict(k[2]).get("GLOW_BLOCKS") for k in fresh.gl._programs if k[1] == "scatter.frag"}
     assert 1 in compiled
     ref = render_reference(scene, view_steps=192, light_steps=96).combined[..., :3]
-    plain = fresh.render(dataclasses.replace(scene, medium=dataclasses.replace(scene.medium, glow=None)),
+    plain = fresh.render(dataclasses.replace(scene, media=(dataclasses.replace(scene.media[0], glow=None),)),
                          SETTINGS).combined[..., :3]
     ratio = out.sum(axis=(0, 1)) / ref.sum(axis=(0, 1))
     print(f"glow blocks (light {with_light}): SSIM {metrics.ssim(out, ref):.4f}, "
@@ -62,7 +62,7 @@ def test_a_gl_with_16_texture_units_glows_over_the_grid_s_box_and_says_so(fresh)
     scene, _glow = _glowing(False)
     fresh.gl.ctx.info["GL_MAX_TEXTURE_IMAGE_UNITS"] = 16      # moderngl keeps this dict
     out = fresh.render(scene, SETTINGS)
-    plain = fresh.render(dataclasses.replace(scene, medium=dataclasses.replace(scene.medium, glow=None)),
+    plain = fresh.render(dataclasses.replace(scene, media=(dataclasses.replace(scene.media[0], glow=None),)),
                          SETTINGS)
     compiled = {dict(k[2]).get("GLOW_BLOCKS") for k in fresh.gl._programs if k[1] == "scatter.frag"}
     assert 1 not in compiled

@@ -1,8 +1,9 @@
-"""Issue 8's cheaper light marches, checked by what they must not change: the TFM build's and the
-brute force's jumps over empty occupancy cells (bindings.LIGHT_SKIP) give the maps and the
-transmittance of the march that fetches every step, at the grid's level 0 and level 1 (whose
-occupancy, bindings.occupancy_level1, is checked against the level's trilinear density itself);
-the build over the map's rectangle (passes/tfm.map_rect) gives the map built over every texel."""
+"""The TFM build's cheaper light marches, checked by what they must not change: the search for
+the first and last samples with density jumps over empty occupancy cells and gives the map of the
+search that fetches every step, at the grid's level 0 and level 1 (whose occupancy,
+bindings.occupancy_level1, is checked against the level's trilinear density itself); the build
+over the map's rectangle (passes/tfm.map_rect) gives the map built over every texel; a frame on a
+grid with holes keeps the numpy reference."""
 
 import dataclasses
 
@@ -41,7 +42,7 @@ def _scene(density: np.ndarray):
     base = smoke_scene(width=64, height=40, n=density.shape[0], with_bar=False)
     medium = Medium(sigma_a=(0.2, 0.2, 0.2), sigma_s=(3.0, 3.0, 3.0), density=density,
                     index_to_world=grid_to_world(density.shape, 2.0, (0, 0, 1.2)))
-    return dataclasses.replace(base, medium=medium)
+    return dataclasses.replace(base, media=(medium,))
 
 
 @pytest.fixture(scope="module")
@@ -104,80 +105,31 @@ def _build(renderer, scene, res, steps, n, *, occupancy_fill=None, monkeypatch=N
 
 @pytest.mark.parametrize("lod", [0, 1])
 def test_the_builds_jumps_over_empty_cells_change_no_map(fresh, blobs, smoke, monkeypatch, lod):
-    """With LIGHT_SKIP the build jumps from a sample of density 0 in an empty cell to the first past
-    it: every coefficient and K range of the map (and the alpha pass) equals the march through
-    every step, on a grid with holes along the light's rays and on one without, at level 0 (a
-    fine map) and level 1 (a coarse one). The jumps do happen (an occupancy that marks no cell
-    changes the coefficients of rays whose K range it leaves), and the sum by parts equals the
-    direct sum of the march without LIGHT_SKIP (seen: 1e-7 and 3e-6 of the largest value)."""
+    """The build's search for the ray's first and last samples with density jumps over empty
+    occupancy cells: every coefficient and K range of the map (and the alpha pass) equals the
+    build whose occupancy marks every cell (every step fetched), on a grid with holes along the
+    light's rays and on one without, at level 0 (a fine map) and level 1 (a coarse one). The jumps
+    do happen (an occupancy that marks no cell changes the maps of rays with density)."""
     res, steps = (128, 64) if lod == 0 else (24, 16)
     for name, scene in (("blobs", blobs), ("smoke", smoke)):
         for n in (2, 6, 8):
-            monkeypatch.setattr(bindings, "LIGHT_SKIP", 1)
             skip, a_skip, level = _build(fresh, scene, res, steps, n)
             every, a_every, _ = _build(fresh, scene, res, steps, n, occupancy_fill=255,
                                        monkeypatch=monkeypatch)
-            monkeypatch.setattr(bindings, "LIGHT_SKIP", 1)
             assert level == (lod == 1), (name, n)
             scale = np.ones(every.shape[-1])       # K range relative to the largest, coefficients (c0 <= 1)
             scale[:2] = float(np.abs(every[..., :2]).max())
+            assert float(np.abs(skip[..., :2] - every[..., :2]).max()) == 0.0, (name, n, lod)  # same K ranges
             assert float((np.abs(skip - every) / scale).max()) <= 1e-5, (name, n, lod)
             assert abs(a_skip - a_every) <= 1e-5 * a_every
             if name == "blobs":
                 wrong, _, _ = _build(fresh, scene, res, steps, n, occupancy_fill=0, monkeypatch=monkeypatch)
-                monkeypatch.setattr(bindings, "LIGHT_SKIP", 1)
-                same_k = np.all(wrong[..., :2] == every[..., :2], axis=-1) & (every[..., 1] > every[..., 0])
-                assert float(np.abs(wrong - every)[same_k].max()) > 1e-3, (n, lod)     # the jump is taken
-            monkeypatch.setattr(bindings, "LIGHT_SKIP", 0)
-            direct, a_direct, _ = _build(fresh, scene, res, steps, n)
-            assert float(np.abs(direct[..., :2] - skip[..., :2]).max()) == 0.0       # the same K ranges
-            assert float((np.abs(direct - skip) / scale).max()) <= 1e-5, (name, n, lod)
-            assert abs(a_direct - a_skip) <= 1e-5 * a_direct
+                assert float((np.abs(wrong - every) / scale).max()) > 1e-3, (n, lod)     # the jumps are taken
 
 
-@pytest.mark.parametrize("light_steps", [64, 16])      # level 0; level 1 (steps over 2 voxels)
-def test_the_brute_forces_jumps_change_no_transmittance(fresh, blobs, monkeypatch, light_steps):
-    """LIGHT_T 1's march with LIGHT_SKIP: the transmittance at points across the grid equals that
-    of the march through every step (without LIGHT_SKIP, and with an occupancy marking every
-    cell); an occupancy marking none changes it (the jumps are taken, by the rays that read
-    level 0: the view march's occupancy it shares is level 0's, so a ray reading level 1 does not
-    jump)."""
-    rng = np.random.default_rng(2)
-    idx = rng.uniform(0, 63, (4000, 3))
-    points = (np.c_[idx, np.ones(len(idx))] @ np.asarray(blobs.medium.index_to_world).T)[:, :3]
-    settings = RenderSettings(method="BRUTE_FORCE", light_steps=light_steps, view_steps=32)
-
-    def probe(skip, fill=None):
-        monkeypatch.setattr(bindings, "LIGHT_SKIP", skip)
-        fake = None
-        if fill is not None:
-            with fresh.gl.ctx:
-                medium, _ = fresh._medium(blobs, settings)
-                grid = medium.slots[0].grid
-                size = grid.occupancy.size
-                fake = fresh.gl.ctx.texture3d(size, 1, bytes([fill]) * int(np.prod(size)), dtype="f1")
-                fake.filter = (fresh.gl.ctx.NEAREST, fresh.gl.ctx.NEAREST)
-            monkeypatch.setattr(grid, "occupancy", fake)
-        try:
-            return fresh.light_transmittance_at(blobs, settings, 0, points)
-        finally:
-            if fake is not None:
-                monkeypatch.undo()
-                fake.release()
-
-    every = probe(0)
-    assert fresh.counters["grid_levels"] == int(light_steps == 16)
-    skip = probe(1)
-    assert float(np.abs(skip - every).max()) <= 1e-6
-    assert float(np.abs(probe(1, 255) - skip).max()) <= 1e-6
-    assert float(np.abs(probe(1, 0) - every).max()) > 1e-2      # jumps taken (at 16 steps: short rays)
-    assert every.min() < 0.5           # the points lie in and behind the puffs
-
-
-def test_a_frame_with_the_jumps_keeps_the_reference(fresh, blobs, monkeypatch):
-    """The TFM and the brute force with LIGHT_SKIP on the grid with holes, against the numpy
-    reference (the thresholds of test_speed's sparse grid)."""
-    monkeypatch.setattr(bindings, "LIGHT_SKIP", 1)
+def test_a_frame_on_a_grid_with_holes_keeps_the_reference(fresh, blobs):
+    """The TFM and the brute force on the grid with holes, against the numpy reference (the
+    thresholds of test_speed's sparse grid)."""
     steps = dict(view_steps=96, light_steps=96)
     ref = render_reference(blobs, **steps)
     for method in ("TFM", "BRUTE_FORCE"):
@@ -190,7 +142,8 @@ def test_the_map_rectangle_holds_every_texel_whose_ray_meets_the_medium(fresh, b
     """map_rect, for a spot and a point light's cube faces: the map built over the rectangle alone
     equals the map built over every texel, bit for bit (outside it: F = 1, K range 0), and the
     rectangle is smaller than the map where the medium's box covers part of the face (a face
-    with a box corner behind its origin is built whole)."""
+    with a box corner behind its origin is built whole). The map over every texel is built with
+    map_rect answering None (the whole map)."""
     point = dataclasses.replace(blobs.lights[0], kind="POINT")
     areas = []
     with fresh.gl.ctx:
@@ -199,12 +152,14 @@ def test_the_map_rectangle_holds_every_texel_whose_ray_meets_the_medium(fresh, b
             for frame in light_faces(light, medium.boxes):
                 maps = {}
                 for use_rect in (False, True):
-                    monkeypatch.setattr(tfm_pass, "MAP_RECT", use_rect)
+                    if not use_rect:
+                        monkeypatch.setattr(tfm_pass, "map_rect", lambda *args: None)
                     m = tfm_pass.TransmittanceMap(fresh.gl, frame, medium, None, 96, 48, 6, 0.5)
                     maps[use_rect] = np.concatenate([np.frombuffer(t.read(), np.float32).reshape(96, 96, 4)
                                                      for t in [m.krange, *m.coef]], axis=2)
                     rect = m.rect
                     m.release()
+                    monkeypatch.undo()
                 assert np.array_equal(maps[True], maps[False])
                 met = maps[False][..., 1] > maps[False][..., 0]
                 if rect is None:

@@ -47,7 +47,7 @@ def _compare(renderer, scene, ssim_min=0.99, bright=0.02, settings=SETTINGS, ref
 
 
 def test_sun_through_smoke_with_a_shaft_builds_one_tfm(renderer):
-    scene = Scene(camera=_camera(), lights=(_sun(),), medium=_smoke(),
+    scene = Scene(camera=_camera(), lights=(_sun(),), media=(_smoke(),),
                   meshes=(box_mesh((-1.2, -0.4, 3.2), (0.15, 1.2, 0.15), name="Bar"),
                           plane_mesh((0, 0, 0), 8.0)))
     renderer.clear_maps()
@@ -63,7 +63,8 @@ def test_point_light_inside_fog_builds_at_most_six_tfms(renderer):
     light = Light(matrix_world=translate_scale((0.2, 0.1, 1.3), 1.0), power_w=800.0, kind="POINT")
     # A bar under the light: its shadow and shaft cross the boundaries of the cube faces.
     bar = box_mesh((0.2, 0.1, 0.8), (1.2, 0.12, 0.12), name="Bar")
-    scene = Scene(camera=_camera(), lights=(light,), medium=_fog(), meshes=(bar, plane_mesh((0, 0, 0), 8.0)))
+    scene = Scene(camera=_camera(), lights=(light,), media=(_fog(),),
+                  meshes=(bar, plane_mesh((0, 0, 0), 8.0)))
     renderer.clear_maps()
     before = renderer.counters["tfms"]
     out, ref = _compare(renderer, scene)
@@ -73,14 +74,14 @@ def test_point_light_inside_fog_builds_at_most_six_tfms(renderer):
 
 def test_point_light_inside_smoke_matches_reference(renderer):
     light = Light(matrix_world=translate_scale((0.0, 0.0, 1.2), 1.0), power_w=600.0, kind="POINT")
-    scene = Scene(camera=_camera(), lights=(light,), medium=_smoke(), meshes=(plane_mesh((0, 0, 0), 8.0),))
+    scene = Scene(camera=_camera(), lights=(light,), media=(_smoke(),), meshes=(plane_mesh((0, 0, 0), 8.0),))
     _compare(renderer, scene)
 
 
 def test_point_light_outside_with_one_face_toward_the_medium_builds_one(renderer):
     # 4 m above a 2 m smoke: only the downward face sees it; no solids, so the others are culled.
     light = Light(matrix_world=translate_scale((0.0, 0.0, 6.0), 1.0), power_w=3000.0, kind="POINT")
-    scene = Scene(camera=_camera(), lights=(light,), medium=_smoke())
+    scene = Scene(camera=_camera(), lights=(light,), media=(_smoke(),))
     renderer.clear_maps()
     before = dict(renderer.counters)
     _compare(renderer, scene)
@@ -91,7 +92,7 @@ def test_point_light_outside_with_one_face_toward_the_medium_builds_one(renderer
 def test_area_light_matches_reference(renderer):
     light = Light(matrix_world=look_at((-1.5, -1.5, 3.5), (0, 0, 1.0)), power_w=1500.0, kind="AREA",
                   size_m=(0.5, 0.5), name="Area")
-    scene = Scene(camera=_camera(), lights=(light,), medium=_smoke(), meshes=(plane_mesh((0, 0, 0), 8.0),))
+    scene = Scene(camera=_camera(), lights=(light,), media=(_smoke(),), meshes=(plane_mesh((0, 0, 0), 8.0),))
     out, _ = _compare(renderer, scene)
     assert any("Area light 'Area'" in w for w in out.warnings)
 
@@ -152,7 +153,7 @@ def test_brute_force_light_kinds_match_the_tfm(renderer, kind):
     """The GPU double march and the TFM agree for the cube and orthographic faces."""
     light = (Light(matrix_world=translate_scale((0.3, -0.2, 1.4), 1.0), power_w=600.0, kind="POINT")
              if kind == "POINT" else _sun())
-    scene = Scene(camera=_camera(64, 36), lights=(light,), medium=_smoke())
+    scene = Scene(camera=_camera(64, 36), lights=(light,), media=(_smoke(),))
     tfm = renderer.render(scene, SETTINGS)
     brute = renderer.render(scene, dataclasses.replace(SETTINGS, method="BRUTE_FORCE"))
     assert ssim(tfm.rgb, brute.rgb) >= 0.99
@@ -166,7 +167,7 @@ def test_auto_rule_reads_every_light_kind_through_its_faces():
 
     spot = Light(matrix_world=look_at((-3.0, -1.0, 5.0), (0, 0, 1.0)), spot_size_rad=math.radians(40))
     point = Light(matrix_world=translate_scale((0.0, 0.0, 1.2), 1.0), kind="POINT")
-    depth = {light.kind: quality.medium_stats(Scene(camera=_camera(), lights=(light,), medium=_smoke()))
+    depth = {light.kind: quality.medium_stats(Scene(camera=_camera(), lights=(light,), media=(_smoke(),)))
              .optical_depth for light in (spot, _sun(), point)}
     assert depth["SPOT"] > 0.5
     assert 0.7 * depth["SPOT"] <= depth["SUN"] <= 1.3 * depth["SPOT"]
@@ -183,7 +184,7 @@ def test_homogeneous_box_analytic_path_for_every_face(renderer, kind, sampling):
              "SUN": _sun(strength=2.0),
              "AREA": Light(matrix_world=look_at((-1.0, -1.2, 3.2), (0, 0, 1.0)), power_w=800.0,
                            kind="AREA")}[kind]
-    scene = Scene(camera=_camera(64, 36), lights=(light,), medium=box,
+    scene = Scene(camera=_camera(64, 36), lights=(light,), media=(box,),
                   meshes=(box_mesh((0.2, 0.1, 2.9), (0.3, 0.3, 0.1), name="Lid"), plane_mesh((0, 0, 0), 8.0)))
     before = renderer.counters["tfms"]
     _compare(renderer, scene, settings=dataclasses.replace(SETTINGS, view_steps=128, sampling=sampling),
@@ -227,16 +228,14 @@ def test_a_gl_with_16_texture_units_renders_three_grids_and_names_the_fourth(fre
 
 
 def test_replace_with_new_media_keeps_them():
-    """``dataclasses.replace(scene, media=...)`` renders the media it is given: it passed the old
-    first medium on as ``medium=``, which replaced the new first one (a scene without media got
-    none of the new ones)."""
+    """``dataclasses.replace(scene, media=...)`` renders the media it is given, and a replace of
+    anything else keeps the scene's media."""
     a, b, c = _smoke(name="A"), _smoke(name="B"), _smoke(name="C")
     bare, two = Scene(camera=_camera()), Scene(camera=_camera(), media=(a, b))
     names = [[m.name for m in s.media] for s in (
         dataclasses.replace(bare, media=(a, b)), dataclasses.replace(two, media=(c,)),
-        dataclasses.replace(two, medium=c), dataclasses.replace(two, medium=None),
-        dataclasses.replace(two, lights=()))]
-    assert names == [["A", "B"], ["C"], ["C", "B"], [], ["A", "B"]]
+        dataclasses.replace(two, media=()), dataclasses.replace(two, lights=()))]
+    assert names == [["A", "B"], ["C"], [], ["A", "B"]]
 
 
 @pytest.mark.parametrize("skipped", ["empty grid", "unbounded fog"])

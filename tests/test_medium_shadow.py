@@ -11,7 +11,7 @@ import pytest
 from tfm_addon.engine import RenderSettings
 from tfm_addon.engine import renderer as renderer_module
 from tfm_addon.engine.light import LightFrame, light_faces, solids_may_shadow
-from tfm_addon.engine.scene import Light, SpotLight
+from tfm_addon.engine.scene import Light
 from tfm_addon.scenes import look_at, smoke_scene, translate_scale
 
 BOX = [(translate_scale((0.0, 0.0, 1.5), 0.5), (-1.0, -1.0, -1.0), (1.0, 1.0, 1.0))]   # z in [1, 2]
@@ -28,7 +28,7 @@ def _quad(corners):
 
 
 GROUND = _quad([(-20, -20, 0), (20, -20, 0), (20, 20, 0), (-20, 20, 0)])
-SPOT = LightFrame.of(SpotLight(matrix_world=look_at((0.5, -0.3, 5.0), (0.0, 0.0, 1.5)),
+SPOT = LightFrame.of(Light(matrix_world=look_at((0.5, -0.3, 5.0), (0.0, 0.0, 1.5)),
                                spot_size_rad=math.radians(60)))
 
 

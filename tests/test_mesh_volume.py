@@ -45,7 +45,7 @@ def test_silhouette_matches_the_exact_chords(renderer):
                                    resolution=64)
     assert notes == []
     cam = Camera(_translate(0.0, 0.0, 5.0), 64, 64, projection="ORTHO", ortho_scale=2.4)
-    out = renderer.render(Scene(cam, medium=medium), RenderSettings(view_steps=192, ambient=False))
+    out = renderer.render(Scene(cam, media=(medium,)), RenderSettings(view_steps=192, ambient=False))
     px = (np.arange(64) + 0.5) / 64 * 2.4 - 1.2
     x, y = np.meshgrid(px, -px)
     chord = 2.0 * np.sqrt(np.maximum(1.0 - x**2 - y**2, 0.0))
@@ -112,7 +112,7 @@ def test_cache_by_shape_not_transform(renderer):
         cam = Camera(scenes.look_at(eye, (0, 0, 1)), 32, 24)
         medium, _ = mv.mesh_medium(v, t, _translate(0, 0, 1), sigma_a=(0.1,) * 3, sigma_s=(1.0,) * 3,
                                    resolution=32, cache=cache)
-        renderer.render(Scene(cam, lights=(light,), medium=medium), RenderSettings(map_resolution=64))
+        renderer.render(Scene(cam, lights=(light,), media=(medium,)), RenderSettings(map_resolution=64))
         if before is None:
             before = dict(renderer.counters)
     after = renderer.counters
@@ -133,7 +133,7 @@ def test_constant_emission_glows_inside_the_mesh_only(renderer):
                                cache=mv.OccupancyCache())
     assert medium.emission_strength.grid == mv.INSIDE_GRID and medium.grids[mv.INSIDE_GRID] is medium.density
     cam = Camera(_translate(0.0, 0.0, 5.0), 48, 48, projection="ORTHO", ortho_scale=2.4)
-    out = renderer.render(Scene(cam, medium=medium), RenderSettings(view_steps=128, ambient=False))
+    out = renderer.render(Scene(cam, media=(medium,)), RenderSettings(view_steps=128, ambient=False))
     px = (np.arange(48) + 0.5) / 48 * 2.4 - 1.2
     x, y = np.meshgrid(px, -px)
     outside = x**2 + y**2 > 1.1**2

@@ -9,7 +9,7 @@ import pytest
 from scipy import integrate
 
 from tfm_addon.engine.reference import render_reference
-from tfm_addon.engine.scene import Camera, Medium, Mesh, RenderSettings, Scene, SpotLight
+from tfm_addon.engine.scene import Camera, Light, Medium, Mesh, RenderSettings, Scene
 
 # Camera rotated to look along +X with +Z up: local x -> -Y, local y -> +Z, local z -> -X.
 LOOK_PLUS_X = np.array([[0.0, 0.0, -1.0], [-1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
@@ -67,7 +67,7 @@ def test_homogeneous_box_ambient_matches_analytic():
                     box_to_world=pose((0.3, -0.2, 0.0), scale=1.0))
     # orthographic straight down -Z through the box: every pixel crosses 2 m of medium
     cam = Camera(pose((0.3, -0.2, 5.0)), 7, 5, projection="ORTHO", ortho_scale=1.5)
-    out = render_reference(Scene(cam, medium=medium, ambient=tuple(ambient)), view_steps=64)
+    out = render_reference(Scene(cam, media=(medium,), ambient=tuple(ambient)), view_steps=64)
     length = 2.0
     expect_t = np.exp(-SIGMA_T * length)
     expect_s = SIGMA_S / SIGMA_T * ambient * (1.0 - expect_t)
@@ -84,7 +84,7 @@ def test_homogeneous_box_perspective_centre_and_miss():
     box = pose((0.0, 0.0, 0.0), scale=1.0) @ np.diag([1.0, 1.0, 1.5, 1.0])  # z half-size 1.5
     medium = Medium(sigma_a=tuple(SIGMA_A), sigma_s=tuple(SIGMA_S), box_to_world=box)
     cam = Camera(pose((0.0, 0.0, 6.0)), 21, 21, lens_mm=18.0)
-    out = render_reference(Scene(cam, medium=medium, ambient=tuple(ambient)))
+    out = render_reference(Scene(cam, media=(medium,), ambient=tuple(ambient)))
     expect_t = np.exp(-SIGMA_T * 3.0)
     np.testing.assert_allclose(centre(out.passes["transmittance"]), expect_t, rtol=1e-5)
     np.testing.assert_allclose(centre(out.passes["scattering"]),
@@ -93,7 +93,7 @@ def test_homogeneous_box_perspective_centre_and_miss():
     np.testing.assert_array_equal(out.passes["transmittance"][0, 0], 1.0)
     np.testing.assert_array_equal(out.passes["scattering"][0, 0], 0.0)
     # ambient off
-    off = render_reference(Scene(cam, medium=medium, ambient=tuple(ambient)),
+    off = render_reference(Scene(cam, media=(medium,), ambient=tuple(ambient)),
                            RenderSettings(ambient=False))
     assert not off.passes["scattering"].any()
 
@@ -114,7 +114,7 @@ def test_constant_grid_view_transmittance():
     # [-1, 16] is 15 (dense part, centre to centre) + 2 * 1/2 (the linear fades) = 16 voxels
     cam = Camera(pose((0.0, 0.0, 6.0)), 3, 3, projection="ORTHO", ortho_scale=0.6)
     ambient = np.array([0.5, 0.25, 2.0])
-    out = render_reference(Scene(cam, medium=medium, ambient=tuple(ambient)), view_steps=136)
+    out = render_reference(Scene(cam, media=(medium,), ambient=tuple(ambient)), view_steps=136)
     length = 16 * 0.125
     expect_t = np.exp(-SIGMA_T * length)
     np.testing.assert_allclose(out.passes["transmittance"], np.broadcast_to(expect_t, (3, 3, 3)),
@@ -127,11 +127,11 @@ def test_constant_grid_view_transmittance():
 
 def test_constant_grid_shadows_surface_through_light_march():
     medium = grid_medium(shape=(17, 17, 16), voxel=0.125, origin=(-1.0, -1.0, 1.5))
-    light = SpotLight(pose((0.0, 0.0, 10.0)), power_w=4000.0, spot_size_rad=math.radians(40),
+    light = Light(pose((0.0, 0.0, 10.0)), power_w=4000.0, spot_size_rad=math.radians(40),
                       spot_blend=0.0)
     floor = quad((0.0, 0.0, 0.0), 4.0, color=(0.5, 0.6, 0.7))
     cam = Camera(look_at((0.0, -6.0, 2.0), (0.0, 0.0, 0.0)), 21, 15)
-    out = render_reference(Scene(cam, (light,), medium, (floor,)), light_steps=136)
+    out = render_reference(Scene(cam, (light,), meshes=(floor,), media=(medium,)), light_steps=136)
     intensity = 4000.0 / (4 * math.pi)
     t_light = np.exp(-SIGMA_T * 16 * 0.125)  # vertical light ray through the whole column
     expect = np.array([0.5, 0.6, 0.7]) / math.pi * intensity * t_light / 100.0
@@ -144,11 +144,11 @@ def test_constant_grid_shadows_surface_through_light_march():
 def test_quad_lit_head_on():
     albedo = np.array([0.9, 0.5, 0.2])
     ambient = np.array([0.1, 0.2, 0.3])
-    light = SpotLight(pose((0.0, 0.0, 5.0)), color=(1.0, 0.5, 0.25), power_w=1000.0,
+    light = Light(pose((0.0, 0.0, 5.0)), color=(1.0, 0.5, 0.25), power_w=1000.0,
                       spot_size_rad=math.radians(60), spot_blend=0.3)
     floor = quad((0.0, 0.0, 0.0), 4.0, color=tuple(albedo))
     cam = Camera(pose((0.0, 0.0, 8.0)), 11, 9)
-    out = render_reference(Scene(cam, (light,), None, (floor,), ambient=tuple(ambient)))
+    out = render_reference(Scene(cam, (light,), (floor,), ambient=tuple(ambient)))
     intensity = np.array([1.0, 0.5, 0.25]) * 1000.0 / (4 * math.pi)
     expect = albedo / math.pi * intensity / 25.0 + albedo * ambient
     np.testing.assert_allclose(centre(out.passes["surfaces"]), expect, rtol=1e-6)
@@ -157,22 +157,22 @@ def test_quad_lit_head_on():
     assert not out.passes["scattering"].any()
     # seen from below (two-sided, normal turned to the camera) the light is behind: ambient only
     below = Camera(pose((0.0, 0.0, -8.0), np.diag([1.0, -1.0, -1.0])), 11, 9)
-    out = render_reference(Scene(below, (light,), None, (floor,), ambient=tuple(ambient)))
+    out = render_reference(Scene(below, (light,), (floor,), ambient=tuple(ambient)))
     np.testing.assert_allclose(centre(out.passes["surfaces"]), albedo * ambient, rtol=1e-6)
 
 
 def test_quad_shadowed_by_occluder():
     albedo = np.array([0.8, 0.8, 0.8])
     ambient = np.array([0.05, 0.05, 0.05])
-    light = SpotLight(pose((0.0, 0.0, 5.0)), power_w=1000.0, spot_size_rad=math.radians(90),
+    light = Light(pose((0.0, 0.0, 5.0)), power_w=1000.0, spot_size_rad=math.radians(90),
                       spot_blend=0.0)
     floor = quad((0.0, 0.0, 0.0), 3.0, color=tuple(albedo))
     blocker = quad((0.0, 0.0, 2.5), 0.1)
     cam = Camera(look_at((3.0, 0.0, 4.0), (0.0, 0.0, 0.0)), 31, 31)  # blocker off to the side
-    scene = Scene(cam, (light,), None, (floor, blocker), ambient=tuple(ambient))
+    scene = Scene(cam, (light,), (floor, blocker), ambient=tuple(ambient))
     out = render_reference(scene)
     np.testing.assert_allclose(centre(out.passes["surfaces"]), albedo * ambient, rtol=1e-6)
-    lit = render_reference(Scene(cam, (light,), None, (floor,), ambient=tuple(ambient)))
+    lit = render_reference(Scene(cam, (light,), (floor,), ambient=tuple(ambient)))
     intensity = 1000.0 / (4 * math.pi)
     np.testing.assert_allclose(centre(lit.passes["surfaces"]),
                                albedo / math.pi * intensity / 25.0 + albedo * ambient, rtol=1e-6)
@@ -185,9 +185,9 @@ def test_quad_shadowed_by_occluder():
 def test_dark_lights_contribute_nothing():
     floor = quad((0.0, 0.0, 0.0), 2.0)
     medium = Medium(box_to_world=pose((0.0, 0.0, 1.0)))
-    lights = (SpotLight(pose((0.0, 0.0, 5.0)), power_w=0.0),
-              SpotLight(pose((0.0, 0.0, 5.0)), spot_size_rad=0.0))
-    out = render_reference(Scene(Camera(pose((0.0, 0.0, 8.0)), 5, 5), lights, medium, (floor,)),
+    lights = (Light(pose((0.0, 0.0, 5.0)), power_w=0.0),
+              Light(pose((0.0, 0.0, 5.0)), spot_size_rad=0.0))
+    out = render_reference(Scene(Camera(pose((0.0, 0.0, 8.0)), 5, 5), lights, (floor,), media=(medium,)),
                            view_steps=16, light_steps=16)
     assert np.isfinite(out.combined).all()
     assert not out.rgb.any()
@@ -203,12 +203,11 @@ def one_pixel_down(x: float, y: float = 0.0) -> Camera:
 @pytest.mark.parametrize("angle_deg, blend", [(25.0, 0.5), (29.0, 0.5), (31.0, 0.5),
                                               (29.0, 0.0), (31.0, 0.0), (10.0, 0.5)])
 def test_spot_blend_smoothstep(angle_deg: float, blend: float):
-    light = SpotLight(pose((0.0, 0.0, 5.0)), power_w=800.0, spot_size_rad=math.radians(60),
+    light = Light(pose((0.0, 0.0, 5.0)), power_w=800.0, spot_size_rad=math.radians(60),
                       spot_blend=blend)
     floor = quad((0.0, 0.0, 0.0), 10.0, color=(1.0, 1.0, 1.0))
     theta = math.radians(angle_deg)
-    out = render_reference(Scene(one_pixel_down(5.0 * math.tan(theta)), (light,), None,
-                                 (floor,)))
+    out = render_reference(Scene(one_pixel_down(5.0 * math.tan(theta)), (light,), (floor,)))
     cos_half = math.cos(math.radians(30))
     if math.cos(theta) <= cos_half:
         spot = 0.0
@@ -228,13 +227,13 @@ def test_gobo_orientation_and_bilinear():
     gobo = np.array([[[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],     # top row: red, green
                      [[0.0, 0.0, 1.0], [1.0, 1.0, 1.0]]])    # bottom row: blue, white
     size = math.radians(60)
-    light = SpotLight(pose((0.0, 0.0, 5.0)), power_w=1000.0, spot_size_rad=size, spot_blend=0.0,
+    light = Light(pose((0.0, 0.0, 5.0)), power_w=1000.0, spot_size_rad=size, spot_blend=0.0,
                       gobo=gobo)
     floor = quad((0.0, 0.0, 0.0), 10.0, color=(1.0, 1.0, 1.0))
     tan_half = math.tan(size / 2)
 
     def radiance(x: float, y: float) -> np.ndarray:
-        out = render_reference(Scene(one_pixel_down(x, y), (light,), None, (floor,)))
+        out = render_reference(Scene(one_pixel_down(x, y), (light,), (floor,)))
         r2 = x * x + y * y + 25.0
         base = 1.0 / math.pi * 1000.0 / (4 * math.pi) * (5.0 / math.sqrt(r2)) / r2
         return out.passes["surfaces"][0, 0] / base
@@ -255,11 +254,11 @@ def test_fog_single_scattering_matches_quadrature():
     sig_a, sig_s = 0.05, 0.3
     sig_t = sig_a + sig_s
     medium = Medium(sigma_a=(sig_a,) * 3, sigma_s=(sig_s,) * 3, anisotropy=g)  # fills the scene
-    light = SpotLight(pose((0.0, 1.0, 0.0), SHINE_MINUS_Y), power_w=500.0,
+    light = Light(pose((0.0, 1.0, 0.0), SHINE_MINUS_Y), power_w=500.0,
                       spot_size_rad=math.radians(179), spot_blend=0.0)
     cam = Camera(pose((0.0, 0.0, 5.0)), 1, 1, projection="ORTHO", ortho_scale=0.01,
                  clip_start=0.5, clip_end=8.0)
-    out = render_reference(Scene(cam, (light,), medium), view_steps=256)
+    out = render_reference(Scene(cam, (light,), media=(medium,)), view_steps=256)
     intensity = 500.0 / (4 * math.pi)
 
     def integrand(t: float) -> float:
@@ -349,7 +348,7 @@ def test_clip_range_is_depth_not_distance():
     # fog everywhere: each ray crosses depths 1 -> 3, a distance of 2 |(x, y, -1)|
     sig_t = 0.4
     medium = Medium(sigma_a=(0.1,) * 3, sigma_s=(sig_t - 0.1,) * 3)
-    out = render_reference(Scene(cam, medium=medium, ambient=(1.0, 1.0, 1.0)), view_steps=8)
+    out = render_reference(Scene(cam, media=(medium,), ambient=(1.0, 1.0, 1.0)), view_steps=8)
     pix = 36.0 / 18.0 / 9
     slope = np.hypot((0.5 - 4.5) * pix, (3.5 - 0.5) * pix)
     np.testing.assert_allclose(out.passes["transmittance"][0, 0],

@@ -21,9 +21,9 @@ def _slabs_scene() -> Scene:
     slab = ((p % 16) >= 1) & ((p % 16) < 8)
     density = np.broadcast_to(slab[None, :, None], (n, n, n)).astype(np.float32)
     base = scenes.smoke_scene(width=64, height=40, n=16, with_bar=False)
-    medium = dataclasses.replace(base.medium, density=density,
+    medium = dataclasses.replace(base.media[0], density=density,
                                  index_to_world=scenes.grid_to_world((n, n, n), 2.0, (0, 0, 1.2)))
-    return dataclasses.replace(base, medium=medium)
+    return dataclasses.replace(base, media=(medium,))
 
 
 def _without_skipping(monkeypatch, renderer_gl, scene, settings):
@@ -75,19 +75,19 @@ def test_a_light_map_does_not_depend_on_whether_another_light_made_the_grid_leve
         d = d + np.float32(0.05)
     else:
         d = np.random.default_rng(0).uniform(0.0, 2.0, d.shape).astype(np.float32) * (d > 0.01)
-    medium = dataclasses.replace(base.medium, density=d,
+    medium = dataclasses.replace(base.media[0], density=d,
                                  index_to_world=scenes.grid_to_world((n, n, n), 2.0, (0, 0, 1.2)))
     point = Light(matrix_world=scenes.look_at((0.0, -1.35, 1.2), (0, 0, 1.2)), power_w=300.0,
                   kind="POINT", name="Point")
     sun = Light(matrix_world=scenes.look_at((-1.0, -3.0, 4.0), (0, 0, 1.2)), power_w=3.0, kind="SUN",
                 name="Sun")
     settings = RenderSettings(view_steps=48, light_steps=16, map_resolution=16, coefficients=8)
-    alone = fresh.render(dataclasses.replace(base, medium=medium, lights=(point,)), settings).rgb
+    alone = fresh.render(dataclasses.replace(base, media=(medium,), lights=(point,)), settings).rgb
     other = Renderer(gl=fresh.gl)
     try:
-        other.render(dataclasses.replace(base, medium=medium, lights=(sun,)), settings)
+        other.render(dataclasses.replace(base, media=(medium,), lights=(sun,)), settings)
         assert other.counters["grid_levels"] == 1
-        after = other.render(dataclasses.replace(base, medium=medium, lights=(point,)), settings).rgb
+        after = other.render(dataclasses.replace(base, media=(medium,), lights=(point,)), settings).rgb
     finally:
         other.clear_maps()
     peak = float(alone.max())
@@ -105,9 +105,9 @@ def test_a_long_light_step_reads_true_means_on_odd_and_even_grids(fresh, n):
     i = np.indices((n, n, n)).sum(axis=0)
     density = (i % 2).astype(np.float32) * np.float32(3.0)
     base = scenes.smoke_scene(width=48, height=32, n=16, with_bar=False)
-    medium = dataclasses.replace(base.medium, density=density,
+    medium = dataclasses.replace(base.media[0], density=density,
                                  index_to_world=scenes.grid_to_world((n, n, n), 1.2, (0, 0, 1.2)))
-    scene = dataclasses.replace(base, medium=medium)
+    scene = dataclasses.replace(base, media=(medium,))
     settings = RenderSettings(method="BRUTE_FORCE", view_steps=48, light_steps=16)
     img = fresh.render(scene, settings).rgb
     from tfm_addon.engine.metrics import brightness_ratio

@@ -30,7 +30,7 @@ def _sheared_blobs(shear: float = 3.0):
     shear_m = np.eye(4)
     shear_m[0, 1] = shear
     to_world = grid_to_world(density.shape, 2.0, (0, 0, 1.2)) @ shear_m
-    medium = dataclasses.replace(base.medium, density=density, index_to_world=to_world)
+    medium = dataclasses.replace(base.media[0], density=density, index_to_world=to_world)
     _, _, vt = np.linalg.svd(np.linalg.inv(shear_m[:3, :3]))
     d = vt[0] / np.linalg.norm(vt[0])           # world direction of the light's rays
     z = -d
@@ -39,7 +39,7 @@ def _sheared_blobs(shear: float = 3.0):
     m = np.eye(4)
     m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3] = x, np.cross(z, x), z, to_world[:3, 3] - 5.0 * d
     sun = dataclasses.replace(base.lights[0], kind="SUN", matrix_world=m)
-    return dataclasses.replace(base, medium=medium, lights=(sun,))
+    return dataclasses.replace(base, media=(medium,), lights=(sun,))
 
 
 def _map(gl, scene, res: int, steps: int, level_before: bool, every_cell: bool = False) -> np.ndarray:

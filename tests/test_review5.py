@@ -21,6 +21,9 @@ from tfm_addon.engine.reference import render_reference
 from tfm_addon.engine.scene import GridValue
 
 SETTINGS = RenderSettings(view_steps=96, light_steps=64, map_resolution=128, coefficients=8)
+DOWNSAMPLED_BRIGHTNESS, DOWNSAMPLED_SSIM = 0.08, 0.93
+"""A fire downsampled by 2 against the reference of its full grids (seen: 3-6 % brighter, SSIM
+0.946-0.978): the bound says the frame is that fire, the downsampling's blur aside."""
 
 
 def _fire(width=48, height=27, light=False):
@@ -28,7 +31,7 @@ def _fire(width=48, height=27, light=False):
     and its temperature burning in a third block touching the opposite faces, so that the
     emission's box is not the whole grid and reaches the texture's border."""
     scene = scenes.fire_scene(width, height, 24, kind="FIRE", with_light=light, with_occluder=light)
-    m = scene.medium
+    m = scene.media[0]
     nx, ny, nz = m.density.shape
     flame = np.zeros(m.density.shape, np.float32)
     rng = np.random.default_rng(5)
@@ -37,11 +40,11 @@ def _fire(width=48, height=27, light=False):
     temperature = np.zeros(m.density.shape, np.float32)
     temperature[16:nx, 14:ny, 26:nz] = 1.5 + 1.5 * rng.random((nx - 16, ny - 14, nz - 26))
     m = dataclasses.replace(m, grids={"flame": flame, "temperature": temperature})
-    return dataclasses.replace(scene, medium=m)
+    return dataclasses.replace(scene, media=(m,))
 
 
 def _with(scene, **fields):
-    return dataclasses.replace(scene, medium=dataclasses.replace(scene.medium, **fields))
+    return dataclasses.replace(scene, media=(dataclasses.replace(scene.media[0], **fields),))
 
 
 def _expected_texels(medium, stored_r):
@@ -65,14 +68,13 @@ def _expected_texels(medium, stored_r):
     return out
 
 
-def _read(renderer, attributes, pack):
-    """The attribute texture (z, y, x, 4) and the density texture's values (0: not packed), read
-    with the renderer's context current."""
+def _read(renderer, attributes):
+    """The attribute texture (z, y, x, 4) and the density texture's values, read with the
+    renderer's context current."""
     nx, ny, nz = attributes.attrs_size
     with renderer.gl.ctx:
         got = np.frombuffer(attributes.attrs.read(), np.float32).reshape(nz, ny, nx, 4).copy()
-        stored = (emission.stored_density(attributes.density_grid) if pack
-                  else np.zeros((nz, ny, nx), np.float32))
+        stored = emission.stored_density(attributes.density_grid)
     return got, stored
 
 
@@ -88,29 +90,27 @@ EDITS = [
 ]
 
 
-@pytest.mark.parametrize("pack", [True, False])
-def test_the_combined_texture_is_the_per_voxel_emission_everywhere(fresh, monkeypatch, pack):
+def test_the_combined_texture_is_the_per_voxel_emission_everywhere(fresh):
     """Every texel of the combined texture, after each of a row of edits (negative scale, negative
     offset, an offset across 0, colour 0, tint 0) and with a strength grid holding negative
     values and NaNs: the per-voxel emission computed here (within 1e-6 of its peak), exactly 0
     wherever that is 0 (outside the emission's box above all), and R the density texture's own
-    values (packed) or 0 (not packed), untouched by the edits."""
-    monkeypatch.setattr(emission, "PACK_DENSITY", pack)
+    values (packed), untouched by the edits."""
     scene = _fire()
-    flame = scene.medium.grids["flame"].copy()
+    flame = scene.media[0].grids["flame"].copy()
     flame[3, 2, 4] = np.nan
     flame[10, 9, 13] = -0.8          # a negative voxel among emitting ones
     flame[20, 20, 2] = -0.5          # and one alone, where nothing emits
-    scene = _with(scene, grids={**scene.medium.grids, "flame": flame})
+    scene = _with(scene, grids={**scene.media[0].grids, "flame": flame})
     for k, (name, change) in enumerate(EDITS):
         edited = _with(scene, **change)
         fresh.render(edited, SETTINGS)
         (attributes,) = fresh._attributes.items.values()
         assert attributes.combined and attributes.grids_read() == 4
-        assert attributes.packed == (emission.PACKED_ATTRS_R if pack else 0)
+        assert attributes.packed == emission.PACKED_ATTRS_R
         assert attributes.combines == k + 1        # each edit recomputed it once
-        got, stored = _read(fresh, attributes, pack)
-        want = _expected_texels(edited.medium, stored)
+        got, stored = _read(fresh, attributes)
+        want = _expected_texels(edited.media[0], stored)
         peak = float(np.abs(want[..., 1:]).max())
         diff = float(np.abs(got - want).max())
         print(f"{name}: peak {peak:.4g}, largest texel difference {diff:.2e}")
@@ -122,21 +122,15 @@ def test_the_combined_texture_is_the_per_voxel_emission_everywhere(fresh, monkey
             assert peak > 0.0      # the blackbody alone still glows
 
 
-def _frame(renderer, scene, combine=True, monkeypatch=None):
-    if not combine:
-        monkeypatch.setattr(emission, "COMBINE_EMISSION", False)
+def _frame(renderer, scene):
+    other = Renderer(gl=renderer.gl)
     try:
-        other = Renderer(gl=renderer.gl)
-        try:
-            out = other.render(scene, SETTINGS).combined[..., :3]
-            (attributes,) = other._attributes.items.values()
-            assert attributes.combined == combine
-            return out
-        finally:
-            other.clear_maps()
+        out = other.render(scene, SETTINGS).combined[..., :3]
+        (attributes,) = other._attributes.items.values()
+        assert attributes.combined
+        return out
     finally:
-        if not combine:
-            monkeypatch.undo()
+        other.clear_maps()
 
 
 def _ref(scene):
@@ -157,7 +151,7 @@ def _cases():
     """(name, scene, the reference scene whose emission is the per-voxel clamp written out, or a
     list of (weight, scene) whose references add up to it; None: the scene's own reference)."""
     scene = _fire_scene()
-    m = scene.medium
+    m = scene.media[0]
     flame = m.grids["flame"]
     nan = flame.copy()
     nan[flame > 0.5] = np.nan
@@ -187,13 +181,13 @@ def _cases():
     yield "negative scale", _with(scene, emission_strength=GridValue("flame", scale, offset)), parts
 
 
-def test_the_combined_fire_matches_the_reference_and_differs_only_by_the_per_voxel_clamp(fresh, monkeypatch):
+def test_the_combined_fire_matches_the_reference_and_differs_only_by_the_per_voxel_clamp(fresh):
     """The fire combined per voxel against the numpy reference: where the per-voxel clamp is the
     blend's (colour 0, tint 0, a positive offset, NaNs in the strength grid) against the scene's
     own reference; with a strength grid holding negative voxels, a negative offset or a negative
     scale, against the reference of the per-voxel clamp written out (within 0.5 % of the peak
     and in brightness), while the scene's own reference, which clamps the blend, differs by more
-    than 2 % of the peak and agrees with the two grids kept apart (COMBINE_EMISSION off)."""
+    than 2 % of the peak."""
     for name, scene, per_voxel in _cases():
         out = _frame(fresh, scene)
         ref = _ref(scene)
@@ -209,12 +203,9 @@ def test_the_combined_fire_matches_the_reference_and_differs_only_by_the_per_vox
         assert float(want.max()) > 0.05, name
         assert np.all(np.abs(ratio - 1.0) <= 0.005) and ssim >= 0.999 and diff <= 0.005, name
         if per_voxel is not None:
-            apart = _frame(fresh, scene, False, monkeypatch)
             _, _, off = _agree(out, ref)
-            _, _, apart_diff = _agree(apart, ref)
-            print(f"    the reference (clamp of the blend): {off:.3f} of the peak from it, "
-                  f"{apart_diff:.2e} from the grids apart")
-            assert off >= 0.02 and apart_diff <= 0.005, name
+            print(f"    the reference (clamp of the blend): {off:.3f} of the peak from it")
+            assert off >= 0.02, name
 
 
 def _fresh_frame(renderer, scene, settings=SETTINGS):
@@ -242,12 +233,12 @@ def test_edits_kind_switches_instances_and_clears_keep_the_combination_right(fre
     clear_maps: every frame is a fresh renderer's, and the combined texture is recomputed
     exactly when its uniforms changed."""
     scene = scenes.fire_scene(48, 27, 24, kind="FIRE", with_light=True, with_occluder=True)
-    m = scene.medium
+    m = scene.media[0]
     placed = m.index_to_world.copy()
     placed[0, 3] += 1.4
     twin = dataclasses.replace(m, name="Twin", index_to_world=placed, emission_color=(0.0, 0.0, 0.0),
                                blackbody_intensity=GridValue(offset=0.0))
-    pair = dataclasses.replace(scene, medium=None, media=(m, twin))
+    pair = dataclasses.replace(scene, media=(m, twin))
     green = dataclasses.replace(m, emission_color=(0.2, 0.9, 0.3))
     steps = [
         ("alone", scene, True),
@@ -377,17 +368,17 @@ def threading_wait(seconds):
     threading.Event().wait(seconds)
 
 
-def test_a_downsampled_fire_is_combined_on_the_density_lattice(fresh, monkeypatch):
+def test_a_downsampled_fire_is_combined_on_the_density_lattice(fresh):
     """The fire over a memory budget that halves its density: its attributes are downsampled with
-    it (the density's lattice), combined and packed, and its frame is that of the two grids kept
-    apart beside the density in its own texture, within 1e-5 of the peak; so is the pair of the
-    fire and its instance."""
+    it (the density's lattice), combined and packed, and its frame stays near the numpy reference
+    of the full grids (the downsampling blurs it); so does the pair of the fire and its
+    instance."""
     scene = scenes.fire_scene(48, 27, 24, kind="FIRE", with_light=True, with_occluder=True)
-    settings = dataclasses.replace(SETTINGS, max_grid_bytes=scene.medium.density.size * 4 // 5)
-    m = scene.medium
+    settings = dataclasses.replace(SETTINGS, max_grid_bytes=scene.media[0].density.size * 4 // 5)
+    m = scene.media[0]
     placed = m.index_to_world.copy()
     placed[0, 3] += 1.4
-    pair = dataclasses.replace(scene, medium=None, media=(m, dataclasses.replace(
+    pair = dataclasses.replace(scene, media=(m, dataclasses.replace(
         m, name="Twin", index_to_world=placed, emission_color=(0.0, 0.0, 0.0),
         blackbody_intensity=GridValue(offset=0.0))))
     for name, s in [("fire", scene), ("fire and its instance", pair)]:
@@ -397,27 +388,23 @@ def test_a_downsampled_fire_is_combined_on_the_density_lattice(fresh, monkeypatc
         (density,) = [t.texture for t in fresh._media.items.values()]
         assert attributes.combined and attributes.packed == emission.PACKED_ATTRS_R
         assert attributes.attrs_size == density.grid_size == tuple(-(-n // 2) + 2 for n in m.density.shape)
-        monkeypatch.setattr(emission, "COMBINE_EMISSION", False)
-        monkeypatch.setattr(emission, "PACK_DENSITY", False)
-        try:
-            apart = _fresh_frame(fresh, s, settings)
-        finally:
-            monkeypatch.undo()
-        rel = _close(out.combined[..., :3], apart, name, 1e-5)
-        print(f"{name}: {rel:.1e} of the peak from the grids apart")
+        ratio, ssim, diff = _agree(out.combined[..., :3], _ref(s))
+        print(f"{name}: brightness {np.round(ratio, 4)}, SSIM {ssim:.5f} against the full grids' reference")
+        assert np.all(np.abs(ratio - 1.0) <= DOWNSAMPLED_BRIGHTNESS) and ssim >= DOWNSAMPLED_SSIM, name
         fresh.clear_maps()
 
 
-def test_the_lone_grid_march_needs_no_box_test(fresh, monkeypatch):
+def test_the_lone_grid_march_needs_no_box_test(fresh):
     """The view march of a lone grid reads its density along the ray without a box test
     (grid_ray); the packed march keeps the test (emission.glsl packed_density). For a grid whose
     non-zero voxels touch every face of the texture, under a sheared and rotated placement, with
-    clipping, and for a mesh volume (engine/mesh_volume.py), the two marches agree within 1e-5 of
-    the peak, and the grid's transmittance matches the numpy reference."""
+    clipping, and for a mesh volume (engine/mesh_volume.py), the packed frame and the
+    transmittance of the march that reads the density texture (the medium without emission, not
+    packed) match the numpy reference."""
     from tfm_addon.engine import mesh_volume as mv
 
     base = scenes.fire_scene(48, 27, 24, kind="QUICK_FIRE", with_light=True, with_occluder=True)
-    m = base.medium
+    m = base.media[0]
     rng = np.random.default_rng(9)
     d = (0.2 + rng.random(m.density.shape)).astype(np.float32)
     a = np.asarray(m.index_to_world, np.float64)
@@ -438,27 +425,23 @@ def test_the_lone_grid_march_needs_no_box_test(fresh, monkeypatch):
                  grids={k: np.ones_like(g) * 1.2 for k, g in m.grids.items()}),
              "mesh volume": sphere}
     for name, medium in cases.items():
-        scene = dataclasses.replace(base, medium=medium)
+        scene = dataclasses.replace(base, media=(medium,))
         packed = fresh.render(scene, SETTINGS).combined
         (attributes,) = fresh._attributes.items.values()
         assert attributes.packed == emission.PACKED_ATTRS_R, name
         fresh.clear_maps()
-        monkeypatch.setattr(emission, "PACK_DENSITY", False)
-        try:
-            ray = fresh.render(scene, SETTINGS).combined
-            compiled = {dict(k[2]).get("PACKED_DENSITY") for k in fresh.gl._programs
-                        if k[1] == "scatter.frag"}
-            fresh.clear_maps()
-        finally:
-            monkeypatch.undo()
-        assert 0 in compiled
-        rel = _close(ray, packed, name, 1e-5)
-        dark = render_reference(dataclasses.replace(scene, lights=()), view_steps=96, light_steps=8)
-        alpha = fresh.render(dataclasses.replace(scene, lights=()), SETTINGS).combined[..., 3]
+        ratio, ssim, diff = _agree(packed[..., :3], _ref(scene))
+        assert np.all(np.abs(ratio - 1.0) <= 0.01) and ssim >= 0.99, (name, ratio, ssim)
+        unlit = dataclasses.replace(scene, lights=(), media=(dataclasses.replace(
+            medium, emission_strength=GridValue(offset=0.0), blackbody_intensity=GridValue(offset=0.0)),))
+        dark = render_reference(unlit, view_steps=96, light_steps=8)
+        alpha = fresh.render(unlit, SETTINGS).combined[..., 3]
+        compiled = {dict(k[2]).get("PACKED_DENSITY") for k in fresh.gl._programs if k[1] == "scatter.frag"}
         fresh.clear_maps()
+        assert 0 in compiled
         err = float(np.abs(alpha - dark.combined[..., 3]).max())
-        print(f"{name}: grid_ray {rel:.1e} of the peak from the boxed march; alpha {err:.2e} from the "
-              "reference")
+        print(f"{name}: packed frame brightness {np.round(ratio, 4)}, SSIM {ssim:.5f}; grid_ray alpha "
+              f"{err:.2e} from the reference")
         assert float(dark.combined[..., 3].max()) > 0.5 and err <= 0.01, name
 
 
@@ -469,7 +452,7 @@ def test_the_emission_box_at_the_texture_corners(fresh, spots):
     uniform): the combined texture is the per-voxel emission, for a positive, a negative scale
     and a negative offset."""
     base = scenes.fire_scene(32, 18, 16, kind="FIRE")
-    shape = base.medium.density.shape
+    shape = base.media[0].density.shape
     high = tuple(n - 1 for n in shape)
     at = {"low corner": [(0, 0, 0)], "high corner": [high], "both corners": [(0, 0, 0), high], "none": []}
     flame, temperature = np.zeros(shape, np.float32), np.zeros(shape, np.float32)
@@ -490,8 +473,8 @@ def test_the_emission_box_at_the_texture_corners(fresh, spots):
                 assert attributes._viewport == boxes[spots]
             else:
                 assert attributes._block is None
-            got, stored = _read(r, attributes, True)
-            want = _expected_texels(scene.medium, stored)
+            got, stored = _read(r, attributes)
+            want = _expected_texels(scene.media[0], stored)
             assert np.abs(got - want).max() <= 1e-6 * max(float(np.abs(want).max()), 1e-30)
             assert np.all(got[..., 1:][want[..., 1:] == 0.0] == 0.0)
         finally:

@@ -67,14 +67,14 @@ def test_a_frame_that_fails_midway_caches_nothing_partial(fresh):
 def test_a_bad_voxel_under_auto_quality_renders_finite_with_one_warning(renderer, bad):
     scene = smoke_scene(width=40, height=24, n=24)
     auto = dataclasses.replace(SETTINGS, quality="AUTO")
-    d = np.array(scene.medium.density)
+    d = np.array(scene.media[0].density)
     d[12, 12, 12] = bad                             # in the middle of the smoke
-    out = renderer.render(replace(scene, medium=replace(scene.medium, density=d.copy())), auto)
+    out = renderer.render(replace(scene, media=(replace(scene.media[0], density=d.copy()),)), auto)
     name = "NaN" if np.isnan(bad) else "infinite"
     assert out.warnings == [f"The density grid has 1 {name} voxel; rendered as 0."]
     assert np.isfinite(out.combined).all()
     d[12, 12, 12] = 0.0
-    zeroed = renderer.render(replace(scene, medium=replace(scene.medium, density=d)), auto)
+    zeroed = renderer.render(replace(scene, media=(replace(scene.media[0], density=d),)), auto)
     assert zeroed.warnings == []
     # The same AUTO settings and the same image as the grid with that voxel at 0.
     np.testing.assert_allclose(out.combined, zeroed.combined, atol=1e-6 * float(zeroed.combined.max()))
@@ -82,10 +82,11 @@ def test_a_bad_voxel_under_auto_quality_renders_finite_with_one_warning(renderer
 
 def test_clipping_empties_densities_below_it(renderer):
     scene = smoke_scene(width=40, height=24, n=24)
-    d = np.array(scene.medium.density)
+    d = np.array(scene.media[0].density)
     clip = float(np.percentile(d[d > 0], 30))
-    clipped = renderer.render(replace(scene, medium=replace(scene.medium, clipping=clip)), SETTINGS)
-    zeroed = renderer.render(replace(scene, medium=replace(scene.medium, density=np.where(d < clip, 0, d))),
+    clipped = renderer.render(replace(scene, media=(replace(scene.media[0], clipping=clip),)), SETTINGS)
+    zeroed = renderer.render(replace(scene, media=(replace(scene.media[0],
+                                                           density=np.where(d < clip, 0, d)),)),
                              SETTINGS)
     full = renderer.render(scene, SETTINGS)
     assert clipped.warnings == []
@@ -100,14 +101,14 @@ def test_the_reference_clips_and_cleans_the_grid_as_the_renderer_does(renderer):
     from tfm_addon.engine.reference import render_reference
 
     scene = smoke_scene(width=40, height=24, n=24)
-    d = np.array(scene.medium.density)
-    medium = replace(scene.medium, density=d, clipping=float(np.percentile(d[d > 0], 50)))
+    d = np.array(scene.media[0].density)
+    medium = replace(scene.media[0], density=d, clipping=float(np.percentile(d[d > 0], 50)))
     for bad in (None, np.nan):
         if bad is not None:
             d = d.copy()
             d[12, 12, 12] = bad
             medium = replace(medium, density=d)
-        clipped = replace(scene, medium=medium)
+        clipped = replace(scene, media=(medium,))
         out = renderer.render(clipped, SETTINGS).combined[..., :3]
         ref = render_reference(clipped, view_steps=96, light_steps=96).combined[..., :3]
         assert np.isfinite(ref).all()
@@ -149,8 +150,8 @@ def test_sigma_edits_under_auto_rebuild_a_tfm_only_when_the_coefficient_count_gr
 
     auto = dataclasses.replace(SETTINGS, quality="AUTO")
     scene = smoke_scene(width=40, height=24, n=24)
-    thick = replace(scene, medium=replace(scene.medium, sigma_s=(24.0, 24.0, 24.0)))   # smooth: tau / 4
-    slightly = replace(scene, medium=replace(scene.medium, sigma_s=(2.2, 2.1, 2.0)))
+    thick = replace(scene, media=(replace(scene.media[0], sigma_s=(24.0, 24.0, 24.0)),))   # smooth: tau / 4
+    slightly = replace(scene, media=(replace(scene.media[0], sigma_s=(2.2, 2.1, 2.0)),))
     n0, n1 = (effective_settings(s, auto).coefficients for s in (scene, thick))
     assert effective_settings(slightly, auto).coefficients == n0 and n1 > n0, (n0, n1)
     _built(fresh, scene, auto)
@@ -200,12 +201,12 @@ def scaled(scene, s: float):
     lights = tuple(replace(light, matrix_world=place(light.matrix_world), power_w=light.power_w * s * s)
                    for light in scene.lights)
     meshes = tuple(replace(m, matrix_world=S @ np.asarray(m.matrix_world)) for m in scene.meshes)
-    med = scene.medium
+    med = scene.media[0]
     placed = {k: S @ np.asarray(getattr(med, k)) for k in ("index_to_world", "box_to_world")
               if getattr(med, k) is not None}
     med = replace(med, sigma_a=tuple(x / s for x in med.sigma_a), sigma_s=tuple(x / s for x in med.sigma_s),
                   **placed)
-    return replace(scene, camera=cam, lights=lights, meshes=meshes, medium=med)
+    return replace(scene, camera=cam, lights=lights, meshes=meshes, media=(med,))
 
 
 def test_the_smoke_at_1mm_1m_and_1km_gives_the_same_image(renderer):
@@ -227,7 +228,7 @@ def test_the_smoke_at_1mm_1m_and_1km_gives_the_same_image(renderer):
 
 def _random_scene(rng, i):
     """A small scene drawn at random: see test_randomised_scenes_render_finite_and_warned."""
-    from tfm_addon.engine import Camera, Medium, Scene, SpotLight
+    from tfm_addon.engine import Camera, Light, Medium, Scene
     from tfm_addon.scenes import grid_to_world, plane_mesh, smoke_density, translate_scale
 
     kind = ["smoke", "smoke", "smoke", "empty", "tiny", "bad", "fog box"][i % 7]
@@ -256,7 +257,7 @@ def _random_scene(rng, i):
     else:
         eye = center + rng.normal(size=3) / 0.5 * 1.0
         eye = center + (eye - center) / np.linalg.norm(eye - center) * rng.uniform(2.5, 5.0)
-    light = SpotLight(matrix_world=look_at(tuple(eye), tuple(center + rng.uniform(-0.5, 0.5, 3))),
+    light = Light(matrix_world=look_at(tuple(eye), tuple(center + rng.uniform(-0.5, 0.5, 3))),
                       power_w=float(10 ** rng.uniform(1, 3.5)), spot_size_rad=float(np.radians(cone)),
                       spot_blend=float(rng.uniform(0, 1)), name=f"Spot{i}")
     if rng.random() < 0.25:                    # the camera inside the medium
@@ -266,7 +267,7 @@ def _random_scene(rng, i):
     camera = Camera(matrix_world=look_at(tuple(cam_eye), tuple(center + rng.uniform(-0.4, 0.4, 3))),
                     width_px=24, height_px=16, lens_mm=float(rng.uniform(18, 50)), clip_start=0.05)
     meshes = (plane_mesh((0, 0, 0), 8.0),) if rng.random() < 0.6 else ()
-    scene = Scene(camera=camera, lights=(light,), medium=medium, meshes=meshes,
+    scene = Scene(camera=camera, lights=(light,), media=(medium,), meshes=meshes,
                   ambient=(0.01, 0.01, 0.02) if rng.random() < 0.3 else (0.0, 0.0, 0.0))
     return kind, depth, cone, scaled(scene, float(10 ** rng.uniform(-3.0, 3.0)))
 
@@ -296,10 +297,10 @@ def test_randomised_scenes_render_finite_and_warned(renderer):
             assert sum(f"1 {name} voxel" in w for w in out.warnings) == (kind == "bad"), (i, said)
         assert ("density grid is empty" in said) == (kind == "empty"), (i, said)
         if kind in ("smoke", "tiny", "fog box") and depth <= 8.0 and cone <= 170.0 and not i % 2:
-            medium = scene.medium
+            medium = scene.media[0]
             if medium.density is not None:
                 medium = replace(medium, density=clean_density(medium.density)[0])
-            ref = render_reference(replace(scene, medium=medium), settings, view_steps=96, light_steps=96)
+            ref = render_reference(replace(scene, media=(medium,)), settings, view_steps=96, light_steps=96)
             value = ssim(out.rgb, ref.rgb)
             compared += 1
             lowest = min(lowest, value)
@@ -360,8 +361,8 @@ def test_auto_statistics_clean_a_new_grid_once(monkeypatch):
     real = quality.clean_density
     monkeypatch.setattr(quality, "clean_density", lambda d, c=0.0: calls.append(1) or real(d, c))
     scene = smoke_scene(width=40, height=24, n=20)
-    d = np.array(scene.medium.density) * 1.01         # a density no earlier test cached
-    medium = replace(scene.medium, density=d, clipping=0.001)
-    stats = quality.medium_stats(replace(scene, medium=medium))
+    d = np.array(scene.media[0].density) * 1.01         # a density no earlier test cached
+    medium = replace(scene.media[0], density=d, clipping=0.001)
+    stats = quality.medium_stats(replace(scene, media=(medium,)))
     assert len(calls) == 1
     assert stats.view_voxels > 0 and stats.optical_depth > 0 and stats.sharpness > 0

@@ -11,9 +11,10 @@ from scipy import ndimage
 
 from tfm_addon.engine import Medium, RenderSettings
 from tfm_addon.engine import reference as reference_module
+from tfm_addon.engine.boxes import nonzero_bounds
 from tfm_addon.engine.light import LightFrame
 from tfm_addon.engine.metrics import brightness_ratio, ssim
-from tfm_addon.engine.passes.bindings import OCCUPANCY_BLOCK, nonzero_bounds, occupancy
+from tfm_addon.engine.passes.bindings import OCCUPANCY_BLOCK, occupancy
 from tfm_addon.engine.passes.tfm import footprint_resolution, tfm_resolution
 from tfm_addon.engine.reference import render_reference
 from tfm_addon.scenes import grid_to_world, smoke_density, smoke_scene
@@ -60,7 +61,7 @@ def sparse_scene():
     d = _sparse_grid(48)
     medium = Medium(sigma_a=(0.2, 0.2, 0.2), sigma_s=(3.0, 3.0, 3.0), density=d,
                     index_to_world=grid_to_world(d.shape, 2.0, (0, 0, 1.2)))
-    return dataclasses.replace(base, medium=medium)
+    return dataclasses.replace(base, media=(medium,))
 
 
 def test_skipping_and_tight_bounds_keep_the_image_on_a_sparse_grid(renderer, sparse_scene):
@@ -109,7 +110,7 @@ def test_footprint_side_follows_the_light_distance(renderer, sparse_scene):
 def _numpy_light_transmittance(scene, points: np.ndarray, steps: int = 512) -> np.ndarray:
     """exp(-sigma_t * the trilinear density integrated from the spot to each point), midpoints,
     scipy's interpolation of the zero-padded grid (voxel centres at integer indices)."""
-    m = scene.medium
+    m = scene.media[0]
     light = np.asarray(scene.lights[0].matrix_world, np.float64)[:3, 3]
     to_index = np.linalg.inv(np.asarray(m.index_to_world, np.float64))
     s = (np.arange(steps) + 0.5) / steps
@@ -133,7 +134,7 @@ def test_every_coefficient_count_reads_its_cosines_from_the_packed_map(fresh):
                         with_bar=False)
     rng = np.random.default_rng(1)
     idx = rng.uniform(2, 29, (3000, 3))
-    points = (np.c_[idx, np.ones(len(idx))] @ np.asarray(scene.medium.index_to_world).T)[:, :3]
+    points = (np.c_[idx, np.ones(len(idx))] @ np.asarray(scene.media[0].index_to_world).T)[:, :3]
     want = _numpy_light_transmittance(scene, points)
     base = RenderSettings(map_resolution=128, light_steps=128, density_weight=None)
     wide = Renderer()

@@ -18,9 +18,9 @@ def test_the_bars_shadow_does_not_empty_the_tfm(renderer):
     settings = frame_settings(scene, RenderSettings(quality="AUTO", map_resolution=256), 1)
     assert settings.tfm_resolution == "FOOTPRINT" and settings.tfm_filter == "LINEAR"
     rng = np.random.default_rng(1)
-    n = scene.medium.density.shape[0]
+    n = scene.media[0].density.shape[0]
     idx = rng.uniform(0.2 * n, 0.8 * n, (6000, 3))
-    points = (np.c_[idx, np.ones(len(idx))] @ scene.medium.index_to_world.T)[:, :3]
+    points = (np.c_[idx, np.ones(len(idx))] @ scene.media[0].index_to_world.T)[:, :3]
     # The points whose light ray crosses the bar: in the light's view, inside the bar's outline.
     frame = LightFrame.of(scene.lights[0])
     bar = scene.meshes[0].world_vertices()

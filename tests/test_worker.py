@@ -194,7 +194,7 @@ def test_waiting_for_a_pass_lets_other_python_threads_run(renderer):
         thread.start()
         targets.begin(gl.ctx)
         for _ in range(4):  # queued, not waited for
-            run_light_pass(gl, camera=scene.camera, plane=plane, medium=scene.medium, medium_gpu=medium_gpu,
+            run_light_pass(gl, camera=scene.camera, plane=plane, medium=scene.media[0], medium_gpu=medium_gpu,
                            settings=heavy, ambient=(0.1, 0.1, 0.1), first=True)
         before = wakeups[0]
         t0 = time.perf_counter()

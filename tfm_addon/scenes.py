@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 
-from .engine.scene import Camera, Medium, Mesh, Scene, SpotLight
+from .engine.scene import Camera, Light, Medium, Mesh, Scene
 
 
 def look_at(eye, target, up=(0.0, 0.0, 1.0)) -> np.ndarray:
@@ -87,7 +87,7 @@ def smoke_scene(width: int = 96, height: int = 64, n: int = 64, sigma_s=(2.0, 2.
     """A 2 m puff of smoke lit from above-left by a spot, a bar casting a shadow through it."""
     medium = Medium(sigma_a=sigma_a, sigma_s=sigma_s, density=smoke_density(n),
                     index_to_world=grid_to_world((n, n, n), 2.0, (0, 0, 1.2)))
-    light = SpotLight(matrix_world=look_at((-2.5, -1.0, 4.0), (0, 0, 1.0)), power_w=2000.0,
+    light = Light(matrix_world=look_at((-2.5, -1.0, 4.0), (0, 0, 1.0)), power_w=2000.0,
                       spot_size_rad=math.radians(40), spot_blend=0.2)
     meshes = []
     if with_bar:
@@ -96,17 +96,17 @@ def smoke_scene(width: int = 96, height: int = 64, n: int = 64, sigma_s=(2.0, 2.
         meshes.append(plane_mesh((0, 0, 0), 8.0))
     camera = Camera(matrix_world=look_at((0.0, -6.5, 1.6), (0, 0, 1.1)), width_px=width,
                     height_px=height, lens_mm=40.0)
-    return Scene(camera=camera, lights=(light,), medium=medium, meshes=tuple(meshes), ambient=ambient)
+    return Scene(camera=camera, lights=(light,), media=(medium,), meshes=tuple(meshes), ambient=ambient)
 
 
 def paper_smoke_scene(width: int = 320, height: int = 180, n: int = 128) -> Scene:
     """The paper's smoke set-up: a 128^3 puff filling the frame, lit whole by a wide spot."""
     base = smoke_scene(width=width, height=height, n=n)
-    light = SpotLight(matrix_world=look_at((-2.0, -1.5, 3.2), (0, 0, 1.2)), power_w=2000.0,
+    light = Light(matrix_world=look_at((-2.0, -1.5, 3.2), (0, 0, 1.2)), power_w=2000.0,
                       spot_size_rad=math.radians(70), spot_blend=0.2)
     camera = Camera(matrix_world=look_at((0.0, -2.6, 1.3), (0, 0, 1.2)), width_px=width, height_px=height,
                     lens_mm=30.0)
-    return Scene(camera=camera, lights=(light,), medium=base.medium, meshes=base.meshes)
+    return Scene(camera=camera, lights=(light,), media=(base.media[0],), meshes=base.meshes)
 
 
 def stripes_gobo(size: int = 64, period_px: int = 4) -> np.ndarray:
@@ -123,14 +123,14 @@ def homogeneous_box_scene(width: int = 96, height: int = 64, sigma_s=(0.6, 0.5, 
                           ambient=(0.0, 0.0, 0.0)) -> Scene:
     """Fog in a 3 m box on a ground plane, lit by a spot (optionally through a gobo)."""
     medium = Medium(sigma_a=sigma_a, sigma_s=sigma_s, box_to_world=translate_scale((0, 0, 1.5), 1.5))
-    light = SpotLight(matrix_world=look_at((-1.0, -3.0, 4.0), (0.0, 0.5, 0.0)), power_w=3000.0,
+    light = Light(matrix_world=look_at((-1.0, -3.0, 4.0), (0.0, 0.5, 0.0)), power_w=3000.0,
                       spot_size_rad=math.radians(45), spot_blend=0.1, gobo=gobo)
     meshes = [plane_mesh((0, 0, 0), 10.0)]
     if with_bar:
         meshes.append(box_mesh((-0.7, -1.8, 3.0), (1.0, 0.1, 0.1), name="Bar"))
     camera = Camera(matrix_world=look_at(camera_eye, (0, 0, 1.2)), width_px=width, height_px=height,
                     lens_mm=35.0)
-    return Scene(camera=camera, lights=(light,), medium=medium, meshes=tuple(meshes), ambient=ambient)
+    return Scene(camera=camera, lights=(light,), media=(medium,), meshes=tuple(meshes), ambient=ambient)
 
 
 def plume_density(n: int = 64, seed: int = 7) -> np.ndarray:
@@ -158,13 +158,13 @@ def demo_scene(width: int = 640, height: int = 360, n: int = 64) -> Scene:
     density = plume_density(n)
     medium = Medium(sigma_a=(0.15, 0.15, 0.15), sigma_s=(3.0, 2.9, 2.7), anisotropy=0.3, density=density,
                     index_to_world=grid_to_world(density.shape, 3.0, (0, 0, 1.5)))
-    light = SpotLight(matrix_world=look_at((-3.2, -1.2, 4.2), (0.2, 0.3, 1.2)), power_w=4000.0,
+    light = Light(matrix_world=look_at((-3.2, -1.2, 4.2), (0.2, 0.3, 1.2)), power_w=4000.0,
                       color=(1.0, 0.93, 0.82), spot_size_rad=math.radians(45), spot_blend=0.25)
     meshes = (box_mesh((-2.2, -0.75, 3.3), (0.1, 1.6, 0.1), color=(0.3, 0.3, 0.3), name="Bar"),
               plane_mesh((0, 0, 0), 12.0, color=(0.6, 0.6, 0.6)))
     camera = Camera(matrix_world=look_at((0.6, -7.0, 1.8), (0, 0, 1.5)), width_px=width, height_px=height,
                     lens_mm=35.0)
-    return Scene(camera=camera, lights=(light,), medium=medium, meshes=meshes, ambient=(0.02, 0.025, 0.04))
+    return Scene(camera=camera, lights=(light,), media=(medium,), meshes=meshes, ambient=(0.02, 0.025, 0.04))
 
 
 # --------------------------------------------------------------------------------------------
@@ -237,12 +237,12 @@ def suzanne_scene(vertices, triangles, width: int = 320, height: int = 180, n: i
     placed = v - 0.5 * (lo + hi) + center
     density = mesh_inside(placed, triangles, (n, n, n), index_to_world).astype(np.float32)
     medium = Medium(sigma_a=sigma_a, sigma_s=sigma_s, density=density, index_to_world=index_to_world)
-    light = SpotLight(matrix_world=look_at((-2.2, -3.2, 3.6), tuple(center)), power_w=2500.0,
+    light = Light(matrix_world=look_at((-2.2, -3.2, 3.6), tuple(center)), power_w=2500.0,
                       spot_size_rad=math.radians(50), spot_blend=0.2, name="Key")
     meshes = (plane_mesh((0, 0, 0), 10.0),) if with_ground else ()
     camera = Camera(matrix_world=look_at((1.2, -4.6, 1.7), (0.0, 0.0, 1.25)), width_px=width,
                     height_px=height, lens_mm=45.0)
-    return Scene(camera=camera, lights=(light,), medium=medium, meshes=meshes)
+    return Scene(camera=camera, lights=(light,), media=(medium,), meshes=meshes)
 
 
 def cloud_density(shape=(600, 400, 200), seed: int = 3) -> np.ndarray:
@@ -287,12 +287,12 @@ def cloud_scene(width: int = 320, height: int = 180, shape=(600, 400, 200), sigm
     center = np.array([0.0, 0.0, 3.0 + 0.5 * h * shape[2]])
     index_to_world = grid_to_world(shape, size_m, center)
     medium = Medium(sigma_a=sigma_a, sigma_s=sigma_s, density=d, index_to_world=index_to_world)
-    light = SpotLight(matrix_world=look_at((-9.0, -6.0, 16.0), tuple(center - [0, 0, 1.5])),
+    light = Light(matrix_world=look_at((-9.0, -6.0, 16.0), tuple(center - [0, 0, 1.5])),
                       power_w=60000.0, spot_size_rad=math.radians(50), spot_blend=0.15, name="Sun")
     meshes = (plane_mesh((0, 0, 0), 40.0, color=(0.5, 0.5, 0.5)),) if with_ground else ()
     camera = Camera(matrix_world=look_at((3.0, -16.0, 2.0), tuple(center - [0, 0, 1.0])), width_px=width,
                     height_px=height, lens_mm=32.0)
-    return Scene(camera=camera, lights=(light,), medium=medium, meshes=meshes)
+    return Scene(camera=camera, lights=(light,), media=(medium,), meshes=meshes)
 
 
 def dense_smoke_scene(width: int = 320, height: int = 180, n: int = 128, thickness: float = 10.0) -> Scene:
@@ -300,13 +300,13 @@ def dense_smoke_scene(width: int = 320, height: int = 180, n: int = 128, thickne
     that the transmittance along the light rays falls steeply and a truncated cosine series
     rings (overshoots) without density weighting."""
     base = paper_smoke_scene(width=width, height=height, n=n)
-    m = base.medium
+    m = base.media[0]
     medium = Medium(sigma_a=tuple(thickness * s for s in m.sigma_a),
                     sigma_s=tuple(thickness * s for s in m.sigma_s), density=m.density,
                     index_to_world=m.index_to_world, anisotropy=m.anisotropy)
-    light = SpotLight(matrix_world=base.lights[0].matrix_world, power_w=base.lights[0].power_w * 4.0,
+    light = Light(matrix_world=base.lights[0].matrix_world, power_w=base.lights[0].power_w * 4.0,
                       spot_size_rad=base.lights[0].spot_size_rad, spot_blend=base.lights[0].spot_blend)
-    return Scene(camera=base.camera, lights=(light,), medium=medium, meshes=base.meshes)
+    return Scene(camera=base.camera, lights=(light,), media=(medium,), meshes=base.meshes)
 
 
 def gobo_box_scene(width: int = 320, height: int = 180, camera_eye=(3.5, -5.0, 2.5),
@@ -337,11 +337,11 @@ def gobo_angle_scene(angle_deg: float, width: int = 160, height: int = 90, dista
     eye = center - view * distance_m
     medium = Medium(sigma_a=(0.05, 0.05, 0.05), sigma_s=(0.6, 0.5, 0.4),
                     box_to_world=translate_scale(tuple(center), 1.5))
-    light = SpotLight(matrix_world=look_at(tuple(light_pos), tuple(center)), power_w=3000.0,
+    light = Light(matrix_world=look_at(tuple(light_pos), tuple(center)), power_w=3000.0,
                       spot_size_rad=math.radians(45), spot_blend=0.1, gobo=stripes_gobo(64, period_px))
     camera = Camera(matrix_world=look_at(tuple(eye), tuple(center)), width_px=width, height_px=height,
                     lens_mm=30.0)
-    return Scene(camera=camera, lights=(light,), medium=medium)
+    return Scene(camera=camera, lights=(light,), media=(medium,))
 
 
 def inside_scene(homogeneous: bool, light_inside: bool, camera_inside: bool, width: int = 160,
@@ -356,10 +356,10 @@ def inside_scene(homogeneous: bool, light_inside: bool, camera_inside: bool, wid
         medium = Medium(sigma_a=(0.2, 0.2, 0.2), sigma_s=(2.0, 2.0, 2.0), density=smoke_density(n),
                         index_to_world=grid_to_world((n, n, n), 2.0, center))
     if light_inside:
-        light = SpotLight(matrix_world=look_at((0.15, -0.1, 1.35), (0.6, 0.5, 0.0)), power_w=300.0,
+        light = Light(matrix_world=look_at((0.15, -0.1, 1.35), (0.6, 0.5, 0.0)), power_w=300.0,
                           spot_size_rad=math.radians(100), spot_blend=0.2)
     else:
-        light = SpotLight(matrix_world=look_at((-2.5, -1.0, 4.0), (0, 0, 1.0)), power_w=2000.0,
+        light = Light(matrix_world=look_at((-2.5, -1.0, 4.0), (0, 0, 1.0)), power_w=2000.0,
                           spot_size_rad=math.radians(40), spot_blend=0.2)
     if camera_inside:
         camera = Camera(matrix_world=look_at((-0.35, -0.5, 1.1), (0.6, 0.6, 0.7)), width_px=width,
@@ -367,7 +367,7 @@ def inside_scene(homogeneous: bool, light_inside: bool, camera_inside: bool, wid
     else:
         camera = Camera(matrix_world=look_at((0.0, -6.5, 1.6), (0, 0, 1.1)), width_px=width,
                         height_px=height, lens_mm=40.0)
-    return Scene(camera=camera, lights=(light,), medium=medium, meshes=(plane_mesh((0, 0, 0), 8.0),))
+    return Scene(camera=camera, lights=(light,), media=(medium,), meshes=(plane_mesh((0, 0, 0), 8.0),))
 
 
 # --------------------------------------------------------------------------------------------
@@ -437,7 +437,7 @@ def fire_scene(width: int = 96, height: int = 54, n: int = 32, kind: str = "EMIS
                     index_to_world=grid_to_world(density.shape, 3.0, (0, 0, 1.5)), grids=grids, **fields)
     lights = ()
     if with_light:
-        lights = (SpotLight(matrix_world=look_at((-3.0, -1.5, 4.5), (0.0, 0.0, 1.4)), power_w=3000.0,
+        lights = (Light(matrix_world=look_at((-3.0, -1.5, 4.5), (0.0, 0.0, 1.4)), power_w=3000.0,
                             color=(1.0, 0.95, 0.9), spot_size_rad=math.radians(45), spot_blend=0.2),)
     meshes = []
     if with_occluder:
@@ -446,7 +446,7 @@ def fire_scene(width: int = 96, height: int = 54, n: int = 32, kind: str = "EMIS
         meshes.append(plane_mesh((0, 0, 0), 10.0, color=(0.5, 0.5, 0.5)))
     camera = Camera(matrix_world=look_at((0.0, -7.5, 1.6), (0, 0, 1.5)), width_px=width, height_px=height,
                     lens_mm=35.0)
-    return Scene(camera=camera, lights=lights, medium=medium, meshes=tuple(meshes))
+    return Scene(camera=camera, lights=lights, media=(medium,), meshes=tuple(meshes))
 
 
 def fire_demo_scene(width: int = 640, height: int = 360, n: int = 64) -> Scene:
@@ -462,13 +462,13 @@ def fire_demo_scene(width: int = 640, height: int = 360, n: int = 64) -> Scene:
                     emission_color=(1.0, 0.35, 0.08), emission_strength=GridValue("flame", 6.0, 0.0),
                     blackbody_intensity=GridValue(offset=1.0), blackbody_tint=(1.0, 0.85, 0.7),
                     temperature=GridValue("temperature", 1000.0, 0.0))
-    light = SpotLight(matrix_world=look_at((-3.0, -1.5, 4.5), (0.0, 0.0, 1.8)), power_w=1500.0,
+    light = Light(matrix_world=look_at((-3.0, -1.5, 4.5), (0.0, 0.0, 1.8)), power_w=1500.0,
                       color=(0.75, 0.85, 1.0), spot_size_rad=math.radians(40), spot_blend=0.3)
     meshes = (box_mesh((-1.9, -0.95, 3.7), (0.12, 1.6, 0.12), color=(0.3, 0.3, 0.3), name="Bar"),
               plane_mesh((0, 0, 0), 12.0, color=(0.45, 0.45, 0.45)))
     camera = Camera(matrix_world=look_at((0.4, -5.8, 1.4), (0, 0, 1.45)), width_px=width, height_px=height,
                     lens_mm=32.0)
-    return Scene(camera=camera, lights=(light,), medium=medium, meshes=meshes, ambient=(0.01, 0.012, 0.02))
+    return Scene(camera=camera, lights=(light,), media=(medium,), meshes=meshes, ambient=(0.01, 0.012, 0.02))
 
 
 def uv_sphere(radius: float = 1.0, segments: int = 32, rings: int = 16, center=(0.0, 0.0, 0.0)):

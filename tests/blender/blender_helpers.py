@@ -53,14 +53,14 @@ def render_passes(directory, name: str = "render") -> dict[str, np.ndarray]:
 def crop_to_active(scene: Scene) -> Scene:
     """The scene with its density grid cropped to the non-zero voxels, as a .vdb file keeps it
     (zero voxels are inactive) and the add-on reads it back."""
-    m = scene.medium
+    m = scene.media[0]
     nonzero = np.argwhere(m.density != 0)
     lo, hi = nonzero.min(axis=0), nonzero.max(axis=0) + 1
     shift = np.eye(4)
     shift[:3, 3] = lo
     medium = dataclasses.replace(m, density=m.density[lo[0]:hi[0], lo[1]:hi[1], lo[2]:hi[2]],
                                  index_to_world=m.index_to_world @ shift)
-    return dataclasses.replace(scene, medium=medium)
+    return dataclasses.replace(scene, media=(medium,))
 
 
 def smoke(width=64, height=48, n=32, **kwargs) -> Scene:

@@ -34,14 +34,14 @@ def _kelvin(density: np.ndarray, uniform: bool) -> np.ndarray:
 @pytest.mark.parametrize("uniform", [False, True], ids=["800-1800K", "1300K"])
 def test_a_blackbody_fire_in_kelvin_glows_as_in_cycles(blank, tmp_path, uniform):
     base = scenes.fire_scene(W, H, N, kind="BLACKBODY")
-    m = base.medium
+    m = base.media[0]
     medium = dataclasses.replace(
         m, grids={"temperature": _kelvin(m.density, uniform)}, blackbody_intensity=GridValue(offset=2.0),
         temperature=GridValue("temperature", 1.0, 0.0), blackbody_tint=(1.0, 1.0, 1.0))
-    scene = dataclasses.replace(base, medium=medium)
+    scene = dataclasses.replace(base, media=(medium,))
     made = _mod("scene_builder").build(scene, str(tmp_path), settings=SETTINGS, samples=16)
     extraction = _mod("extract").extract(bpy.context.evaluated_depsgraph_get())
-    print(extraction.all_warnings, extraction.medium.blackbody_intensity, extraction.medium.temperature)
+    print(extraction.all_warnings, extraction.media[0].blackbody_intensity, extraction.media[0].temperature)
     tfm = render_passes(tmp_path, "tfm")["Combined"][..., :3]
     _mod("scene_builder").cycles_single_scattering(bpy.context.scene, samples=SAMPLES)
     made["medium"].visible_diffuse = False

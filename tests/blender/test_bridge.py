@@ -27,7 +27,7 @@ def _as_stored(scene, made):
     def stored(ob):
         return np.array(ob.matrix_world, dtype=np.float64)
 
-    medium = scene.medium
+    medium = scene.media[0]
     voxel = float(np.linalg.norm(medium.index_to_world[:3, 0]))  # the .vdb's voxel size
     to_world = stored(made["medium"]) @ np.diag([voxel, voxel, voxel, 1.0])
     return dataclasses.replace(
@@ -37,7 +37,7 @@ def _as_stored(scene, made):
                 for light, ob in zip(scene.lights, made["lights"], strict=True)],
         meshes=[dataclasses.replace(mesh, matrix_world=stored(ob))
                 for mesh, ob in zip(scene.meshes, made["meshes"], strict=True)],
-        medium=dataclasses.replace(medium, index_to_world=to_world))
+        media=(dataclasses.replace(medium, index_to_world=to_world),))
 
 
 def test_render_through_blender_equals_direct_render(blank, tmp_path, direct_worker):

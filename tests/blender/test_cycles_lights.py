@@ -52,7 +52,7 @@ def _scenes():
                                        index_to_world=grid_to_world(shape, 1.2, (x, 0, 1.0)))
                    for i, x in enumerate((-1.4, 0.0, 1.4)))
     return {
-        "sun_shaft": Scene(camera=_camera(), lights=(_sun(),), medium=_smoke(),
+        "sun_shaft": Scene(camera=_camera(), lights=(_sun(),), media=(_smoke(),),
                            meshes=(box_mesh((-1.2, -0.4, 3.2), (0.15, 1.2, 0.15), name="Bar"), _ground())),
         "point_inside": Scene(camera=_camera(), media=(_smoke(sigma_s=1.0, sigma_a=0.1),),
                               lights=(Light(matrix_world=translate_scale((0.3, 0.0, 1.3), 1.0), power_w=400.0,
@@ -64,7 +64,7 @@ def _scenes():
         "area": Scene(camera=_camera(), lights=(Light(matrix_world=look_at((-1.5, -1.5, 3.5), (0, 0, 1.0)),
                                                       power_w=1500.0, kind="AREA", size_m=(0.5, 0.5),
                                                       name="Area"),),
-                      medium=_smoke(), meshes=(_ground(),)),
+                      media=(_smoke(),), meshes=(_ground(),)),
     }
 
 

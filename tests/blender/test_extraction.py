@@ -174,7 +174,7 @@ def test_volume_grid_placement_and_cache(blank, tmp_path):
     ob.rotation_euler = Euler((0.0, 0.0, math.pi / 2))
     volumes.grid_cache.clear()
     reads = volumes.grid_cache.reads
-    medium = _extract().medium
+    medium = _extract().media[0]
     assert volumes.grid_cache.reads == reads + 1
     # The densest voxel, (10, 8, 6) in the file, lands where Blender puts it.
     peak = np.unravel_index(np.argmax(medium.density), medium.density.shape)
@@ -189,7 +189,7 @@ def test_volume_grid_placement_and_cache(blank, tmp_path):
     assert medium.sigma_a == pytest.approx((0.5, 0.5, 0.5))
     # Moving the object reads nothing again; a new file does.
     ob.location = (0.0, 0.0, 0.0)
-    moved = _extract().medium
+    moved = _extract().media[0]
     assert volumes.grid_cache.reads == reads + 1
     assert moved.density is medium.density
     os.utime(path, ns=(os.stat(path).st_atime_ns, os.stat(path).st_mtime_ns + 10**9))
@@ -207,13 +207,13 @@ def test_mesh_to_volume_modifier_is_read_and_follows_edits(blank):
     ob = _link(bpy.data.objects.new("Fog", bpy.data.volumes.new("Fog")))
     mod = ob.modifiers.new("ToVolume", 'MESH_TO_VOLUME')
     mod.object, mod.resolution_mode, mod.voxel_size, mod.density = source, 'VOXEL_SIZE', 0.2, 2.0
-    medium = _extract().medium
+    medium = _extract().media[0]
     assert medium is not None and medium.density.max() == pytest.approx(2.0)
     extent = medium.index_to_world[:3, :3] @ (np.array(medium.density.shape) - 1)
     assert np.all(np.abs(extent) >= 1.5)  # covers the 2 m cube
     reads = volumes.grid_cache.reads
     mod.density = 3.0
-    assert _extract().medium.density.max() == pytest.approx(3.0)
+    assert _extract().media[0].density.max() == pytest.approx(3.0)
     assert volumes.grid_cache.reads == reads + 1
 
 
@@ -226,7 +226,7 @@ def test_instanced_volume_takes_the_instance_transform(blank, tmp_path):
     empty = _link(bpy.data.objects.new("Instancer", None))
     empty.instance_type, empty.instance_collection = 'COLLECTION', collection
     empty.location = (5.0, 0.0, 0.0)
-    medium = _extract().medium
+    medium = _extract().media[0]
     peak = np.unravel_index(np.argmax(medium.density), medium.density.shape)
     np.testing.assert_allclose((medium.index_to_world @ np.array([*peak, 1.0]))[:3],
                                (6.0, 0.8, 0.6), atol=1e-6)
@@ -298,7 +298,7 @@ def test_noise_texture_colour_is_evaluated_per_voxel(blank, tmp_path):
     ob.data.tfm.sigma_s, ob.data.tfm.sigma_a, ob.data.tfm.density_scale = (0.5, 0.6, 0.7), (0, 0, 0.1), 2
     ex = _extract()
     assert not [w for w in ex.all_warnings if "Noise Texture" in w], ex.all_warnings
-    m = importlib.import_module(MODULE + ".tfm_addon.engine.shading").resolve_medium(ex.medium)
+    m = importlib.import_module(MODULE + ".tfm_addon.engine.shading").resolve_medium(ex.media[0])
     assert m.color_grid is not None
     albedo = m.grids[m.color_grid][m.density > 0.05]
     assert float(albedo.std()) > 0.02 and 0.0 <= float(albedo.min()) and float(albedo.max()) <= 1.0
@@ -324,9 +324,9 @@ def test_box_mesh_with_volume_material_is_a_homogeneous_box(blank):
     ob.matrix_world = Matrix.Translation((0, 0, 1)) @ Matrix.Diagonal((2, 2, 2, 1))
     ex = _extract()
     assert ex.meshes == ()
-    assert ex.medium.is_homogeneous
-    assert ex.medium.sigma_s == pytest.approx((0.5, 0.5, 0.5), rel=1e-5)
-    corners = ex.medium.box_to_world @ np.array([[-1, -1, -1, 1], [1, 1, 1, 1]]).T
+    assert ex.media[0].is_homogeneous
+    assert ex.media[0].sigma_s == pytest.approx((0.5, 0.5, 0.5), rel=1e-5)
+    corners = ex.media[0].box_to_world @ np.array([[-1, -1, -1, 1], [1, 1, 1, 1]]).T
     np.testing.assert_allclose(corners[:3].T, [(-2, -2, 1), (2, 2, 5)], atol=1e-6)
 
 
@@ -347,7 +347,7 @@ def test_geometry_nodes_volume_is_read(blank):
     ob.location = (0.0, 0.0, 1.0)
     ex = _extract()
     assert ex.meshes == ()
-    medium = ex.medium
+    medium = ex.media[0]
     assert medium is not None and medium.density.max() == pytest.approx(0.75)
     lo = medium.index_to_world @ np.array([0, 0, 0, 1.0])
     hi = medium.index_to_world @ np.array([*(np.array(medium.density.shape) - 1), 1.0])
@@ -393,7 +393,7 @@ def test_every_volume_is_a_medium_and_instances_share_their_grid(blank, tmp_path
     made = _mod("scene_builder").build(scene, str(tmp_path))
     assert len({ob.data.name for ob in made["media"][:3]}) == 1
     ex = _extract()
-    assert len(ex.media) == 4 and ex.medium is ex.media[0]
+    assert len(ex.media) == 4
     grids = [m for m in ex.media if m.density is not None]
     assert len(grids) == 3 and len({m.grid_key for m in grids}) == 1
     centres = sorted(float((m.index_to_world @ np.r_[(np.array(m.density.shape) - 1) / 2, 1])[0])

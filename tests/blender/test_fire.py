@@ -34,7 +34,7 @@ def test_fire_agrees_with_cycles(blank, tmp_path, case):
     extraction = _mod("extract").extract(bpy.context.evaluated_depsgraph_get())
     assert not [w for w in extraction.all_warnings if "Smoke" in w and "colour grid" not in w
                 and "emits and scatters" not in w], extraction.all_warnings
-    assert extraction.medium.has_emission == scene.medium.has_emission
+    assert extraction.media[0].has_emission == scene.media[0].has_emission
     tfm = render_passes(tmp_path, "tfm")["Combined"][..., :3]
     _mod("scene_builder").cycles_single_scattering(bpy.context.scene, samples=samples)
     # Cycles lets the fire light the ground and its own smoke (diffuse and volume-scatter rays that
@@ -64,11 +64,11 @@ def test_a_constant_emission_glows_where_cycles_puts_the_volume(blank, tmp_path)
     from tfm_addon.engine.scene import GridValue
 
     scene = scenes.fire_scene(96, 54, 32, kind="EMISSION")
-    scene = dataclasses.replace(scene, medium=dataclasses.replace(
-        scene.medium, emission_strength=GridValue(offset=0.3), blackbody_intensity=GridValue(offset=0.0)))
+    scene = dataclasses.replace(scene, media=(dataclasses.replace(
+        scene.media[0], emission_strength=GridValue(offset=0.3), blackbody_intensity=GridValue(offset=0.0)),))
     made = _mod("scene_builder").build(scene, str(tmp_path), settings=SETTINGS)
     extraction = _mod("extract").extract(bpy.context.evaluated_depsgraph_get())
-    medium = extraction.medium
+    medium = extraction.media[0]
     n = np.asarray(medium.density.shape, np.float64)
     lo, hi = (np.asarray(c) for c in medium.glow.box)
     print(f"grid {medium.density.shape}, glow box {lo} .. {hi}; notes {extraction.all_warnings}")

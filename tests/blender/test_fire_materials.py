@@ -100,7 +100,7 @@ def test_color_ramp_into_emission_is_evaluated_per_voxel(blank, tmp_path):
     nt.links.new(ramp.outputs["Alpha"], pv.inputs["Emission Strength"])
     ex = _mod("extract").extract(bpy.context.evaluated_depsgraph_get())
     assert not [w for w in ex.all_warnings if "Flame Ramp" in w], ex.all_warnings
-    m = _resolved(ex.medium)         # what the render thread evaluates
+    m = _resolved(ex.media[0])         # what the render thread evaluates
     assert m.has_emission and m.emission_grid is not None
     # the ramp's alpha at its unlinked factor (0.5) is 1: Emission Color x 1 wherever the volume is
     e = m.grids[m.emission_grid]
@@ -122,7 +122,7 @@ def test_unknown_node_is_named_once_and_the_rest_renders(blank, tmp_path):
     ex = _mod("extract").extract(bpy.context.evaluated_depsgraph_get())
     notes = [w for w in ex.all_warnings if "Swirl" in w]
     assert len(notes) == 1 and "Magic Texture" in notes[0], ex.all_warnings
-    m = _resolved(ex.medium)
+    m = _resolved(ex.media[0])
     assert m.has_emission and float(m.density.max()) > 0.0
 
 
@@ -132,10 +132,10 @@ def test_panel_emission_fallback_scales_the_emission_grid(blank, tmp_path):
     made = builder.build(scene, str(tmp_path), use_node_material=False)
     tfm = made["medium"].data.tfm
     tfm.emission_strength, tfm.emission_color, tfm.emission_grid = 3.0, (0.1, 0.2, 0.3), "flame"
-    m = _mod("extract").extract(bpy.context.evaluated_depsgraph_get()).medium
+    m = _mod("extract").extract(bpy.context.evaluated_depsgraph_get()).media[0]
     assert m.emission_strength.grid == "flame" and m.emission_strength.scale == pytest.approx(3.0)
     assert m.emission_color == pytest.approx((0.1, 0.2, 0.3))
-    assert float(m.grids["flame"].max()) == pytest.approx(float(scene.medium.grids["flame"].max()))
+    assert float(m.grids["flame"].max()) == pytest.approx(float(scene.media[0].grids["flame"].max()))
 
 
 def _cube(name, material, location):
@@ -172,7 +172,7 @@ def test_surface_and_volume_material_is_named_once(blank):
     _cube("A", mat, (0, 0, 0))
     _cube("B", mat, (3, 0, 0))
     ex = _mod("extract").extract(bpy.context.evaluated_depsgraph_get())
-    assert len(ex.meshes) == 2 and ex.medium is None
+    assert len(ex.meshes) == 2 and not ex.media
     notes = [w for w in ex.all_warnings if "surface and a volume shader" in w]
     assert len(notes) == 1 and "'Fire'" in notes[0]
 
@@ -189,18 +189,18 @@ def test_material_edit_neither_rereads_nor_rehashes_the_grid(blank, tmp_path):
     made = builder.build(fire, str(tmp_path))
     first = extract.extract(bpy.context.evaluated_depsgraph_get())
     reads = volumes.grid_cache.reads
-    assert first.medium.source_key is not None and set(first.medium.grids) == {"flame", "temperature"}
-    _ = first.medium.density_key
+    assert first.media[0].source_key is not None and set(first.media[0].grids) == {"flame", "temperature"}
+    _ = first.media[0].density_key
     pv = next(n for n in made["medium"].data.materials[0].node_tree.nodes
               if n.bl_idname == 'ShaderNodeVolumePrincipled')
     pv.inputs["Emission Color"].default_value = (0.3, 0.6, 1.0, 1.0)
     scene_module.HASHED.clear()
     again = extract.extract(bpy.context.evaluated_depsgraph_get(), parts=changes.Change.MEDIUM,
                             previous=first)
-    keys = (again.medium.density_key, again.medium.grids_key, again.medium.key)
+    keys = (again.media[0].density_key, again.media[0].grids_key, again.media[0].key)
     assert volumes.grid_cache.reads == reads
     assert scene_module.HASHED["bytes"] < 4096, dict(scene_module.HASHED)
-    assert keys[0] == first.medium.density_key and keys[2] != first.medium.key
-    assert again.medium.emission_color == pytest.approx((0.3, 0.6, 1.0))
-    assert again.medium.density is first.medium.density      # the cached array, not a copy
-    np.testing.assert_array_equal(again.medium.grids["flame"], first.medium.grids["flame"])
+    assert keys[0] == first.media[0].density_key and keys[2] != first.media[0].key
+    assert again.media[0].emission_color == pytest.approx((0.3, 0.6, 1.0))
+    assert again.media[0].density is first.media[0].density      # the cached array, not a copy
+    np.testing.assert_array_equal(again.media[0].grids["flame"], first.media[0].grids["flame"])

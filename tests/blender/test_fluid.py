@@ -35,13 +35,13 @@ BUILD = """
     tfm_addon.register()
     from tfm_addon import scenes
     from tfm_addon.blender import scene_builder as sb
-    from tfm_addon.engine import RenderSettings, Scene, SpotLight
+    from tfm_addon.engine import RenderSettings, Scene, Light
     bpy.ops.wm.read_homefile(use_empty=True)
     base = scenes.fire_scene(64, 36, 16, kind="FIRE", with_light=True, with_occluder=False,
                              with_ground=True)
     sb.build(Scene(camera=base.camera, lights=base.lights, meshes=base.meshes), {tmp!r},
              settings=RenderSettings(view_steps=64, light_steps=64, map_resolution=128))
-    fire = sb.medium_material("Fire", base.medium)
+    fire = sb.medium_material("Fire", base.media[0])
     pv = next(n for n in fire.node_tree.nodes if n.bl_idname == 'ShaderNodeVolumePrincipled')
     pv.inputs["Temperature"].default_value = 1000.0
     pv.inputs["Temperature Attribute"].default_value = "temperature"
@@ -121,7 +121,7 @@ def test_domain_voxels_sit_where_blender_puts_them_and_a_missing_frame_names_the
         s = bpy.context.scene
         s.frame_set(1)
         ex = extract.extract(bpy.context.evaluated_depsgraph_get())
-        m = ex.medium
+        m = ex.media[0]
         result["shape"] = list(m.density.shape)
         peak = np.unravel_index(np.argmax(m.density), m.density.shape)
         result["peak_world"] = (m.index_to_world @ np.array([*peak, 1.0]))[:3].tolist()
@@ -137,7 +137,7 @@ def test_domain_voxels_sit_where_blender_puts_them_and_a_missing_frame_names_the
         result["bounds"] = [(g.index_to_object @ np.array([*c, 1.0]))[:3].tolist() for c in g.bounds]
         s.frame_set(2)
         ex = extract.extract(bpy.context.evaluated_depsgraph_get())
-        result["missing_medium"] = ex.medium is None
+        result["missing_medium"] = not ex.media
         result["missing_warnings"] = ex.all_warnings
         image = Renderer().render(ex.scene(), RenderSettings(view_steps=32, light_steps=32,
                                                              map_resolution=64)).combined

@@ -81,11 +81,11 @@ def test_simplify_volume_resolution_halves_the_viewport_grid(blank, tmp_path, di
     blank.render.use_simplify = True
     blank.render.simplify_volumes = 0.5
     half = extract.extract(bpy.context.evaluated_depsgraph_get())
-    n_full, n_half = np.array(full.medium.density.shape), np.array(half.medium.density.shape)
+    n_full, n_half = np.array(full.media[0].density.shape), np.array(half.media[0].density.shape)
     np.testing.assert_array_equal(n_half, (n_full + 1) // 2)
     # The same world box: voxel size doubled, centres of the 2x2x2 blocks.
-    np.testing.assert_allclose(np.diag(half.medium.index_to_world)[:3],
-                               2 * np.diag(full.medium.index_to_world)[:3], rtol=1e-9)
+    np.testing.assert_allclose(np.diag(half.media[0].index_to_world)[:3],
+                               2 * np.diag(full.media[0].index_to_world)[:3], rtol=1e-9)
     before = direct_worker.counters.get("grid_uploads", 0)
     image_full = direct_worker.render(full.scene(), full.settings).combined
     image_half = direct_worker.render(half.scene(), half.settings).combined

@@ -75,14 +75,14 @@ def test_the_volume_clipping_is_read_and_applied(blank, tmp_path):
     assert bpy.data.volumes.new("Default").render.clipping == np.float32(0.001)   # Blender's default
     made = _mod("scene_builder").build(smoke(width=48, height=32, n=32), str(tmp_path), settings=SETTINGS)
     made["medium"].data.render.clipping = 0.2
-    medium = _extract().medium
+    medium = _extract().media[0]
     assert abs(medium.clipping - 0.2) < 1e-6
     tfm = render_passes(tmp_path, "tfm")["Combined"]
     d = np.asarray(medium.density)
     zeroed = dataclasses.replace(medium, density=np.where(d < medium.clipping, 0.0, d), clipping=0.0)
-    want = _render(dataclasses.replace(_extract().scene(), medium=zeroed))
+    want = _render(dataclasses.replace(_extract().scene(), media=(zeroed,)))
     unclipped = _render(dataclasses.replace(_extract().scene(),
-                                            medium=dataclasses.replace(medium, clipping=0.0)))
+                                            media=(dataclasses.replace(medium, clipping=0.0),)))
     np.testing.assert_allclose(tfm, want, atol=1e-4 * float(want.max()))
     assert float(np.abs(unclipped - want).max()) > 0.01 * float(want.max())
 
@@ -93,11 +93,11 @@ def test_a_mesh_edit_next_to_the_volume_reads_no_grid(blank, tmp_path):
     made = _mod("scene_builder").build(smoke(width=48, height=32, n=32), str(tmp_path), settings=SETTINGS)
     session = _mod("viewport").ViewportSession()
     session.update(bpy.context.evaluated_depsgraph_get())
-    assert session.extraction.medium is not None
+    assert session.extraction.media
     seen = []
 
     def handler(scene, depsgraph):
-        seen.append(changes.changes_from_depsgraph(depsgraph, session.extraction.medium_source))
+        seen.append(changes.changes_from_depsgraph(depsgraph, session.extraction.medium_sources))
 
     def flags_after(edit):
         seen.clear()
@@ -120,10 +120,10 @@ def test_a_mesh_edit_next_to_the_volume_reads_no_grid(blank, tmp_path):
             flags = flags_after(edit)
             assert Change.SOLIDS in flags and Change.MEDIUM not in flags, flags
             reads, hits = cache.reads, cache.hits
-            medium = session.extraction.medium
+            medium = session.extraction.media[0]
             session.update(bpy.context.evaluated_depsgraph_get(), flags)
             assert (cache.reads, cache.hits) == (reads, hits)       # the grid was not looked at
-            assert session.extraction.medium is medium
+            assert session.extraction.media[0] is medium
         # The medium's own edit, and a mesh that takes a volume material, still flag the medium.
         assert Change.MEDIUM in flags_after(lambda: setattr(made["medium"].location, "x", 0.1))
         bar.data.materials.clear()

@@ -15,7 +15,7 @@ from mathutils import Vector
 from scipy import ndimage
 
 from tfm_addon import scenes
-from tfm_addon.engine import Camera, RenderSettings, Scene, SpotLight, metrics
+from tfm_addon.engine import Camera, Light, RenderSettings, Scene, metrics
 
 SETTINGS = RenderSettings(view_steps=128, light_steps=128, map_resolution=256, coefficients=16)
 # Suzanne at 2048 spp: its SSIM is 0.977 at 512 spp, 0.9807 at 2048 (see the assertion).
@@ -30,11 +30,11 @@ def _mod(name):
 def _scene(kind: str) -> Scene:
     ground = scenes.plane_mesh((0, 0, 0), 10.0)
     if kind == "suzanne":
-        light = SpotLight(matrix_world=scenes.look_at((-2.2, -3.2, 3.6), (0, 0, 1.3)), power_w=2500.0,
+        light = Light(matrix_world=scenes.look_at((-2.2, -3.2, 3.6), (0, 0, 1.3)), power_w=2500.0,
                           spot_size_rad=math.radians(50), spot_blend=0.2, name="Key")
         eye, target = (1.2, -4.6, 1.7), (0.0, 0.0, 1.25)
     else:   # straight down, so that the sphere's shadow is a disc
-        light = SpotLight(matrix_world=scenes.look_at((0, 0, 5.0), (0, 0, 0), up=(0, 1, 0)),
+        light = Light(matrix_world=scenes.look_at((0, 0, 5.0), (0, 0, 0), up=(0, 1, 0)),
                           power_w=3000.0, spot_size_rad=math.radians(70), spot_blend=0.1, name="Top")
         eye, target = (0.0, -5.5, 3.2), (0.0, 0.0, 0.7)
     camera = Camera(matrix_world=scenes.look_at(eye, target), width_px=160, height_px=90, lens_mm=40.0)

@@ -163,10 +163,10 @@ def test_space_object_scaled_volume_matches_cycles(blank, tmp_path):
     made = _builder().build(scene, str(tmp_path), settings=SETTINGS, samples=16)
     ob = made["medium"]
     assert ob.data.render.space == 'OBJECT'
-    m = np.asarray(scene.medium.index_to_world, np.float64)
+    m = np.asarray(scene.media[0].index_to_world, np.float64)
     voxel = float(abs(np.linalg.det(m[:3, :3])) ** (1.0 / 3.0)) * 50.0
     path = str(tmp_path / "centimetres.vdb")
-    _builder().write_vdb(path, scene.medium.density, voxel)
+    _builder().write_vdb(path, scene.media[0].density, voxel)
     ob.data.filepath = path
     ob.matrix_world = _builder().to_blender_matrix(m @ np.diag([1.0 / voxel] * 3 + [1.0]))
     assert ob.scale[0] == pytest.approx(0.02, rel=1e-3)

@@ -76,7 +76,7 @@ def test_an_emission_edit_in_the_viewport_uploads_nothing(blank, tmp_path, flags
     session.update(bpy.context.evaluated_depsgraph_get())
     camera = _view_camera(bpy.context.evaluated_depsgraph_get(), 48, 27)
     image = session.render(camera).combined
-    assert session.extraction.medium.has_emission
+    assert session.extraction.media[0].has_emission
     for name, edit, strength in _edits(nodes, kind):
         edit()
         flags = flags_of_next_update()
@@ -85,7 +85,7 @@ def test_an_emission_edit_in_the_viewport_uploads_nothing(blank, tmp_path, flags
         before = _counters()
         out = session.render(camera).combined
         after = _counters()
-        medium = session.extraction.medium
+        medium = session.extraction.media[0]
         v = medium.emission_strength
         print(f"{kind}, {name}: strength {v}, emits {medium.has_emission}, "
               f"{float(np.abs(out - image).max()):.3f} from the frame before")
@@ -99,29 +99,25 @@ def test_an_emission_edit_in_the_viewport_uploads_nothing(blank, tmp_path, flags
     session.close()
 
 
-def test_a_strength_grid_with_negative_voxels_glows_as_in_cycles(blank, tmp_path, monkeypatch):
+def test_a_strength_grid_with_negative_voxels_glows_as_in_cycles(blank, tmp_path):
     """A strength grid alone whose every other voxel is negative: Cycles looks the grid up one voxel
     at a time, so the negative voxels emit nothing and the others their own emission. The add-on's
     render (the strength combined per voxel, its clamp per voxel) agrees with Cycles within 3 % in
-    brightness; the clamp of the trilinear blend (the grid kept apart, COMBINE_EMISSION off, as
-    the numpy reference models it) is less than 0.7 of it."""
-    from tfm_addon.engine import Renderer, metrics
-    from tfm_addon.engine.passes import emission
+    brightness; the clamp of the trilinear blend (as the numpy reference models it) is less than
+    0.7 of it."""
+    from tfm_addon.engine import metrics
+    from tfm_addon.engine.reference import render_reference
 
     scene = scenes.fire_scene(64, 36, 24, kind="EMISSION")
-    m = scene.medium
+    m = scene.media[0]
     flame = m.grids["flame"]
     i, j, k = np.indices(flame.shape)
     signed = np.where((i + j + k) % 2 == 0, -0.6 * flame, flame).astype(np.float32)
-    scene = dataclasses.replace(scene, medium=dataclasses.replace(m, grids={**m.grids, "flame": signed}))
+    scene = dataclasses.replace(scene, media=(dataclasses.replace(m, grids={**m.grids, "flame": signed}),))
     made = _mod("scene_builder").build(scene, str(tmp_path), settings=SETTINGS)
     tfm = render_passes(tmp_path, "tfm")["Combined"][..., :3]
-    monkeypatch.setattr(emission, "COMBINE_EMISSION", False)
-    r = Renderer()
-    try:
-        blend = r.render(scene, SETTINGS).combined[..., :3]
-    finally:
-        r.release()
+    blend = render_reference(scene, view_steps=SETTINGS.view_steps,
+                             light_steps=SETTINGS.light_steps).combined[..., :3]
     _mod("scene_builder").cycles_single_scattering(bpy.context.scene, samples=256)
     made["medium"].visible_diffuse = False
     made["medium"].visible_volume_scatter = False
@@ -145,8 +141,8 @@ def test_a_blackbody_intensity_grid_glows_as_in_cycles(blank, tmp_path):
     from tfm_addon.engine.scene import GridValue
 
     scene = scenes.fire_scene(64, 36, 24, kind="QUICK_FIRE")
-    scene = dataclasses.replace(scene, medium=dataclasses.replace(
-        scene.medium, blackbody_intensity=GridValue("flame", 1.0, 0.0)))
+    scene = dataclasses.replace(scene, media=(dataclasses.replace(
+        scene.media[0], blackbody_intensity=GridValue("flame", 1.0, 0.0)),))
     made = _mod("scene_builder").build(scene, str(tmp_path), settings=SETTINGS)
     tfm = render_passes(tmp_path, "tfm")["Combined"][..., :3]
     _mod("scene_builder").cycles_single_scattering(bpy.context.scene, samples=256)

@@ -25,7 +25,7 @@ def test_three_frame_sequence_renders_three_frames_from_the_command_line(blank, 
     scene = scenes.smoke_scene(width=64, height=48, n=32)
     made = builder.build(scene, str(tmp_path), settings=SETTINGS)
     # Three frames of the puff drifting along +x by 4 voxels a frame.
-    density = scene.medium.density
+    density = scene.media[0].density
     for frame in (1, 2, 3):
         shifted = np.zeros_like(density)
         shifted[4 * frame:] = density[:density.shape[0] - 4 * frame]
@@ -78,10 +78,10 @@ def test_sequence_outside_its_frame_range_renders_no_medium_quietly(blank, tmp_p
     data.is_sequence, data.frame_start, data.frame_duration, data.sequence_mode = True, 1, 3, 'CLIP'
     bpy.context.scene.collection.objects.link(bpy.data.objects.new("Puff", data))
     blank.frame_set(2)
-    assert extract.extract(bpy.context.evaluated_depsgraph_get()).medium is not None
+    assert extract.extract(bpy.context.evaluated_depsgraph_get()).media
     blank.frame_set(5)
     ex = extract.extract(bpy.context.evaluated_depsgraph_get())
-    assert ex.medium is None and ex.all_warnings == []
+    assert not ex.media and ex.all_warnings == []
 
 
 def test_a_frame_missing_from_a_sequence_names_the_file_tried_once(blank, tmp_path):

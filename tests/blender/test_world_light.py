@@ -23,7 +23,7 @@ def _builder():
 @pytest.mark.parametrize("density", [1.0, 10.0])
 def test_smoke_lit_by_a_white_world_matches_cycles(blank, tmp_path, density):
     scene = smoke(width=64, height=48, n=24, ambient=(1.0, 1.0, 1.0))
-    m = scene.medium
+    m = scene.media[0]
     scene = dataclasses.replace(scene, lights=(), media=(dataclasses.replace(
         m, sigma_a=tuple(density * 0.1 * c / c for c in m.sigma_a),
         sigma_s=tuple(density * 0.9 * c / c for c in m.sigma_s)),))

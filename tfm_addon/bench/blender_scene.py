@@ -13,7 +13,7 @@ import os
 
 import numpy as np
 
-from ..blender.scene_builder import diffuse_material, to_blender_matrix, write_vdb
+from ..blender.scene_builder import add_camera, diffuse_material, to_blender_matrix, write_vdb
 from ..engine.scene import Medium, Scene
 
 
@@ -83,24 +83,8 @@ def build(scene: Scene, directory: str, name: str = "bench") -> dict:
     bl = bpy.context.scene
     col = bl.collection
     made: dict = {"lights": [], "meshes": []}
-    cam = scene.camera
-    cd = bpy.data.cameras.new(f"{name} camera")
-    cd.type = cam.projection
-    cd.lens = cam.lens_mm
-    cd.sensor_width, cd.sensor_height = cam.sensor_width_mm, cam.sensor_height_mm
-    cd.sensor_fit = cam.sensor_fit
-    cd.shift_x, cd.shift_y = cam.shift_x, cam.shift_y
-    cd.ortho_scale = cam.ortho_scale
-    cd.clip_start, cd.clip_end = cam.clip_start, cam.clip_end
-    co = bpy.data.objects.new(cd.name, cd)
-    col.objects.link(co)
-    co.matrix_world = to_blender_matrix(cam.matrix_world)
-    bl.camera = co
-    made["camera"] = co
-    r = bl.render
-    r.resolution_x, r.resolution_y, r.resolution_percentage = cam.width_px, cam.height_px, 100
-    r.pixel_aspect_x = r.pixel_aspect_y = 1.0
-    r.use_border = False
+    made["camera"] = add_camera(bl, col, scene.camera, f"{name} camera")
+    bl.render.use_border = False
 
     for i, light in enumerate(scene.lights):
         if light.gobo is not None:
@@ -126,7 +110,7 @@ def build(scene: Scene, directory: str, name: str = "bench") -> dict:
         mo.matrix_world = to_blender_matrix(mesh.matrix_world)
         made["meshes"].append(mo)
 
-    medium = scene.medium
+    medium = scene.media[0]
     if medium is not None and medium.density is None:
         if medium.box_to_world is None:
             raise ValueError("fog filling the whole scene is not built for Cycles/EEVEE")
@@ -201,7 +185,7 @@ def eevee(preset: str, scene: Scene) -> None:
     e = bl.eevee
     for key, value in EEVEE_PRESETS[preset].items():
         setattr(e, key, value)
-    if preset == "high" and scene.medium is not None:
+    if preset == "high" and scene.media:
         near, far = medium_depth_range(scene)
         e.use_volume_custom_range = True
         e.volumetric_start = max(near, scene.camera.clip_start)
@@ -211,7 +195,7 @@ def eevee(preset: str, scene: Scene) -> None:
 
 def medium_depth_range(scene: Scene) -> tuple[float, float]:
     """Nearest and farthest camera depth (m along the view axis) of the medium's bounds."""
-    m = scene.medium
+    m = scene.media[0]
     if m.density is not None:
         n = np.asarray(m.density.shape, dtype=np.float64)
         corners = np.array([[x, y, z, 1.0] for x in (-1, n[0]) for y in (-1, n[1]) for z in (-1, n[2])])

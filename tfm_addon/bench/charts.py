@@ -149,6 +149,11 @@ def speed_accuracy(rows: list[dict], path: Path, metric: str = "ssim", title: st
     legend_rows = math.ceil(len(handles) / ncol)
     bottom = (0.24 * legend_rows + 0.25) / fig.get_figheight()        # the legend's height, inches
     fig.tight_layout(rect=(0, min(0.45, bottom), 1, 0.97))
+    return _save(plt, fig, path)
+
+
+def _save(plt, fig, path: Path) -> Path:
+    """Write ``fig`` to ``path`` (its folder made), close it, return ``path``."""
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=110)
     plt.close(fig)
@@ -182,10 +187,7 @@ def lines(series: dict[str, tuple[list[float], list[float]]], path: Path, xlabel
         ax.grid(True, which="both", alpha=0.25)
         ax.legend(fontsize=7)
     fig.tight_layout()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return _save(plt, fig, path)
 
 
 def dots(groups: list[str], series: dict[str, list[float]], path: Path, ylabel: str, title: str,
@@ -209,7 +211,4 @@ def dots(groups: list[str], series: dict[str, list[float]], path: Path, ylabel: 
     ax.grid(True, axis="y", which="both", alpha=0.25)
     ax.legend(fontsize=7)
     fig.tight_layout()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return _save(plt, fig, path)

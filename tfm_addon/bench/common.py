@@ -54,7 +54,7 @@ def tfm_name(n: int, alpha: float | None) -> str:
 
 def auto_method(scene: Scene, base: RenderSettings) -> Method:
     s = auto_settings(scene, dataclasses.replace(base, quality="AUTO"))
-    if scene.medium is not None and scene.medium.density is None:
+    if scene.media and scene.media[0].density is None:
         label = f"auto ({s.sampling.lower()} {s.view_steps})"
     else:
         label = f"auto (TFM-{s.coefficients} α, {s.view_steps}x{s.light_steps})"
@@ -65,7 +65,7 @@ def methods_for(scene: Scene, config: Config) -> list[Method]:
     """The method table's rows for one scene."""
     base = RenderSettings(map_resolution=config.map_resolution, **PAPER_STEPS)
     out = []
-    if scene.medium is not None and scene.medium.density is None:
+    if scene.media and scene.media[0].density is None:
         for sampling, family in (("WORLD", WORLD), ("PROJECTIVE", PROJECTIVE)):
             for n in config.homogeneous_steps:
                 out.append(Method(f"{sampling.lower()} {n}", family,
@@ -112,8 +112,8 @@ def scene_digest(scene: Scene) -> str:
     parts += [light.key + repr((light.power_w, light.color, light.spot_blend, light.gobo_key))
               for light in scene.lights]
     parts += [m.key for m in scene.meshes]
-    if scene.medium is not None:
-        parts.append(scene.medium.key)
+    if scene.media:
+        parts.append(scene.media[0].key)
     for p in parts:
         h.update(p.encode())
     return h.hexdigest()
@@ -125,7 +125,7 @@ def ground_truth_steps(scene: Scene, config: Config) -> tuple[int, int]:
     stats = medium_stats(scene)
     if stats is None:
         return config.gt_min_steps, 1
-    if scene.medium.density is None:
+    if scene.media[0].density is None:
         return config.gt_homogeneous_steps, 8
 
     def clamp(voxels):

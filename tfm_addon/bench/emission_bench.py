@@ -12,7 +12,6 @@ import statistics
 import time
 
 from ..engine import Renderer, RenderSettings
-from ..engine.passes import emission
 from ..engine.scene import GridValue
 from ..scenes import fire_scene
 from .renderer_bench import Size  # width, height, grid, map_resolution, repeats
@@ -23,50 +22,43 @@ PAPER = Size(1280, 720, 128, 1024, 9)
 
 
 CASES = (
-    # (case, fire_scene kind, emission, colour grid, density packed, baseline: None for a baseline)
-    ("no emission", "FIRE", False, False, True, None),
-    ("flame strength", "EMISSION", True, False, True, "no emission"),
-    ("flame strength, two fetches", "EMISSION", True, False, False, "no emission"),
-    ("emission + blackbody", "FIRE", True, False, True, "no emission"),
-    ("emission + blackbody, grids apart", "FIRE", True, False, "apart", "no emission"),
-    ("constant emission", "CONSTANT", True, False, True, "no emission"),
-    ("colour grid, no emission", "FIRE", False, True, True, None),
-    ("colour grid, no emission, two fetches", "FIRE", False, True, False, "colour grid, no emission"),
-    ("emission + blackbody + colour grid", "FIRE", True, True, True, "colour grid, no emission"),
-    ("Quick Fire, no emission", "QUICK_FIRE", False, False, True, None),
-    ("Quick Fire (blackbody grid)", "QUICK_FIRE", True, False, True, "Quick Fire, no emission"),
-    ("Quick Fire, two fetches", "QUICK_FIRE", True, False, False, "Quick Fire, no emission"),
-    ("Quick Fire + colour grid, no emission", "QUICK_FIRE", False, True, True, None),
-    ("Quick Fire + colour grid", "QUICK_FIRE", True, True, True, "Quick Fire + colour grid, no emission"),
+    # (case, fire_scene kind, emission, colour grid, baseline: None for a baseline)
+    ("no emission", "FIRE", False, False, None),
+    ("flame strength", "EMISSION", True, False, "no emission"),
+    ("emission + blackbody", "FIRE", True, False, "no emission"),
+    ("constant emission", "CONSTANT", True, False, "no emission"),
+    ("colour grid, no emission", "FIRE", False, True, None),
+    ("emission + blackbody + colour grid", "FIRE", True, True, "colour grid, no emission"),
+    ("Quick Fire, no emission", "QUICK_FIRE", False, False, None),
+    ("Quick Fire (blackbody grid)", "QUICK_FIRE", True, False, "Quick Fire, no emission"),
+    ("Quick Fire + colour grid, no emission", "QUICK_FIRE", False, True, None),
+    ("Quick Fire + colour grid", "QUICK_FIRE", True, True, "Quick Fire + colour grid, no emission"),
 )
 """The rows: each emitting frame's ratio is to its ``baseline``, the same frame without emission.
 'FIRE' is the plume with a strength and a blackbody grid (combined per voxel beside the density:
 one fetch a sample), 'EMISSION' its strength grid alone, 'QUICK_FIRE' Blender's Quick Smoke fire
-material (blackbody grid alone), 'CONSTANT' a strength offset without grid; ``density packed``:
-False times the same frame with the density read from its own texture (passes/emission.PACK_DENSITY
-off), 'apart' the two grids kept apart and combined per sample (passes/emission.COMBINE_EMISSION
-off: five values a sample, two fetches, as before they were combined)."""
+material (blackbody grid alone), 'CONSTANT' a strength offset without grid."""
 
 
 def _scene(size: Size, kind: str, emits: bool, colored: bool):
     base = "FIRE" if kind == "CONSTANT" else kind
     scene = fire_scene(size.width, size.height, size.grid, kind=base, with_light=True,
                        with_occluder=True, with_ground=True)
-    m = scene.medium
+    m = scene.media[0]
     if not emits or kind == "CONSTANT":
         m = dataclasses.replace(m, emission_strength=GridValue(offset=0.3 if emits else 0.0),
                                 blackbody_intensity=GridValue(offset=0.0))
     if colored:
         m = dataclasses.replace(m, grids={**m.grids, "color": _color(m)}, color_grid="color")
-    return dataclasses.replace(scene, medium=m)
+    return dataclasses.replace(scene, media=(m,))
 
 
 def run(size: Size, log=print) -> list[dict]:
     """Median seconds per frame of the burning plume lit by a spot (``CASES``: emission kinds,
-    with and without a colour grid, with the density packed beside the attributes or not) and
+    with and without a colour grid) and
     each emitting frame's ratio to the same frame without emission (``_ratio``). Every map is built before
     the timing (a steady viewport frame: the emission needs no map, so it changes none)."""
-    scenes = {name: _scene(size, kind, emits, colored) for name, kind, emits, colored, _, _ in CASES}
+    scenes = {name: _scene(size, kind, emits, colored) for name, kind, emits, colored, _ in CASES}
     settings = RenderSettings(map_resolution=size.map_resolution)
     first = Renderer()
     # One renderer (its own caches) per case on one GL context: a renderer keeps only what its
@@ -74,13 +66,8 @@ def run(size: Size, log=print) -> list[dict]:
     renderers = {name: first if i == 0 else Renderer(gl=first.gl) for i, name in enumerate(scenes)}
     packed = {}
     try:
-        for name, _, _, _, pack, _ in CASES:     # build maps and textures, compile shaders
-            emission.PACK_DENSITY = pack is not False
-            emission.COMBINE_EMISSION = pack != "apart"
-            try:
-                renderers[name].render(scenes[name], settings, passes=False)
-            finally:
-                emission.PACK_DENSITY = emission.COMBINE_EMISSION = True
+        for name in scenes:     # build maps and textures, compile shaders
+            renderers[name].render(scenes[name], settings, passes=False)
             packed[name] = sorted({v for a in renderers[name]._attributes.items.values()
                                    for v, n in a.packed_passes.items() if n})
         before = {name: dict(r.counters) for name, r in renderers.items()}
@@ -96,7 +83,7 @@ def run(size: Size, log=print) -> list[dict]:
             r.clear_maps()
         first.release()
     rows = []
-    for name, _, _, _, _, baseline in CASES:
+    for name, _, _, _, baseline in CASES:
         base = baseline or name
         rows.append(dict(case=name, seconds=statistics.median(seconds[name]), baseline=base,
                          ratio=_ratio(seconds, name, base),
@@ -123,7 +110,7 @@ def edit_rows(size: Size, log=print) -> list[dict]:
     from .speed import _moved_camera
 
     scene = _scene(size, "FIRE", True, False)
-    scene = dataclasses.replace(scene, medium=dataclasses.replace(scene.medium, source_key="bench plume"))
+    scene = dataclasses.replace(scene, media=(dataclasses.replace(scene.media[0], source_key="bench plume"),))
     settings = RenderSettings(map_resolution=size.map_resolution)
     renderer = Renderer()
     state = {"scene": scene, "k": 0}
@@ -135,9 +122,9 @@ def edit_rows(size: Size, log=print) -> list[dict]:
     def edit(change):
         def go():
             state["k"] += 1
-            m = state["scene"].medium
+            m = state["scene"].media[0]
             m = dataclasses.replace(m, **change(m, state["k"]))
-            state["scene"] = dataclasses.replace(state["scene"], medium=m)
+            state["scene"] = dataclasses.replace(state["scene"], media=(m,))
             renderer.render(state["scene"], settings, passes=False)
         return go
 
@@ -206,7 +193,7 @@ def _color(medium):
     return color_grid_for(medium.density)
 
 
-READ = {0: "own texture", 1: "attributes' R", 2: "attributes' G", 3: "colour grid's A"}
+READ = {0: "own texture", 1: "attributes' R", 3: "colour grid's A"}
 TARGET_ROWS = ("Quick Fire (blackbody grid)", "flame strength", "emission + blackbody")
 
 

@@ -6,7 +6,7 @@ import dataclasses
 import math
 from pathlib import Path
 
-from ..engine import Renderer, RenderSettings, SpotLight
+from ..engine import Light, Renderer, RenderSettings
 from ..scenes import look_at
 from .common import (
     BRUTE,
@@ -97,7 +97,7 @@ def counter_checks(config: Config, scenes: list[BenchScene], renderer: Renderer)
         scene = bs.scene
         cases = [(bs.title, scene)]
         if not bs.homogeneous:
-            away = SpotLight(matrix_world=look_at((30.0, 30.0, 6.0), (40.0, 40.0, 0.0)), power_w=500.0,
+            away = Light(matrix_world=look_at((30.0, 30.0, 6.0), (40.0, 40.0, 0.0)), power_w=500.0,
                              spot_size_rad=math.radians(30), name="Away")
             cases.append((bs.title + " + a spot aimed away from it",
                           dataclasses.replace(scene, lights=scene.lights + (away,))))

@@ -74,10 +74,10 @@ def mesh_against_volume(bpy, repeats: int, size: tuple[int, int], folder: str) -
 
     from .. import scenes
     from ..blender import scene_builder
-    from ..engine import Camera, RenderSettings, Scene, SpotLight, mesh_volume
+    from ..engine import Camera, Light, RenderSettings, Scene, mesh_volume
 
     settings = RenderSettings(view_steps=128, light_steps=128, map_resolution=256, coefficients=8)
-    light = SpotLight(matrix_world=scenes.look_at((0, 0, 5.0), (0, 0, 0), up=(0, 1, 0)), power_w=3000.0,
+    light = Light(matrix_world=scenes.look_at((0, 0, 5.0), (0, 0, 0), up=(0, 1, 0)), power_w=3000.0,
                       spot_size_rad=math.radians(70), spot_blend=0.1)
     camera = Camera(matrix_world=scenes.look_at((0.0, -5.5, 3.2), (0, 0, 0.7)), width_px=size[0],
                     height_px=size[1], lens_mm=40.0)
@@ -99,9 +99,9 @@ def mesh_against_volume(bpy, repeats: int, size: tuple[int, int], folder: str) -
             resolution = mesh_volume_resolution(size)
             v, t = scenes.uv_sphere(0.8, 32, 16, center=(0.0, 0.0, 1.5))
             medium_scene = Scene(camera=camera, lights=base.lights, meshes=base.meshes,
-                                 medium=mesh_volume.mesh_medium(v, t, np.eye(4), sigma_a=(0.3,) * 3,
+                                 media=(mesh_volume.mesh_medium(v, t, np.eye(4), sigma_a=(0.3,) * 3,
                                                                 sigma_s=(3.0,) * 3,
-                                                                resolution=resolution)[0])
+                                                                resolution=resolution)[0],))
             scene_builder.build(medium_scene, folder, settings=settings)
         built = mesh_volume.occupancy_cache.counters["voxelisations"]   # what the renders build
         cam = scene.camera

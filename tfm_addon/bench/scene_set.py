@@ -30,10 +30,10 @@ class BenchScene:
 
     @property
     def homogeneous(self) -> bool:
-        return self.scene.medium is not None and self.scene.medium.density is None
+        return bool(self.scene.media) and self.scene.media[0].density is None
 
     def grid_text(self) -> str:
-        m = self.scene.medium
+        m = self.scene.media[0]
         if m is None or m.density is None:
             return "homogeneous"
         return "x".join(str(s) for s in m.density.shape)

@@ -84,7 +84,7 @@ def frame_times(n: int = 128, repeats: int = 3) -> tuple[float, float]:
     to_object = np.diag([2.0 / n] * 3 + [1.0])
     to_object[:3, 3] = -1.0 + 1.0 / n
     r = S.resolve(procedural_graph(), {}, (n, n, n), to_object)
-    index_to_world = np.asarray(base.medium.index_to_world)
+    index_to_world = np.asarray(base.media[0].index_to_world)
     grid = Medium(density=r.density, index_to_world=index_to_world, sigma_a=r.sigma_a, sigma_s=r.sigma_s)
     cube = np.diag([n / 2.0] * 3 + [1.0])      # [-1, 1]^3 onto the lattice's box [-0.5, n - 0.5]^3
     cube[:3, 3] = (n - 1) / 2.0

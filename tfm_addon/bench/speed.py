@@ -2,7 +2,6 @@
 
     python -m tfm_addon.bench.speed [--scenes demo smoke ...] [--repeats 3] [--reference]
     python tfm_addon/bench/speed.py --demo-only      # also runs on an older checkout (PYTHONPATH)
-    python -m tfm_addon.bench.speed --ab --clock cpu  # this round's light-side switches, one process
     python -m tfm_addon.bench.speed --pixels --clock cpu   # cost against pixels, 160x90 .. 1280x720
 
 Per scene, frames are timed as if the light moved (maps rebuilt each frame, the density texture
@@ -65,9 +64,9 @@ def _moved_camera(scene, k):
 
 
 def _sigma_edit(scene, k):
-    med = scene.medium
+    med = scene.media[0]
     s = tuple(x * (1.0 + 1e-3 * k) for x in med.sigma_s)
-    return dataclasses.replace(scene, medium=dataclasses.replace(med, sigma_s=s))
+    return dataclasses.replace(scene, media=(dataclasses.replace(med, sigma_s=s),))
 
 
 def contender(renderer, scene, settings, change=_moved_light):
@@ -127,7 +126,7 @@ def settings_for(scene, map_resolution=512):
     auto = effective_settings(scene, dataclasses.replace(base, quality="AUTO"))
     out = {"AUTO": dataclasses.replace(base, quality="AUTO")}
     out["floor (AUTO steps)"] = floor_of(scene, auto)
-    if scene.medium is not None and scene.medium.density is not None:
+    if scene.media and scene.media[0].density is not None:
         out["TFM-8 EXACT"] = dataclasses.replace(base, coefficients=8, tfm_filter="EXACT")
         out["TFM-8 LINEAR"] = dataclasses.replace(base, coefficients=8, tfm_filter="LINEAR")
         out["floor (100 steps)"] = floor_of(scene, base)
@@ -137,49 +136,6 @@ def settings_for(scene, map_resolution=512):
 
 CLOCKS = {"wall": time.perf_counter, "cpu": time.process_time}
 
-# The light side's switches A/B'd by ``--ab`` in one process (issue 8): the build before this
-# round (every texel, the tightening by the level 0's occupancy), this round's default, and the
-# default with the light marches' jumps over empty cells (bindings.LIGHT_SKIP).
-AB_CONFIGS = {"before": dict(MAP_RECT=False, LIGHT_SKIP=0, LEVEL0_OCCUPANCY=True),
-              "now": dict(MAP_RECT=True, LIGHT_SKIP=0, LEVEL0_OCCUPANCY=False),
-              "now + jumps": dict(MAP_RECT=True, LIGHT_SKIP=1, LEVEL0_OCCUPANCY=False)}
-
-
-def configured(fn, config):
-    """``fn`` run with the light side's switches of ``config`` (AB_CONFIGS), restored after."""
-    from tfm_addon.engine.passes import bindings
-    from tfm_addon.engine.passes import tfm as tfm_pass
-
-    def go():
-        saved = (tfm_pass.MAP_RECT, bindings.LIGHT_SKIP, bindings.MediumGPU.light_occupancy)
-        tfm_pass.MAP_RECT, bindings.LIGHT_SKIP = config["MAP_RECT"], config["LIGHT_SKIP"]
-        if config["LEVEL0_OCCUPANCY"]:
-            bindings.MediumGPU.light_occupancy = property(lambda self: self.occupancy)
-        try:
-            return fn()
-        finally:
-            tfm_pass.MAP_RECT, bindings.LIGHT_SKIP, bindings.MediumGPU.light_occupancy = saved
-    return go
-
-
-def run_ab(renderer, name, scene, repeats, clock="cpu"):
-    """CPU (or wall) ms of AUTO, TFM-8 LINEAR and the brute force with the light moving, and of
-    AUTO after a camera move, under each of AB_CONFIGS, all interleaved."""
-    cases = settings_for(scene)
-    labels = ["AUTO", "TFM-8 LINEAR", "brute force 100x100"]
-    contenders = {}
-    for cfg_name, cfg in AB_CONFIGS.items():
-        for label in labels:
-            if label in cases:
-                fn = contender(renderer, scene, cases[label])
-                contenders[f"{label} [{cfg_name}]"] = configured(fn, cfg)
-        if scene.medium is not None:
-            contenders[f"AUTO camera move [{cfg_name}]"] = configured(
-                contender(renderer, scene, cases["AUTO"], _moved_camera), cfg)
-    times = time_side_by_side(contenders, repeats, CLOCKS[clock])
-    return {"scene": name, "clock": clock, "ms": {k: 1000 * v for k, v in times.items()}}
-
-
 def run_scene(renderer, name, scene, repeats, reference=None, clock="wall"):
     cases = settings_for(scene)
     contenders = {}
@@ -187,7 +143,7 @@ def run_scene(renderer, name, scene, repeats, reference=None, clock="wall"):
         sc, st = s if isinstance(s, tuple) else (scene, s)
         contenders[label] = contender(renderer, sc, st)
     auto = cases["AUTO"]
-    if scene.medium is not None:
+    if scene.media:
         contenders["AUTO camera move"] = contender(renderer, scene, auto, _moved_camera)
         contenders["AUTO sigma edit"] = contender(renderer, scene, auto, _sigma_edit)
     times = time_side_by_side(contenders, repeats, CLOCKS[clock])
@@ -269,8 +225,6 @@ def main(argv=None) -> int:
     p.add_argument("--clock", choices=tuple(CLOCKS), default="wall",
                    help="wall: elapsed seconds; cpu: CPU seconds of this process, all threads")
     p.add_argument("--json", help="write the rows here")
-    p.add_argument("--ab", action="store_true",
-                   help="the light side's switches A/B'd in one process (AB_CONFIGS), no floor")
     p.add_argument("--pixels", action="store_true",
                    help="AUTO on the paper smoke at 160x90 .. 1280x720: cost against pixels")
     args = p.parse_args(argv)
@@ -281,15 +235,6 @@ def main(argv=None) -> int:
             (ms,) = row["ms"].values()
             print(f"  {row['frame']:12s} {row['size']:>9s} {ms:8.1f} ms  per pixel / 160x90's "
                   f"{row['per pixel / first']:5.2f}", file=sys.stderr)
-        return _finish(renderer, rows, args.json)
-    if args.ab:
-        rows = []
-        for name, scene in bench_scenes(args.scenes).items():
-            row = run_ab(renderer, name, scene, args.repeats, args.clock)
-            rows.append(row)
-            print(f"## {name} A/B ({args.clock} clock)", file=sys.stderr)
-            for k, v in row["ms"].items():
-                print(f"  {k:40s} {v:8.1f} ms", file=sys.stderr)
         return _finish(renderer, rows, args.json)
     if args.demo_only:
         scene = scenes.demo_scene(960, 540)

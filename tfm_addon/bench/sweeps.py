@@ -54,11 +54,11 @@ def count(config: Config) -> int:
 
 
 def _scaled(scene: Scene, k: float) -> Scene:
-    m = scene.medium
+    m = scene.media[0]
     medium = Medium(sigma_a=tuple(k * s for s in m.sigma_a), sigma_s=tuple(k * s for s in m.sigma_s),
                     anisotropy=m.anisotropy, density=m.density, index_to_world=m.index_to_world,
                     box_to_world=m.box_to_world)
-    return dataclasses.replace(scene, medium=medium)
+    return dataclasses.replace(scene, media=(medium,))
 
 
 def _sweep_scenes(config: Config) -> dict[str, Scene]:

@@ -61,7 +61,7 @@ def _orbit(scene: Scene, degrees: float) -> Scene:
 
 def edited(scene: Scene, edit: str, step: int) -> Scene:
     """``scene`` after one edit of kind ``edit`` (``step`` makes successive edits differ)."""
-    medium, light = scene.medium, scene.lights[0]
+    medium, light = scene.media[0], scene.lights[0]
     if edit == "camera orbit":
         return _orbit(scene, 5.0 * (step + 1))
     if edit == "light move":
@@ -70,18 +70,18 @@ def edited(scene: Scene, edit: str, step: int) -> Scene:
         return dataclasses.replace(scene, lights=(dataclasses.replace(light, matrix_world=m),))
     if edit == "sigma change":
         k = 1.0 + 0.2 * (step + 1)
-        return dataclasses.replace(scene, medium=dataclasses.replace(
-            medium, sigma_s=tuple(k * s for s in medium.sigma_s)))
+        return dataclasses.replace(scene, media=(dataclasses.replace(
+            medium, sigma_s=tuple(k * s for s in medium.sigma_s)),))
     if edit == "density scale":  # the Principled Volume's Density input: both sigmas scale
         k = 1.0 + 0.25 * (step + 1)
-        return dataclasses.replace(scene, medium=dataclasses.replace(
+        return dataclasses.replace(scene, media=(dataclasses.replace(
             medium, sigma_s=tuple(k * s for s in medium.sigma_s),
-            sigma_a=tuple(k * s for s in medium.sigma_a)))
+            sigma_a=tuple(k * s for s in medium.sigma_a)),))
     if edit == "frame change (.vdb)":  # the next file of a sequence: another grid, same size
         n = medium.density.shape
         d = (smoke_density(n[0], seed=10 + step) if n[0] == n[1] == n[2]
              else np.roll(medium.density, step + 1, 0))
-        return dataclasses.replace(scene, medium=dataclasses.replace(medium, density=d))
+        return dataclasses.replace(scene, media=(dataclasses.replace(medium, density=d),))
     return scene
 
 
@@ -183,11 +183,11 @@ def callbacks(width: int, height: int, n: int, out: str) -> None:
     made = scene_builder.build(demo, str(folder), settings=RenderSettings(quality="AUTO"))
     scene = bpy.context.scene
     # The medium as a two-frame .vdb sequence, for the frame change.
-    m = np.asarray(demo.medium.index_to_world, dtype=np.float64)
+    m = np.asarray(demo.media[0].index_to_world, dtype=np.float64)
     voxel = float(abs(np.linalg.det(m[:3, :3])) ** (1.0 / 3.0))
     for frame, shift in ((1, 0), (2, 3)):
         scene_builder.write_vdb(str(folder / f"seq_{frame:04d}.vdb"),
-                                np.roll(demo.medium.density, shift, axis=0), voxel_size_m=voxel)
+                                np.roll(demo.media[0].density, shift, axis=0), voxel_size_m=voxel)
     volume = made["medium"].data
     volume.filepath = str(folder / "seq_0001.vdb")
     volume.is_sequence = True
@@ -292,7 +292,7 @@ def callbacks(width: int, height: int, n: int, out: str) -> None:
     viewport.stop_polling()
     from tfm_addon.blender.volumes import grid_cache
 
-    medium = session.extraction.medium
+    medium = session.extraction.media[0]
     Path(out).write_text(json.dumps(dict(
         first_read_ms=1000 * first_read, edits=timings, grid_reads=grid_cache.reads,
         medium_shape=None if medium is None else list(medium.density.shape),

@@ -15,7 +15,7 @@ import numpy as np
 from ..engine import mesh_volume, shading
 from ..engine.medium_attributes import constant_emits
 from ..engine.medium_grid import downsample
-from ..engine.scene import Camera, GlowBlocks, GridValue, Medium, Mesh, RenderSettings, Scene, SpotLight
+from ..engine.scene import Camera, GlowBlocks, GridValue, Light, Medium, Mesh, RenderSettings, Scene
 from ..engine.scene import _digest as digest
 from . import fluid, materials, meshes, node_graph
 from . import lights as lights_module
@@ -32,12 +32,10 @@ class Extraction:
     """A scene read from Blender, part by part, with the warnings each part raised."""
 
     camera: Camera | None = None
-    lights: tuple[SpotLight, ...] = ()
-    medium: Medium | None = None      # the first of ``media``
+    lights: tuple[Light, ...] = ()
     meshes: tuple[Mesh, ...] = ()
     ambient: RGB = (0.0, 0.0, 0.0)
     settings: RenderSettings = field(default_factory=RenderSettings)
-    medium_source: str | None = None  # name of the object the medium comes from
     warnings: dict[Change, tuple[str, ...]] = field(default_factory=dict)
     media: tuple[Medium, ...] = ()    # every medium (volume objects, meshes with volume materials)
     medium_sources: tuple[str, ...] = ()   # the objects they come from
@@ -48,9 +46,7 @@ class Extraction:
         cam = camera if camera is not None else self.camera
         if cam is None:
             raise ValueError("no camera")
-        media = self.media or ((self.medium,) if self.medium is not None else ())
-        if self.world_fog is not None:
-            media = (*media, self.world_fog)
+        media = self.media if self.world_fog is None else (*self.media, self.world_fog)
         return Scene(camera=cam, lights=self.lights, media=media, meshes=self.meshes,
                      ambient=self.ambient if self.settings.ambient else (0.0, 0.0, 0.0),
                      world=self.ambient, environment=self.environment)
@@ -260,8 +256,6 @@ def extract(depsgraph, *, parts: Change = Change.ALL, previous: Extraction | Non
                 changes[key] = tuple(found[key])
                 warnings[part] = tuple(found["warnings"][part])
         if Change.MEDIUM in geometry:
-            changes["medium"] = found["medium"]
-            changes["medium_source"] = found["medium_source"]
             changes["media"] = tuple(found["media"])
             changes["medium_sources"] = tuple(found["medium_sources"])
             warnings[Change.MEDIUM] = tuple(found["warnings"][Change.MEDIUM])
@@ -393,13 +387,12 @@ def _walk_instances(depsgraph, parts: Change, cache: GridCache,
                     volume_resolution: int = mesh_volume.DEFAULT_RESOLUTION,
                     kept: WalkCache | None = None) -> dict:
     """Lights, meshes and the medium among the depsgraph's object instances."""
-    spots: list[SpotLight] = []
+    spots: list[Light] = []
     solids: list[Mesh] = []
     skipped_lights: list[str] = []
     media: list[str] = []
     found_media: list[Medium] = []     # every medium, in the depsgraph's order
     sources: list[str] = []
-    medium = None
     notes = {Change.LIGHTS: [], Change.SOLIDS: [], Change.MEDIUM: []}
     kept = WalkCache() if kept is None else kept   # arrays shared by the instances of a mesh
     arrays = kept.walk()
@@ -503,11 +496,9 @@ def _walk_instances(depsgraph, parts: Change, cache: GridCache,
         # A scene without lights is the renderer's to explain (it says so in its warnings).
     for what, names in unrendered.items():
         notes[Change.SOLIDS].append(f"{what} are not rendered by TFM: " + ", ".join(names))
-    medium = found_media[0] if found_media else None
     kept.walked(Change.SOLIDS in parts, (Change.SOLIDS | Change.MEDIUM) in parts)
-    return {"lights": spots, "meshes": solids, "medium": medium,
-            "medium_source": sources[0] if sources else None, "media": found_media,
-            "medium_sources": sources, "warnings": notes}
+    return {"lights": spots, "meshes": solids, "media": found_media, "medium_sources": sources,
+            "warnings": notes}
 
 
 def _has_hair(ob) -> bool:

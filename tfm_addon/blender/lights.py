@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 
-from ..engine.scene import Light, SpotLight
+from ..engine.scene import Light
 from .camera import without_scale
 
 
@@ -48,8 +48,8 @@ def cone_scale(matrix_world, name: str, warnings: list[str]) -> tuple[float, flo
     return float(sx / sz), float(sy / sz)
 
 
-def spot_light(light_object, matrix_world, warnings: list[str]) -> SpotLight:
-    """The renderer's SpotLight for an evaluated spot light object placed at ``matrix_world``."""
+def spot_light(light_object, matrix_world, warnings: list[str]) -> Light:
+    """The renderer's Light for an evaluated spot light object placed at ``matrix_world``."""
     light = light_object.data
     settings = getattr(light, "tfm", None)
     gobo = None
@@ -58,7 +58,7 @@ def spot_light(light_object, matrix_world, warnings: list[str]) -> SpotLight:
             gobo = image_pixels(settings.gobo)
         except ValueError as ex:
             warnings.append(f"Light '{light_object.name}': projected texture ignored: {ex}")
-    return SpotLight(
+    return Light(
         matrix_world=without_scale(matrix_world),
         color=light_color(light),
         power_w=light_power_w(light),

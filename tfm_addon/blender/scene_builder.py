@@ -41,6 +41,28 @@ def to_blender_matrix(m):
     return Matrix([list(map(float, row)) for row in np.asarray(m).reshape(4, 4)])
 
 
+def add_camera(bl_scene, collection, cam, name: str):
+    """A camera object named ``name`` for the engine camera ``cam``, linked into ``collection``
+    and made ``bl_scene``'s camera, with the render resolution at 100 % and square pixels."""
+    import bpy
+
+    data = bpy.data.cameras.new(name)
+    data.type = cam.projection
+    data.lens = cam.lens_mm
+    data.sensor_width, data.sensor_height = cam.sensor_width_mm, cam.sensor_height_mm
+    data.sensor_fit = cam.sensor_fit
+    data.shift_x, data.shift_y = cam.shift_x, cam.shift_y
+    data.ortho_scale = cam.ortho_scale
+    data.clip_start, data.clip_end = cam.clip_start, cam.clip_end
+    ob = _link(bpy.data.objects.new(name, data), collection)
+    ob.matrix_world = to_blender_matrix(cam.matrix_world)
+    bl_scene.camera = ob
+    r = bl_scene.render
+    r.resolution_x, r.resolution_y, r.resolution_percentage = cam.width_px, cam.height_px, 100
+    r.pixel_aspect_x = r.pixel_aspect_y = 1.0
+    return ob
+
+
 def _link(obj, collection):
     collection.objects.link(obj)
     return obj
@@ -163,23 +185,7 @@ def build(scene: Scene, directory: str, *, bl_scene=None, settings: RenderSettin
     collection = bl_scene.collection
     made: dict = {"lights": [], "meshes": []}
 
-    cam = scene.camera
-    cam_data = bpy.data.cameras.new(f"{name} Camera")
-    cam_data.type = cam.projection
-    cam_data.lens = cam.lens_mm
-    cam_data.sensor_width = cam.sensor_width_mm
-    cam_data.sensor_height = cam.sensor_height_mm
-    cam_data.sensor_fit = cam.sensor_fit
-    cam_data.shift_x, cam_data.shift_y = cam.shift_x, cam.shift_y
-    cam_data.ortho_scale = cam.ortho_scale
-    cam_data.clip_start, cam_data.clip_end = cam.clip_start, cam.clip_end
-    cam_ob = _link(bpy.data.objects.new(f"{name} Camera", cam_data), collection)
-    cam_ob.matrix_world = to_blender_matrix(cam.matrix_world)
-    bl_scene.camera = cam_ob
-    made["camera"] = cam_ob
-    r = bl_scene.render
-    r.resolution_x, r.resolution_y, r.resolution_percentage = cam.width_px, cam.height_px, 100
-    r.pixel_aspect_x = r.pixel_aspect_y = 1.0
+    made["camera"] = add_camera(bl_scene, collection, scene.camera, f"{name} Camera")
 
     for i, light in enumerate(scene.lights):
         kind = getattr(light, "kind", "SPOT")

@@ -6,7 +6,7 @@ Plain Python (numpy, moderngl, OpenEXR): it never imports Blender.
 from .errors import GLUnavailableError, RenderCancelled, RendererError
 from .output import RenderOutput
 from .renderer import Renderer
-from .scene import Camera, Light, Medium, Mesh, RenderSettings, Scene, SpotLight
+from .scene import Camera, Light, Medium, Mesh, RenderSettings, Scene
 
 __all__ = ["Camera", "GLUnavailableError", "Medium", "Mesh", "RenderCancelled", "RenderOutput",
-           "RenderSettings", "Renderer", "RendererError", "Scene", "SpotLight", "Light"]
+           "RenderSettings", "Renderer", "RendererError", "Scene", "Light"]

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .scene import Light, SpotLight
+from .scene import Light
 
 MAX_HALF_ANGLE_RAD = math.radians(85.0)
 """A spot's maps cover at most this half angle (a perspective map cannot reach 90 degrees)."""
@@ -24,12 +24,12 @@ PROFILE_SPOT, PROFILE_UNIFORM, PROFILE_COSINE = 0, 1, 2
 """How a face's light falls off with direction: the spot cone, none, cos(theta) about an axis."""
 
 
-def _cone_scale(light: SpotLight) -> tuple[float, float]:
+def _cone_scale(light: Light) -> tuple[float, float]:
     sx, sy = (float(s) if math.isfinite(s) and s > 0 else 1.0 for s in light.cone_scale)
     return sx, sy
 
 
-def lit_half_angle(light: SpotLight) -> float:
+def lit_half_angle(light: Light) -> float:
     """The half angle (radians, in the cone's scaled space) that the renderer lights: the spot's
     own, or less where its widest half-width would pass the maps' MAX_HALF_ANGLE_RAD."""
     half = 0.5 * max(float(light.spot_size_rad), 0.0)
@@ -37,7 +37,7 @@ def lit_half_angle(light: SpotLight) -> float:
     return min(half, math.atan(math.tan(MAX_HALF_ANGLE_RAD) / widest))
 
 
-def cone_warning(light: SpotLight) -> str | None:
+def cone_warning(light: Light) -> str | None:
     """The render report's line for a cone wider than the maps cover, or None."""
     if light.kind != "SPOT":
         return None
@@ -88,7 +88,7 @@ class LightFrame:
                 tuple(round(float(t), 12) for t in self.tan_xy), self.shadow_rect, round(self.far, 9))
 
     @staticmethod
-    def of(light: SpotLight) -> LightFrame:
+    def of(light: Light) -> LightFrame:
         m = np.array(light.matrix_world, dtype=np.float64)
         half = lit_half_angle(light)
         cos_half = math.cos(half)

@@ -65,8 +65,8 @@ def coarse_settings(settings: RenderSettings, rebuild_maps: bool) -> RenderSetti
 
 def _scene_maps_key(scene: Scene, settings: RenderSettings):
     """What the light maps depend on in the scene (read on the host's thread: "Building maps")."""
-    return (tuple(light.key for light in scene.lights), None if scene.medium is None else
-            scene.medium.density_key, scene.solids_key, settings.map_resolution)
+    return (tuple(light.key for light in scene.lights), tuple(m.density_key for m in scene.media),
+            scene.solids_key, settings.map_resolution)
 
 
 def _maps_key(scene: Scene, settings: RenderSettings):

@@ -39,9 +39,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .boxes import nonzero_bounds, slab
 from .light import LightFrame, is_dark, light_faces
 from .medium_grid import clean_density, downsample
-from .passes.bindings import nonzero_bounds
 from .scene import RenderSettings, Scene
 
 # (largest optical depth, coefficients): the first row whose depth is >= tau applies.
@@ -95,15 +95,6 @@ class MediumStats:
     sharpness: float
 
 
-def _slab(o, d, lo, hi):
-    with np.errstate(divide="ignore", invalid="ignore"):
-        inv = 1.0 / d
-        ta, tb = (lo - o) * inv, (hi - o) * inv
-    t0 = np.nan_to_num(np.minimum(ta, tb), nan=-np.inf).max(axis=-1)
-    t1 = np.nan_to_num(np.maximum(ta, tb), nan=np.inf).min(axis=-1)
-    return t0, t1
-
-
 def _affine_inverse(m) -> np.ndarray:
     """The inverse of an affine 4x4 matrix (last row 0 0 0 1) by the adjugate of its 3x3 part,
     without LAPACK: numpy's inverse wakes OpenBLAS's threads, which on the shared 2 cores, beside
@@ -126,7 +117,7 @@ def _affine_inverse(m) -> np.ndarray:
 
 
 def _bounds(scene: Scene):
-    return _bounds_of(scene.medium)
+    return _bounds_of(scene.media[0] if scene.media else None)
 
 
 def _bounds_of(m):
@@ -216,9 +207,9 @@ def medium_stats(scene: Scene) -> MediumStats | None:
     the optical depth and light chord by the placed density and light (not sigma: the optical
     depth is sigma times a density integral), so that a camera, light or volume move costs
     milliseconds and a sigma edit nothing."""
-    m = scene.medium
-    if m is None:
+    if not scene.media:
         return None
+    m = scene.media[0]
     lights = [light for light in scene.lights if not is_dark(light)]
     to_local, lo, hi, _ = _bounds(scene)
     grid = _summary(m) if m.density is not None else None
@@ -233,7 +224,7 @@ def medium_stats(scene: Scene) -> MediumStats | None:
         o_w, d_w = _camera_rays(scene, _VIEW_RAYS)
         o = o_w @ to_local[:3, :3].T + to_local[:3, 3]
         d = d_w @ to_local[:3, :3].T
-        t0, t1 = _slab(o, d, lo, hi)
+        t0, t1 = slab(o, d, lo, hi)
         t0 = np.maximum(t0, scene.camera.clip_start)
         hit = t1 > t0
         if hit.any():
@@ -298,24 +289,8 @@ def _grid_summary(m) -> tuple[np.ndarray, int, float, tuple]:
     f = max(1, math.ceil(max(density.shape) / _COARSE_SIDE))
     coarse = np.pad(downsample(density, f) if f > 1 else density, 1)
     mask = density > 0
-    bounds = _mask_bounds(mask)
+    bounds = nonzero_bounds(mask)
     return coarse, f, sharpness(density, mask, bounds), bounds
-
-
-def _mask_bounds(mask: np.ndarray) -> tuple[tuple[float, ...], tuple[float, ...]]:
-    """passes/bindings.nonzero_bounds from the grid's non-zero mask: each axis's occupancy from
-    one projection of the mask (two reductions over the grid instead of three)."""
-    if mask.ndim != 3 or not mask.size:
-        return nonzero_bounds(mask)
-    yz = mask.any(axis=0)
-    occupied = (mask.any(axis=(1, 2)), yz.any(axis=1), yz.any(axis=0))
-    lo, hi = [], []
-    for axis in range(3):
-        nz = np.flatnonzero(occupied[axis])
-        first, last = (int(nz[0]), int(nz[-1])) if nz.size else (1, -1)     # empty: lo = hi
-        lo.append(float(first - 1))
-        hi.append(float(last + 1))
-    return tuple(lo), tuple(hi)
 
 
 def _light_part(m, light, grid) -> tuple[float, float]:
@@ -328,7 +303,7 @@ def _light_part(m, light, grid) -> tuple[float, float]:
     o_w, d_w = _face_rays(light, m, _LIGHT_RAYS)
     o = o_w @ to_local[:3, :3].T + to_local[:3, 3]
     d = d_w @ to_local[:3, :3].T      # local units per world metre
-    t0, t1 = _slab(o, d, lo, hi)
+    t0, t1 = slab(o, d, lo, hi)
     t0 = np.maximum(t0, 0.0)
     hit = t1 > t0
     if not hit.any():
@@ -397,7 +372,7 @@ def _trilinear_numpy(grid: np.ndarray, coords: np.ndarray) -> np.ndarray:
 
 def sharpness(density: np.ndarray, mask: np.ndarray | None = None, bounds: tuple | None = None) -> float:
     """See ``MediumStats.sharpness``; from a fixed sample of the non-zero voxels (deterministic).
-    ``mask``, ``bounds``: ``density > 0`` and its ``_mask_bounds`` when the caller has them. Up to
+    ``mask``, ``bounds``: ``density > 0`` and its ``nonzero_bounds`` when the caller has them. Up to
     _SHARPNESS_SAMPLES non-zero voxels, every voxel's jump is taken from the differences between
     neighbours along each axis over the non-zero box (one pass per axis, no gathers); beyond, the
     fixed sample's voxels are gathered. Both give each voxel the jump of the voxel its index
@@ -409,7 +384,7 @@ def sharpness(density: np.ndarray, mask: np.ndarray | None = None, bounds: tuple
     mask = d > 0 if mask is None else mask
     count = int(np.count_nonzero(mask))
     if count <= _SHARPNESS_SAMPLES:
-        lo, hi = _mask_bounds(mask) if bounds is None else bounds     # one voxel around the non-zero ones
+        lo, hi = nonzero_bounds(mask) if bounds is None else bounds     # one voxel around the non-zero ones
         box = tuple(slice(max(int(a), 0), min(int(b), n - 1) + 1) for a, b, n in zip(lo, hi, d.shape,
                                                                                      strict=True))
         sub = d[box]
@@ -513,7 +488,7 @@ def auto_settings(scene: Scene, settings: RenderSettings | None = None) -> Rende
     stats = medium_stats(scene)
     if stats is None:
         return settings
-    if scene.medium.density is None:
+    if scene.media[0].density is None:
         return dataclasses.replace(settings, sampling="PROJECTIVE", view_steps=HOMOGENEOUS_VIEW_STEPS)
     n = auto_coefficients(stats.optical_depth, stats.sharpness)
     thick = thick_steps_factor(stats.optical_depth, stats.sharpness)

@@ -47,6 +47,7 @@ from concurrent.futures import Executor, ThreadPoolExecutor
 import numpy as np
 from scipy import ndimage
 
+from .boxes import slab
 from .output import RenderOutput
 from .scene import Camera, Light, Medium, Mesh, RenderSettings, Scene
 
@@ -76,23 +77,6 @@ def _normalise(v: np.ndarray) -> np.ndarray:
     n = np.linalg.norm(v, axis=-1, keepdims=True)
     with np.errstate(invalid="ignore", divide="ignore"):
         return np.where(n > 0, v / n, 0.0)
-
-
-def _slab(o: np.ndarray, d: np.ndarray, lo: np.ndarray, hi: np.ndarray
-          ) -> tuple[np.ndarray, np.ndarray]:
-    """Parameter interval [t_in, t_out] of the lines o + t d, (n, 3) each, inside the box
-    lo <= x <= hi (empty where t_in >= t_out)."""
-    with np.errstate(divide="ignore", invalid="ignore"):
-        inv = 1.0 / d
-        ta = (lo - o) * inv
-        tb = (hi - o) * inv
-    t_near = np.minimum(ta, tb)
-    t_far = np.maximum(ta, tb)
-    parallel = d == 0
-    inside = (o >= lo) & (o <= hi)
-    t_near = np.where(parallel, np.where(inside, -np.inf, np.inf), t_near)
-    t_far = np.where(parallel, np.where(inside, np.inf, -np.inf), t_far)
-    return t_near.max(axis=1), t_far.min(axis=1)
 
 
 def _camera_rays(camera: Camera) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -324,7 +308,7 @@ class _Field:
         if self.to_local is None:
             n = len(o)
             return np.full(n, -np.inf), np.full(n, np.inf)
-        return _slab(self._points_local(o), self._dirs_local(d), self.lo, self.hi)
+        return slab(self._points_local(o), self._dirs_local(d), self.lo, self.hi)
 
     def density(self, p: np.ndarray) -> np.ndarray:
         """D at the points (n, 3); homogeneous media answer 1 (callers only ask inside bounds)."""
@@ -427,7 +411,7 @@ class _Field:
             return dist
         a = self._points_local(points)
         dl = self._dirs_local(seg)
-        s0, s1 = _slab(a, dl, self.lo, self.hi)
+        s0, s1 = slab(a, dl, self.lo, self.hi)
         s0 = np.maximum(s0, 0.0)
         s1 = np.minimum(s1, 1.0)
         frac = np.clip(s1 - s0, 0.0, None)

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import dataclasses
-import math
 import time
 from collections import Counter
 from collections.abc import Callable
@@ -15,24 +14,20 @@ from . import medium_attributes, shading, world_light
 from .adaptive import ActivePixels
 from .camera import view_plane
 from .errors import RenderCancelled
+from .frame_plan import FacePlan, FramePlan, plan_faces, plan_frame
 from .gl_context import GLContext
 from .light import (
     LightFrame,
-    cone_meets_box,
     cone_warning,
-    face_meets_box,
     is_dark,
-    light_faces,
     solids_may_shadow,
 )
 from .medium_grid import grid_allowances, prepare_grid
 from .output import RenderOutput
-from .passes import scattering
 from .passes.accumulate import SampleSums
 from .passes.bindings import (
     MAX_GRIDS,
     MAX_MEDIA,
-    MEDIUM_BOX,
     MEDIUM_EVERYWHERE,
     MEDIUM_GRID,
     MEDIUM_NONE,
@@ -47,26 +42,22 @@ from .passes.emission import AttributesGPU
 from .passes.gbuffer import GBuffer
 from .passes.probe import probe_light_transmittance
 from .passes.scattering import (
-    LIGHT_T_ANALYTIC,
     LIGHT_T_MARCH,
     LIGHT_T_NONE,
     LIGHT_T_TFM,
-    LIGHT_T_UNIT,
     ScatteringTargets,
     run_light_pass,
 )
 from .passes.shadow_map import ShadowMap
 from .passes.solids import SolidsBuffer
 from .passes.tfm import (
-    MIN_FOOTPRINT_RESOLUTION,
     TransmittanceMap,
     coefficient_textures,
     largest_density_integral,
     probe_resolution,
-    tfm_resolution,
 )
-from .quality import auto_settings, footprint_texels_per_voxel, light_density_integral
-from .scene import Light, RenderSettings, Scene
+from .quality import auto_settings, light_density_integral
+from .scene import Light, Medium, RenderSettings, Scene
 
 
 def prepare_scene(scene: Scene, settings: RenderSettings | None) -> Scene:
@@ -228,7 +219,6 @@ class Renderer:
         self._caches = [self._media, self._solids, self._shadows, self._tfms, self._gobos,
                         self._gbuffers, self._targets, self._attributes, self._medium_shadows]
         self._frame_memos: dict[str, _FrameMemo] = {}   # per client: what the samples of its frame share
-        self._tfm_sides: list[int] = []                 # the TFM side of each face of the last frame
 
     @property
     def gl(self) -> GLContext:
@@ -284,130 +274,19 @@ class Renderer:
 
     def _render(self, scene, settings, cancel, progress, want_passes, client, sweep=True,
                 map_image_side=None, active=None, accumulate=None) -> RenderOutput:
+        """One frame: its media, solids and plan (``_prepare``: memoised across the samples of an
+        accumulated frame), its light maps, then its passes (``_draw``); on the way out the
+        caches keep what this frame used."""
         gl = self.gl
         t_start = time.perf_counter()
-        timings: dict[str, float] = {}
-        warnings: list[str] = []
-        self._tfm_sides = []
         lights = [light for light in scene.lights if not is_dark(light)]
         faces_at_most = sum({"POINT": 6, "AREA": 5}.get(light.kind, 1) for light in lights)
-        steps = [2 + len(lights) + max(faces_at_most, 1)]  # scene, maps per light, G-buffer, passes
-        done = [0]
-
-        def step(name: str, t0: float) -> None:
-            gl.finish()   # lets the host's threads run while the pass completes
-            timings[name] = timings.get(name, 0.0) + time.perf_counter() - t0
-            done[0] += 1
-            if progress is not None:
-                progress(min(done[0] / steps[0], 1.0))
-            if cancel is not None and cancel():
-                raise RenderCancelled("The render was cancelled.")
-
+        steps = _Steps(gl, progress, cancel, 2 + len(lights) + max(faces_at_most, 1))
+        warnings: list[str] = []
         try:
-            memo = self._frame_memos.get(client)
-            same = (memo is not None and accumulate is not None
-                    and memo.frame == _frame_of(scene, settings, accumulate, client, map_image_side))
-            if same:     # a later sample of a frame: what the first sample prepared, used again
-                t0 = time.perf_counter()
-                medium_gpu, medium, attributes, seen, plans = memo.state
-                warnings += memo.warnings
-                for cache, keys in zip(self._caches, memo.used, strict=True):
-                    cache.used.update(keys)
-                self.counters["faces_culled"] += memo.culled
-                self.counters["samples_reusing_plans"] += 1
-                step("scene", t0)
-            else:
-                self._frame_memos.pop(client, None)
-                culled = self.counters["faces_culled"]
-                t0 = time.perf_counter()
-                medium_gpu, medium_warnings = self._medium(scene, settings)
-                warnings += medium_warnings
-                # The medium that emits and reads its colour grid: the first one marched (the scene's
-                # first may have been skipped: unbounded fog beside other media, an empty grid).
-                medium = medium_gpu.slots[0].medium if medium_gpu.kind == MEDIUM_GRID else scene.medium
-                attributes = self._medium_attributes(medium, medium_gpu)
-                warnings += attributes.warnings if attributes is not None else []
-                note = attributes.glow_note(medium) if attributes is not None and medium is not None else None
-                warnings += [note] if note else []
-                casters = self._solid_set(scene.shadow_casters)
-                seen = self._solid_set(scene.camera_meshes)
-                step("scene", t0)
-
-                plans = []
-                for light in lights:
-                    t0 = time.perf_counter()
-                    faces = self._plan_light(scene, settings, light, medium_gpu, casters, seen.bounds,
-                                             warnings, map_image_side)
-                    plans += faces
-                    step("light_maps", t0)
-                if accumulate is not None:
-                    self._frame_memos[client] = _FrameMemo(
-                        _frame_of(scene, settings, accumulate, client, map_image_side),
-                        (medium_gpu, medium, attributes, seen, plans), list(warnings),
-                        [set(cache.used) for cache in self._caches],
-                        self.counters["faces_culled"] - culled, (scene.media, scene.lights, scene.meshes))
-            steps[0] = 2 + (0 if same else len(lights)) + max(len(plans), 1)   # a pass per face not culled
-
-            t0 = time.perf_counter()
-            plane = view_plane(scene.camera)
-            gbuffer, built = self._gbuffers.get(
-                (scene.camera.key, tuple(m.key for m in scene.camera_meshes)),
-                lambda: self._gbuffer_for(scene.camera, plane, seen))
-            self.counters["gbuffers"] += built
-            step("gbuffer", t0)
-
-            size = (plane.width_px, plane.height_px)
-            targets = self._targets.get(size, lambda: ScatteringTargets(gl, size))[0]
-            # Every light pass draws the same pixels, and the first one writes them all: the zeros
-            # of a clear are read only where a frame composed whole has pixels no pass drew.
-            # A lone pass writes the combined image itself (no composite pass): over every pixel
-            # of a frame, or (an antialiasing sample) added into the frame's sums.
-            lone = (scattering.LONE_PASS_COMPOSES and len(plans) <= 1
-                    and (accumulate is not None or active is None))
-            compose = (settings.film_transparent, scene.background) if lone else None
-            sums = None
-            if accumulate is not None:
-                sums = self._targets.get(("sums", accumulate), lambda: self._new_sums(size, want_passes))[0]
-                if (sums.size, sums.passes) != (size, want_passes):
-                    raise ValueError(f"sample sums {accumulate!r} are of another image or passes")
-            if lone and sums is not None:
-                sums.begin_sample()
-            else:
-                targets.begin(gl.ctx, clear=accumulate is None and active is not None, composing=lone)
-            gbuffer.bind()
-            ambient = scene.ambient if settings.ambient else (0.0, 0.0, 0.0)
-            common = dict(camera=scene.camera, plane=plane, medium=medium,
-                          medium_gpu=medium_gpu, settings=settings, ambient=ambient,
-                          attributes=attributes, active=self._active_rects(size, active))
-            self.counters["pixels_shaded"] += (size[0] * size[1] if active is None
-                                               else int(np.count_nonzero(active.mask)))
-            if not plans:
-                t0 = time.perf_counter()
-                run_light_pass(gl, first=True, compose=compose, sums=sums if lone else None, **common)
-                self.counters["light_passes"] += 1
-                step("scattering", t0)
-            for i, plan in enumerate(plans):
-                t0 = time.perf_counter()
-                run_light_pass(gl, first=(i == 0), light_t=plan.light_t, tfm=plan.tfm,
-                               light=(plan.frame, plan.light.intensity_w_per_sr,
-                                      plan.shadow, plan.gobo), tfm_sigma_t=plan.tfm_sigma_t,
-                               compose=compose, sums=sums if lone else None,
-                               medium_shadow=plan.medium_shadow, **common)
-                self.counters["light_passes"] += 1
-                step("scattering", t0)
-            t0 = time.perf_counter()
-            if accumulate is not None:
-                if not lone:
-                    sums.add(gl, targets, settings.film_transparent, scene.background, common["active"])
-                combined, passes = None, {}
-                timings["accumulate"] = time.perf_counter() - t0
-            else:
-                if not lone:
-                    targets.compose(gl, settings.film_transparent, scene.background)
-                gl.finish()   # the read below then copies without waiting on the GPU
-                combined = targets.read_combined()
-                passes = targets.read_passes() if want_passes else {}
-                timings["readback"] = time.perf_counter() - t0
+            frame = self._prepare(scene, settings, lights, client, map_image_side, accumulate, active,
+                                  warnings, steps)
+            combined, passes = self._draw(scene, settings, frame, want_passes, accumulate, active, steps)
         except RenderCancelled:
             self._frame_memos.pop(client, None)
             # Every pass finished (ctx.finish) before the check that cancelled: what the frame
@@ -429,20 +308,126 @@ class Renderer:
         for cache in self._caches:
             cache.sweep(client, release=sweep)
         self.counters["renders"] += 1
-        timings["total"] = time.perf_counter() - t_start
-        if not [light for light in scene.lights if not light.from_world]:
-            warnings.append("The scene has no spot light (nor any other light): only surfaces and "
-                            "ambient light are rendered, and the medium scatters no light beam.")
-        elif not [light for light in lights if not light.from_world]:
-            warnings.append("Every light has zero power or colour (or a spot no cone angle): no "
-                            "light beam.")
-        warnings += _light_notes(lights)
-        warnings = list(dict.fromkeys(warnings))       # once each, however many faces said it
-        warnings += [w for w in map(cone_warning, lights) if w]
+        steps.timings["total"] = time.perf_counter() - t_start
         chosen = dict(view_steps=settings.view_steps, light_steps=settings.light_steps,
-                      coefficients=settings.coefficients, tfm_side=max(self._tfm_sides, default=0))
-        return RenderOutput(combined=combined, passes=passes, warnings=warnings, timings_s=timings,
-                            chosen=chosen)
+                      coefficients=settings.coefficients, tfm_side=frame.plan.tfm_side)
+        return RenderOutput(combined=combined, passes=passes, warnings=_frame_notes(scene, lights, warnings),
+                            timings_s=steps.timings, chosen=chosen)
+
+    def _prepare(self, scene, settings, lights, client, map_image_side, accumulate, active, warnings,
+                 steps) -> _Frame:
+        """The frame's media and attributes on the GPU, its solids, its plan (frame_plan) and the
+        light maps the plan asks for; a later sample of an accumulated frame takes what the first
+        sample prepared. Adds the frame's warnings to ``warnings``."""
+        memo = self._frame_memos.get(client)
+        if (memo is not None and accumulate is not None
+                and memo.frame == _frame_of(scene, settings, accumulate, client, map_image_side)):
+            t0 = time.perf_counter()
+            warnings += memo.warnings
+            for cache, keys in zip(self._caches, memo.used, strict=True):
+                cache.used.update(keys)
+            self.counters["faces_culled"] += memo.state.plan.culled
+            self.counters["samples_reusing_plans"] += 1
+            steps.total = 2 + max(len(memo.state.plan.faces), 1)     # no map step
+            steps.step("scene", t0)
+            return memo.state
+        self._frame_memos.pop(client, None)
+        t0 = time.perf_counter()
+        medium_gpu, medium_warnings = self._medium(scene, settings)
+        warnings += medium_warnings
+        # The medium that emits and reads its colour grid: the first one marched (the scene's
+        # first may have been skipped: unbounded fog beside other media, an empty grid).
+        medium = (medium_gpu.slots[0].medium if medium_gpu.kind == MEDIUM_GRID
+                  else scene.media[0] if scene.media else None)
+        attributes = self._medium_attributes(medium, medium_gpu)
+        warnings += attributes.warnings if attributes is not None else []
+        note = attributes.glow_note(medium) if attributes is not None and medium is not None else None
+        warnings += [note] if note else []
+        casters = self._solid_set(scene.shadow_casters)
+        seen = self._solid_set(scene.camera_meshes)
+        plan = plan_frame(scene, settings, lights, medium_gpu, casts_shadows=bool(casters.vertex_count),
+                          casters_bounds=casters.bounds, seen_bounds=seen.bounds,
+                          map_res=self._map_resolution(settings), image_side=map_image_side,
+                          accumulate=accumulate is not None, active=active is not None)
+        self.counters["faces_culled"] += plan.culled
+        steps.total = plan.steps
+        steps.step("scene", t0)
+        built = []
+        for light in lights:
+            t0 = time.perf_counter()
+            gobo = None
+            if light.gobo is not None:
+                gobo, made = self._gobos.get(light.gobo_key,
+                                             lambda light=light: gobo_texture(self.gl, light.gobo))
+                self.counters["gobos"] += made
+            built += [self._build_face(scene, settings, face, medium_gpu, casters, gobo, warnings)
+                      for face in plan.faces if face.light is light]
+            steps.step("light_maps", t0)
+        frame = _Frame(plan, medium_gpu, medium, attributes, seen, built)
+        if accumulate is not None:
+            self._frame_memos[client] = _FrameMemo(
+                _frame_of(scene, settings, accumulate, client, map_image_side), frame, list(warnings),
+                [set(cache.used) for cache in self._caches], (scene.media, scene.lights, scene.meshes))
+        return frame
+
+    def _draw(self, scene, settings, frame: _Frame, want_passes, accumulate, active, steps):
+        """The frame's G-buffer and light passes, then its image composed and read back, or added
+        into the sample sums of ``accumulate`` (then (None, {}) is returned)."""
+        gl = self.gl
+        t0 = time.perf_counter()
+        plane = view_plane(scene.camera)
+        gbuffer, built = self._gbuffers.get(
+            (scene.camera.key, tuple(m.key for m in scene.camera_meshes)),
+            lambda: self._gbuffer_for(scene.camera, plane, frame.seen))
+        self.counters["gbuffers"] += built
+        steps.step("gbuffer", t0)
+
+        size = (plane.width_px, plane.height_px)
+        targets = self._targets.get(size, lambda: ScatteringTargets(gl, size))[0]
+        lone = frame.plan.lone
+        compose = (settings.film_transparent, scene.background) if lone else None
+        sums = None
+        if accumulate is not None:
+            sums = self._targets.get(("sums", accumulate), lambda: self._new_sums(size, want_passes))[0]
+            if (sums.size, sums.passes) != (size, want_passes):
+                raise ValueError(f"sample sums {accumulate!r} are of another image or passes")
+        if lone and sums is not None:
+            sums.begin_sample()
+        else:
+            targets.begin(gl.ctx, clear=frame.plan.clear_targets, composing=lone)
+        gbuffer.bind()
+        ambient = scene.ambient if settings.ambient else (0.0, 0.0, 0.0)
+        common = dict(camera=scene.camera, plane=plane, medium=frame.medium,
+                      medium_gpu=frame.medium_gpu, settings=settings, ambient=ambient,
+                      attributes=frame.attributes, active=self._active_rects(size, active),
+                      compose=compose, sums=sums if lone else None)
+        self.counters["pixels_shaded"] += (size[0] * size[1] if active is None
+                                           else int(np.count_nonzero(active.mask)))
+        if not frame.lights:
+            t0 = time.perf_counter()
+            run_light_pass(gl, first=True, **common)
+            self.counters["light_passes"] += 1
+            steps.step("scattering", t0)
+        for i, plan in enumerate(frame.lights):
+            t0 = time.perf_counter()
+            run_light_pass(gl, first=(i == 0), light_t=plan.light_t, tfm=plan.tfm,
+                           light=(plan.frame, plan.light.intensity_w_per_sr, plan.shadow, plan.gobo),
+                           tfm_sigma_t=plan.tfm_sigma_t, medium_shadow=plan.medium_shadow, **common)
+            self.counters["light_passes"] += 1
+            steps.step("scattering", t0)
+        t0 = time.perf_counter()
+        if accumulate is not None:
+            if not lone:
+                sums.add(gl, targets, settings.film_transparent, scene.background, common["active"])
+            steps.timings["accumulate"] = time.perf_counter() - t0
+            return None, {}
+        if not lone:
+            targets.compose(gl, settings.film_transparent, scene.background)
+        gl.finish()   # the read below then copies without waiting on the GPU
+        combined = targets.read_combined()
+        passes = targets.read_passes() if want_passes else {}
+        steps.timings["readback"] = time.perf_counter() - t0
+        return combined, passes
 
     def light_transmittance_at(self, scene: Scene, settings: RenderSettings | None, light_index: int,
                                points: np.ndarray) -> np.ndarray:
@@ -460,8 +445,11 @@ class Renderer:
         gl = self.gl
         medium_gpu, _ = self._medium(scene, settings)
         casters = self._solid_set(scene.shadow_casters)
-        plans = self._plan_light(scene, settings, scene.lights[light_index], medium_gpu, casters,
-                                 None, [])
+        faces, culled = plan_faces(scene, settings, scene.lights[light_index], medium_gpu,
+                                   casts_shadows=bool(casters.vertex_count), casters_bounds=casters.bounds,
+                                   seen_bounds=None, map_res=self._map_resolution(settings))
+        self.counters["faces_culled"] += culled
+        plans = [self._build_face(scene, settings, face, medium_gpu, casters, None, []) for face in faces]
         pts = np.asarray(points, np.float64).reshape(-1, 3)
         out = np.ones((len(pts), 3), np.float32)
         for plan in plans:          # each point from the face it belongs to
@@ -472,7 +460,8 @@ class Renderer:
             if not mine.any():
                 continue
             out[mine] = probe_light_transmittance(
-                gl, pts[mine], medium=scene.medium, medium_gpu=medium_gpu, settings=settings,
+                gl, pts[mine], medium=scene.media[0] if scene.media else None, medium_gpu=medium_gpu,
+                settings=settings,
                 light=(plan.frame, plan.light.intensity_w_per_sr, plan.shadow, None),
                 light_t=plan.light_t, tfm=plan.tfm, tfm_sigma_t=plan.tfm_sigma_t)
         for cache in self._caches:
@@ -601,54 +590,34 @@ class Renderer:
 
         return self._attributes.get(key, build)[0]
 
-    def _plan_light(self, scene, settings, light, medium_gpu, solids, seen_bounds,
-                    warnings, image_side=None) -> list[_LightPlan]:
-        """The faces of a light that add something, each with its maps (built or cached).
-        ``image_side``: the image side the TFM side is capped by (default: the camera image)."""
+    def _map_resolution(self, settings) -> int:
+        """The side of the frame's shadow maps, which caps its TFMs': the settings' within the GL's
+        limit."""
+        return int(min(settings.map_resolution, self.gl.max_texture_size))
+
+    def _build_face(self, scene, settings, face: FacePlan, medium_gpu, casters, gobo, warnings) -> _LightPlan:
+        """The maps of a planned face (frame_plan.FacePlan), built or cached: its shadow map, the
+        answer to whether it may shadow the media, its TFM (or the grid's level 1 for a march)."""
         gl = self.gl
-        res = int(min(settings.map_resolution, gl.max_texture_size))
-        gobo = None
-        if light.gobo is not None:
-            gobo, built = self._gobos.get(light.gobo_key, lambda: gobo_texture(gl, light.gobo))
-            self.counters["gobos"] += built
+        light, frame = face.light, face.frame
+        res = self._map_resolution(settings)
+        shadow = None
+        if face.shadow_map:
+            shadow, built = self._shadows.get((light.key, frame.key, scene.solids_key, res),
+                                              lambda: ShadowMap(gl, frame, casters, res))
+            self.counters["shadow_maps"] += built
         boxes = medium_gpu.boxes
-        plans = []
-        for frame in light_faces(light, boxes, solids.bounds):
-            reached = [i for i, box in enumerate(boxes) if _reaches(light, frame, box)]
-            everywhere = medium_gpu.kind == MEDIUM_EVERYWHERE
-            if (light.kind in ("POINT", "AREA") and not reached and not everywhere
-                    and (seen_bounds is None or not face_meets_box(frame, np.eye(4), *seen_bounds))):
-                self.counters["faces_culled"] += 1
-                continue
-            shadow = None
-            if solids.vertex_count and light.cast_shadow:
-                shadow, built = self._shadows.get((light.key, frame.key, scene.solids_key, res),
-                                                  lambda frame=frame: ShadowMap(gl, frame, solids, res))
-                self.counters["shadow_maps"] += built
-            medium_shadow = self._medium_shadow(light, frame, scene, shadow, solids, res,
-                                                [boxes[i] for i in reached] or boxes,
-                                                medium_gpu.kind == MEDIUM_EVERYWHERE)
-            light_t, tfm, tfm_sigma = LIGHT_T_NONE, None, None
-            unit = settings.method == "UNSHADOWED" or not light.cast_shadow
-            if medium_gpu.kind == MEDIUM_GRID:
-                if reached and unit:
-                    light_t = LIGHT_T_UNIT          # the floor, or a light nothing shadows
-                elif reached and light.use_tfm:
-                    if settings.method == "BRUTE_FORCE":
-                        light_t = LIGHT_T_MARCH
-                        self.counters["grid_levels"] += medium_gpu.ensure_level1(frame, settings.light_steps)
-                    else:
-                        side = _face_side(settings, frame, medium_gpu.slots, reached, res,
-                                          image_side or max(scene.camera.width_px, scene.camera.height_px))
-                        self._tfm_sides.append(side)
-                        tfm, tfm_sigma = self._tfm(scene, settings, light, frame, medium_gpu, shadow,
-                                                   side, reached, warnings)
-                        light_t = LIGHT_T_TFM if tfm is not None else LIGHT_T_NONE
-            elif medium_gpu.kind in (MEDIUM_BOX, MEDIUM_EVERYWHERE):
-                if everywhere or reached:
-                    light_t = LIGHT_T_UNIT if unit else LIGHT_T_ANALYTIC
-            plans.append(_LightPlan(light, frame, light_t, shadow, tfm, gobo, tfm_sigma, medium_shadow))
-        return plans
+        medium_shadow = self._medium_shadow(light, frame, scene, shadow, casters, res,
+                                            [boxes[i] for i in face.reached] or boxes,
+                                            medium_gpu.kind == MEDIUM_EVERYWHERE)
+        light_t, tfm, tfm_sigma = face.light_t, None, None
+        if light_t == LIGHT_T_MARCH:
+            self.counters["grid_levels"] += medium_gpu.ensure_level1(frame, settings.light_steps)
+        elif light_t == LIGHT_T_TFM:
+            tfm, tfm_sigma = self._tfm(scene, settings, light, frame, medium_gpu, shadow, face.tfm_side,
+                                       list(face.reached), warnings)
+            light_t = LIGHT_T_TFM if tfm is not None else LIGHT_T_NONE
+        return _LightPlan(light, frame, light_t, shadow, tfm, gobo, tfm_sigma, medium_shadow)
 
     def _medium_shadow(self, light, frame, scene, shadow, solids, res, boxes, everywhere) -> bool:
         """Whether the face's shadow map may shadow a point of the media ``boxes``
@@ -791,17 +760,50 @@ class Renderer:
 
 
 @dataclass
+class _Frame:
+    """What a frame prepared for its passes: its plan, its media and the first marched medium
+    with its attributes (emission, colour grid), the solids the camera sees, and each planned
+    face with its maps (``lights``)."""
+
+    plan: FramePlan
+    medium_gpu: MediaGPU
+    medium: Medium | None
+    attributes: AttributesGPU | None
+    seen: SolidsBuffer
+    lights: list[_LightPlan]
+
+
+@dataclass
 class _FrameMemo:
-    """What the first sample of an accumulated frame prepared (media, attributes, solids, light
-    plans with their maps), its warnings, the cache keys it used (each later sample marks them
-    used again) and the faces it culled; ``frame`` (_frame_of) says which frame."""
+    """What the first sample of an accumulated frame prepared (``state``), its warnings and the
+    cache keys it used (each later sample marks them used again); ``frame`` (_frame_of) says
+    which frame, ``held`` keeps the scene parts whose ids it holds."""
 
     frame: tuple
-    state: tuple
+    state: _Frame
     warnings: list
     used: list
-    culled: int
     held: tuple
+
+
+class _Steps:
+    """A frame's progress and cancel checks: each ``step`` waits for the GL, adds the time since
+    ``t0`` to ``timings[name]``, reports done / ``total`` and raises RenderCancelled when
+    ``cancel()`` turns true."""
+
+    def __init__(self, gl: GLContext, progress, cancel, total: int):
+        self.gl, self.progress, self.cancel, self.total = gl, progress, cancel, total
+        self.done = 0
+        self.timings: dict[str, float] = {}
+
+    def step(self, name: str, t0: float) -> None:
+        self.gl.finish()   # lets the host's threads run while the pass completes
+        self.timings[name] = self.timings.get(name, 0.0) + time.perf_counter() - t0
+        self.done += 1
+        if self.progress is not None:
+            self.progress(min(self.done / self.total, 1.0))
+        if self.cancel is not None and self.cancel():
+            raise RenderCancelled("The render was cancelled.")
 
 
 def _frame_of(scene: Scene, settings: RenderSettings, accumulate, client: str, map_image_side) -> tuple:
@@ -878,36 +880,24 @@ def _slot_key(slot: MediumSlot) -> tuple:
     return (grid, tuple(np.round(slot.world_to_box, 12).ravel()))
 
 
-def _face_side(settings, frame: LightFrame, slots, reached, map_res: int, image_side: int) -> int:
-    """The TFM side of a face: the finest that the grids it reaches ask for (a homogeneous box has
-    no voxel; it sets the side only where the face reaches no grid), whatever the media's order."""
-    grids = [i for i in reached if slots[i].grid is not None] or reached
-    return max(_face_tfm_resolution(settings, frame, slots[i], map_res, image_side) for i in grids)
-
-
-def _face_tfm_resolution(settings, frame: LightFrame, slot: MediumSlot, map_res: int, image_side: int) -> int:
-    """The TFM side of a face for one medium (passes/tfm.tfm_resolution, the FOOTPRINT rule read
-    on ``slot``, at quality.footprint_texels_per_voxel of its density); an orthographic face's footprint
-    is its extent over the voxel."""
-    per_voxel = footprint_texels_per_voxel(slot.medium) if settings.tfm_resolution == "FOOTPRINT" else 1.0
-    if frame.ortho and settings.tfm_resolution == "FOOTPRINT":
-        voxel = float(np.linalg.norm(slot.box_to_world[:3, :3], axis=0).min())
-        cap = min(map_res, max(int(image_side), MIN_FOOTPRINT_RESOLUTION))
-        texels = per_voxel * 2.0 * max(frame.tan_xy) / max(voxel, 1e-12)
-        return int(min(cap, max(MIN_FOOTPRINT_RESOLUTION, 16 * math.ceil(texels / 16))))
-    return tfm_resolution(settings, frame, slot, map_res, image_side, per_voxel)
-
-
-def _reaches(light: Light, frame: LightFrame, box) -> bool:
-    """Whether the light's face reaches the box (a spot: its cone, within the frustum)."""
-    if light.kind == "SPOT":
-        return cone_meets_box(frame, *box)
-    return face_meets_box(frame, *box)
-
-
 AREA_NOTE = ("Area light '{name}' is rendered as a point at its centre with a cosine profile, "
              "without soft shadows (measured within 4 % of Cycles' brightness for a light no larger "
              "than its distance to the medium; docs/architecture.md).")
+
+
+def _frame_notes(scene: Scene, lights, warnings: list[str]) -> list[str]:
+    """The render report: the frame's ``warnings`` once each, then what the lights say (none
+    lit, approximations, cones past the maps' reach)."""
+    warnings = list(warnings)
+    if not [light for light in scene.lights if not light.from_world]:
+        warnings.append("The scene has no spot light (nor any other light): only surfaces and "
+                        "ambient light are rendered, and the medium scatters no light beam.")
+    elif not [light for light in lights if not light.from_world]:
+        warnings.append("Every light has zero power or colour (or a spot no cone angle): no "
+                        "light beam.")
+    warnings += _light_notes(lights)
+    warnings = list(dict.fromkeys(warnings))       # once each, however many faces said it
+    return warnings + [w for w in map(cone_warning, lights) if w]
 
 
 def _light_notes(lights) -> list[str]:

@@ -13,7 +13,7 @@ from __future__ import annotations
 import hashlib
 from collections import Counter
 from collections.abc import Mapping
-from dataclasses import InitVar, dataclass, field
+from dataclasses import dataclass, field
 from functools import cached_property
 from typing import Literal
 
@@ -177,10 +177,6 @@ class Light:
         if self.kind == "AREA":
             return c * self.power_w / np.pi
         return c * self.power_w / (4.0 * np.pi)
-
-
-SpotLight = Light
-"""The former name of :class:`Light` (kind 'SPOT' by default)."""
 
 
 @dataclass(frozen=True)
@@ -499,13 +495,6 @@ class RenderSettings:
     world_directions: int = 32
 
 
-_UNSET = object()
-
-
-class _Media(tuple):
-    """A Scene's media as it stored them (so that ``replace`` tells them from media it is given)."""
-
-
 @dataclass(frozen=True, eq=False)
 class Scene:
     """Everything to render one frame. ``ambient`` is the world colour (radiance, W/(sr m^2))
@@ -516,34 +505,22 @@ class Scene:
     first, Blender's mapping: u = 0.5 - atan2(y, x) / 2 pi, v from the bottom = 1 - acos(z) / pi),
     or None for a constant world; the shadowed world light (engine/world_light.py) reads it, and
     ``ambient`` holds its mean.
-    ``media``: every participating medium; where they overlap their coefficients add up.
-    ``medium`` (a property) is the first of them, None without media. For compatibility the
-    constructor (and ``dataclasses.replace``) also takes ``medium=``: a Medium replaces
-    ``media[0]`` (or makes ``media == (medium,)``), None removes every medium; media given
-    explicitly (non-empty) win over ``medium=``.
+    ``media``: every participating medium (None entries are dropped); where they overlap their
+    coefficients add up.
     """
 
     camera: Camera
     lights: tuple[Light, ...] = ()
-    medium: InitVar[Medium | None] = _UNSET
     meshes: tuple[Mesh, ...] = ()
     ambient: RGB = (0.0, 0.0, 0.0)
     media: tuple[Medium, ...] = ()
     world: RGB | None = None
     environment: np.ndarray | None = None
 
-    def __post_init__(self, medium):
+    def __post_init__(self):
         object.__setattr__(self, "lights", tuple(self.lights))
         object.__setattr__(self, "meshes", tuple(self.meshes))
-        given = self.media
-        media = _Media(m for m in given if m is not None)
-        if media and not isinstance(given, _Media):
-            pass     # media given: they win (``replace`` passes the old first medium as ``medium``)
-        elif medium is None:
-            media = _Media()
-        elif medium is not _UNSET and (not media or medium is not media[0]):
-            media = _Media((medium, *media[1:]))
-        object.__setattr__(self, "media", media)
+        object.__setattr__(self, "media", tuple(m for m in self.media if m is not None))
 
     @cached_property
     def solids_key(self) -> str:
@@ -565,6 +542,3 @@ class Scene:
         """The meshes in the lights' shadow maps."""
         return tuple(m for m in self.meshes if m.cast_shadow)
 
-
-Scene.medium = property(lambda self: self.media[0] if self.media else None,
-                        doc="The first medium (None without media).")

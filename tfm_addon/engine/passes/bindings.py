@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..boxes import nonzero_bounds
 from ..gl_context import GLContext, mat4_bytes, set_matrix, set_uniforms
 from ..light import LightFrame
 from ..medium_grid import PreparedGrid
@@ -27,8 +28,6 @@ GRID_FORMATS = {"R32F": ("f4", np.float32), "R16F": ("f2", np.float16), "R16": (
                 "R8": ("nu1", np.uint8)}
 GRID_FORMAT = "R16"
 OCCUPANCY_BLOCK = 8     # voxels per side of an occupancy cell (empty-space skipping)
-LIGHT_SKIP = 0          # 1: the light marches (TFM build, brute force) jump over empty cells, exactly
-# (tfm_build.frag); 0, the default: every step (slower with 1 on llvmpipe, docs/benchmark.md)
 
 MEDIUM_NONE, MEDIUM_BOX, MEDIUM_EVERYWHERE, MEDIUM_GRID = 0, 1, 2, 3
 """MEDIUM_GRID marches every medium (density grids and homogeneous boxes, several of them)."""
@@ -166,19 +165,6 @@ class MediumGPU:
         for t in (self.texture, self.occupancy, self.occupancy1):
             if t is not None:
                 t.release()
-
-
-def nonzero_bounds(density: np.ndarray) -> tuple[tuple[float, ...], tuple[float, ...]]:
-    """(lo, hi) in index space of the tightest box outside which the trilinear density is 0:
-    one voxel beyond the first and last non-zero voxel centres on each axis."""
-    lo, hi = [], []
-    for axis in range(3):
-        other = tuple(a for a in range(3) if a != axis)
-        nz = np.flatnonzero(np.any(density > 0, axis=other))
-        first, last = (int(nz[0]), int(nz[-1])) if nz.size else (1, -1)     # empty: lo = hi
-        lo.append(float(first - 1))
-        hi.append(float(last + 1))
-    return tuple(lo), tuple(hi)
 
 
 def stored_grid(density: np.ndarray, numpy_type, scale: float) -> np.ndarray:
@@ -348,7 +334,7 @@ class MediaGPU:
         index = {id(g): i for i, g in enumerate(self.grids)}
         slots = [index[id(s.grid)] if s.grid is not None else -1 for s in self.slots]
         slots += [-1] * (MAX_MEDIA - len(slots))
-        return {"N_MEDIA": len(self.slots), "N_GRIDS": max(len(self.grids), 1), "LIGHT_SKIP": int(LIGHT_SKIP),
+        return {"N_MEDIA": len(self.slots), "N_GRIDS": max(len(self.grids), 1),
                 "MEDIA_SLOTS": "int[{}]({})".format(MAX_MEDIA, ", ".join(str(s) for s in slots))}
 
     def bind(self, prog, weights=None) -> None:

@@ -16,9 +16,7 @@ Where the emitting medium's density and the values a sample reads besides it fit
 on the density's lattice, the density is packed into the same texture (``packing``), so that its
 view march makes one texture fetch per sample instead of two: into the attributes' free channel
 beside the combined emission of a blackbody grid, a strength grid or both (density, emission RGB),
-or into the colour grid's fourth channel; with the combination off (COMBINE_EMISSION) into the
-attributes' free channel (a blackbody grid alone: density, blackbody RGB; a strength grid alone:
-strength, density).
+or into the colour grid's fourth channel.
 The packed density is the density texture's own values (read back from it), so both paths march
 the same density.
 
@@ -47,14 +45,7 @@ from .bindings import GRID_FORMATS, OCCUPANCY_BLOCK, UNIT, MediumGPU, has_glow_u
 
 UNIT_ATTRS, UNIT_COLOR = UNIT["u_attrs"], UNIT["u_color_grid"]
 
-PACK_DENSITY = True
-"""Pack the emitting medium's density beside its attributes where they fit (tests and the
-benchmark turn it off to compare with the two-fetch march)."""
-COMBINE_EMISSION = True
-"""Combine the emission of a blackbody grid, a strength grid or both per voxel (off: the grids apart,
-colour, strength and tint applied per sample; with both grids the density then comes in its own
-texture, two fetches a sample: what tests and the benchmark compare with)."""
-PACKED_ATTRS_R, PACKED_ATTRS_G, PACKED_COLOR_A = 1, 2, 3
+PACKED_ATTRS_R, PACKED_COLOR_A = 1, 3
 """The march's PACKED_DENSITY define: where it reads the first medium's density (0: u_density)."""
 
 
@@ -92,8 +83,7 @@ class AttributesGPU:
         # The blackbody intensity's blend times that of the term at intensity 1: not combinable.
         self.intensity_grid = prepared is not None and prepared.intensity_grid
         # Grids: the texture holds (density or 0, emission RGB) combined per voxel (combine).
-        self.combined = (COMBINE_EMISSION and (self.blackbody_grid or self.strength_grid)
-                         and not self.intensity_grid)
+        self.combined = bool((self.blackbody_grid or self.strength_grid) and not self.intensity_grid)
         self.combines = 0                   # how often the combined emission was computed
         self._combined_for = None           # the uniforms it was computed for
         color = prepared.color if prepared is not None else None
@@ -102,13 +92,12 @@ class AttributesGPU:
         self.packed_passes: Counter = Counter()     # passes per PACKED_DENSITY value (packing)
         self.density_grid = density
         lattice = tuple(grid_size) if grid_size is not None else None
-        if PACK_DENSITY and density is not None and density.texture is not None:
+        if density is not None and density.texture is not None:
             if color is not None and tuple(int(n) + 2 for n in color.shape[:3]) == lattice:
                 self.packed = PACKED_COLOR_A
-            elif (scalars is not None and (self.strength_grid != self.blackbody_grid or self.combined)
-                  and not self.intensity_grid and tuple(int(n) + 2 for n in scalars.shape[:3]) == lattice):
-                strength_alone = self.strength_grid and not self.blackbody_grid and not self.combined
-                self.packed = PACKED_ATTRS_G if strength_alone else PACKED_ATTRS_R
+            elif (scalars is not None and self.combined
+                  and tuple(int(n) + 2 for n in scalars.shape[:3]) == lattice):
+                self.packed = PACKED_ATTRS_R
         stored = stored_density(density) if self.packed else None
         if scalars is None:
             self.attrs_size = (1, 1, 1)
@@ -118,10 +107,8 @@ class AttributesGPU:
             self.attrs_size = tuple(int(n) + 2 for n in scalars.shape[:3])
             if self.combined:
                 self._keep_sources(data, prepared.emission_box)
-            if self.packed == PACKED_ATTRS_R:         # density, blackbody RGB (or the combined emission)
+            if self.packed == PACKED_ATTRS_R:         # density, the combined emission
                 data[..., 0] = stored
-            elif self.packed == PACKED_ATTRS_G:       # strength, density
-                data = np.stack([data[..., 0], stored], axis=-1)
             if self.combined and self._block is not None:
                 self._block[..., 0] = data[self._box + (0,)]
         self.attrs = ctx.texture3d(self.attrs_size, data.shape[-1], np.ascontiguousarray(data).tobytes(),
@@ -175,14 +162,14 @@ class AttributesGPU:
         return 3 if constant_emits(medium) else 2
 
     def grids_read(self) -> int:
-        """The march's EMISSION_GRIDS define: bit 0 a strength grid, bit 1 a blackbody grid (both
-        kept apart), 4 the emission of a strength grid, a blackbody grid or both, combined per voxel
-        in gba, 8 a blackbody intensity grid in r times the blackbody term in gba."""
+        """The march's EMISSION_GRIDS define: 4 the emission of a strength grid, a blackbody grid or
+        both, combined per voxel in gba, 8 a blackbody intensity grid in r times the blackbody term
+        in gba, 0 no grid."""
         if self.combined:
             return 4
         if self.intensity_grid:
             return 8        # the intensity in r times the blackbody term in gba, each blended
-        return int(self.strength_grid) | 2 * int(self.blackbody_grid)
+        return 0
 
     def _keep_sources(self, data: np.ndarray, box) -> None:
         """Keep, for ``combine``, the strength and blackbody grids over the texels of the index box
@@ -264,8 +251,6 @@ class AttributesGPU:
         self.combine(medium)
         lo, hi = self.emission_box(medium)
         set_uniforms(prog, u_attrs=UNIT_ATTRS, u_attrs_size=tuple(float(n) for n in self.attrs_size),
-                     u_emission_color=tuple(float(c) for c in color),
-                     u_strength=(float(v.scale), float(v.offset)),
                      u_emission_const=tuple(float(c) for c in const),
                      u_bb_tint=tuple(float(c) for c in tint),
                      u_emit_lo=lo, u_emit_hi=hi)

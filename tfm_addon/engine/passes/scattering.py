@@ -13,16 +13,6 @@ from .bindings import MEDIUM_GRID, MEDIUM_NONE, MediaGPU, bind_light, bind_units
 # LIGHT_T_UNIT: the light reaches the medium but its transmittance is taken as 1 ('UNSHADOWED').
 LIGHT_T_TFM, LIGHT_T_MARCH, LIGHT_T_ANALYTIC, LIGHT_T_NONE, LIGHT_T_UNIT = 0, 1, 2, 3, 4
 
-LONE_PASS_COMPOSES = True
-"""A frame of one light pass over every pixel writes its combined image in that pass, no composite
-pass after it (off: the composite pass, for tests and the benchmark to compare)."""
-
-
-GREY = True
-"""Compile the march for grey extinction where every transmittance it computes is grey
-(``grey_extinction``; off: always per channel, for tests and the benchmark to compare)."""
-
-
 def grey_extinction(medium: Medium | None, medium_gpu: MediaGPU, tfm_sigma_t=None) -> bool:
     """Whether the extinction of every medium a light pass marches (and of the TFM it reads) is the
     same in the three channels, so that every transmittance is grey (the shader's GREY_EXTINCTION:
@@ -32,19 +22,13 @@ def grey_extinction(medium: Medium | None, medium_gpu: MediaGPU, tfm_sigma_t=Non
         coefficients.append(medium.sigma_t)
     if tfm_sigma_t is not None:
         coefficients.append(tfm_sigma_t)
-    return GREY and all(float(np.ptp(np.asarray(c, np.float64))) == 0.0 for c in coefficients)
-
-
-FACE_KIND = True
-"""Compile the light face's kind into its light pass (``face_defines``; off: uniforms, for tests
-and the benchmark to compare)."""
+    return all(float(np.ptp(np.asarray(c, np.float64))) == 0.0 for c in coefficients)
 
 
 def face_defines(frame, shadow, gobo) -> dict:
     """The light pass's FACE_KIND defines for a face: orthographic (a sun) or not, its emission
-    profile, whether it has a shadow map and a gobo."""
-    if not FACE_KIND:
-        return {}
+    profile, whether it has a shadow map and a gobo (each face kind compiles its own program; the
+    other passes read the face from uniforms)."""
     return {"FACE_KIND": 1, "FACE_ORTHO": int(frame.ortho), "FACE_PROFILE": int(frame.profile),
             "FACE_SHADOW": int(shadow is not None), "FACE_GOBO": int(gobo is not None)}
 

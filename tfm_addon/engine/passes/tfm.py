@@ -15,7 +15,6 @@ COEF_DTYPE = "f4"      # "f2" (half floats) gives the same SSIM on every bench s
 TEXELS_PER_VOXEL = 1.0          # the 'FOOTPRINT' resolution rule (docs/benchmark.md): sharp densities
 SMOOTH_TEXELS_PER_VOXEL = 1 / 3  # ... and smooth ones (quality.footprint_texels_per_voxel)
 MIN_FOOTPRINT_RESOLUTION = 64
-MAP_RECT = True     # build only the texels whose rays may meet a medium (map_rect); False: all
 
 
 def footprint_resolution(frame: LightFrame, medium, cap: int,
@@ -127,7 +126,7 @@ def largest_density_integral(gl: GLContext, frame: LightFrame, medium: MediaGPU,
     medium.bind_light_occupancy(medium.may_read_level1(frame, light_steps, res))
     bind_light(prog, frame, (0, 0, 0), res, None, None)
     set_uniforms(prog, u_light_steps=int(light_steps), u_inv_alpha=1.0)
-    draw_in_rect(gl, prog, fbo, map_rect(frame, medium, res) if MAP_RECT else None,
+    draw_in_rect(gl, prog, fbo, map_rect(frame, medium, res),
                  [(tex, (0.0, 0.0, 0.0, 1.0))])
     gl.finish()  # wait with the GIL released; the read then only copies
     tau = np.frombuffer(tex.read(), dtype=np.float32).reshape(-1, 4)[:, 0]
@@ -163,7 +162,7 @@ class TransmittanceMap:
         medium.bind_light_occupancy(medium.may_read_level1(frame, light_steps, resolution))
         bind_light(prog, frame, (0, 0, 0), resolution, shadow, None)
         set_uniforms(prog, u_light_steps=int(light_steps), u_inv_alpha=1.0 / self.alpha_d)
-        self.rect = map_rect(frame, medium, resolution) if MAP_RECT else None
+        self.rect = map_rect(frame, medium, resolution)
         draw_in_rect(gl, prog, fbo, self.rect, [(self.krange, (0.0, 0.0, 1.0, 0.0))]
                      + [(t, (0.0, 0.0, 0.0, 0.0)) for t in self.coef])
         fbo.release()

@@ -4,13 +4,10 @@
 // 3: from grids plus a constant part (passes/emission.AttributesGPU.program_kind).
 // PACKED_DENSITY (AttributesGPU.packing): the first medium's density is read from the texture
 // whose values the sample reads anyway, one fetch instead of two: 1 u_attrs' r (beside the grids'
-// combined emission in gba, or a blackbody grid's term kept apart), 2 u_attrs' g (beside a strength
-// grid kept apart in r), 3 u_color_grid's a; 0 u_density.
+// combined emission in gba), 3 u_color_grid's a; 0 u_density.
 #if EMISSION
 uniform sampler3D u_attrs;       // up to four attribute grids (padded like the density), or 1 voxel
 uniform vec3 u_attrs_size;       // padded texture size, voxels
-uniform vec3 u_emission_color;   // W/(sr m^2) per metre per unit strength
-uniform vec2 u_strength;         // scale, offset of the strength grid in r (EMISSION_GRIDS bit 0)
 uniform vec3 u_bb_tint;
 uniform vec3 u_emission_const;   // the parts that read no grid: colour x strength, tint x blackbody
 uniform vec3 u_emit_lo;          // index-space box outside which nothing emits
@@ -26,11 +23,9 @@ vec2 emission_interval(vec3 ob, vec3 db) {
     return vec2(max(max(lo.x, lo.y), lo.z), min(min(hi.x, hi.y), hi.z));
 }
 
-// Emitted radiance per metre for the attribute values a (grid channels). EMISSION_GRIDS (bit 0:
-// a strength grid in r, bit 1: the blackbody term in gba, 4: the emission of a strength grid, a
-// blackbody grid or both, combined in gba, 8: a blackbody intensity grid in r times the term at
-// intensity 1 in gba) is fixed with
-// the attribute texture; the parts that read no grid come summed in one uniform
+// Emitted radiance per metre for the attribute values a (grid channels). EMISSION_GRIDS (4: the
+// emission of a strength grid, a blackbody grid or both, combined in gba, 8: a blackbody intensity
+// grid in r times the term at intensity 1 in gba) is fixed with the attribute texture; the parts that read no grid come summed in one uniform
 // (passes/emission.AttributesGPU.bind).
 vec3 emission_of(vec4 a) {
 #if EMISSION == 2 || GLOW_BLOCKS
@@ -41,12 +36,6 @@ vec3 emission_of(vec4 a) {
 #endif
 #if EMISSION_GRIDS & 4
     e += a.gba;             // the grids' emission, combined per voxel (AttributesGPU.combine)
-#endif
-#if EMISSION_GRIDS & 1
-    e += u_emission_color * max(u_strength.x * max(a.r, 0.0) + u_strength.y, 0.0);
-#endif
-#if EMISSION_GRIDS & 2
-    e += u_bb_tint * a.gba;
 #endif
 #if EMISSION_GRIDS & 8
     e += u_bb_tint * (a.r * a.gba);     // an intensity grid's blend times the term's (medium_attributes)
@@ -126,6 +115,6 @@ vec4 packed_fetch(vec3 tc) {
 // without its box test (outside the density's non-zero bounds its trilinear values are 0, as
 // the lone grid's march in scatter.frag relies on).
 float packed_density(vec4 pk) {
-    return pk[PACKED_DENSITY == 1 ? 0 : PACKED_DENSITY == 2 ? 1 : 3] * u_grid_scales[0];
+    return pk[PACKED_DENSITY == 1 ? 0 : 3] * u_grid_scales[0];
 }
 #endif

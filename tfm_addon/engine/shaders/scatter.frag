@@ -205,9 +205,9 @@ void main() {
             }
 #if EMISSION
             vec3 tv_e = EXP_RGB(-(tau + 0.5 * st * dt));     // for this sample and those it skips
-#if (PACKED_DENSITY == 1 || PACKED_DENSITY == 2) && EMISSION == 2
+#if PACKED_DENSITY == 1 && EMISSION == 2
             glow += tv_e * emission_of(pk);     // 0 outside the emitting voxels' box: no constant part
-#elif PACKED_DENSITY == 1 || PACKED_DENSITY == 2
+#elif PACKED_DENSITY == 1
             if (t >= emit.x && t <= emit.y) glow += tv_e * emission_of(pk);
 #else
             if (t >= emit.x && t <= emit.y) glow += tv_e * emission_at_index(ob + db * t);

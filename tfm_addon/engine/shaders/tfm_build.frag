@@ -4,11 +4,6 @@
 // onto N_COEFF cosines, x in [0, 1] from K_in to K_out (METHOD.md section 3).
 // With OPTICAL_DEPTH_ONLY the texel holds tau_D(1) alone (used to choose alpha automatically).
 // u_occupancy holds the light marches' occupancy here (bindings.MediaGPU.bind_light_occupancy).
-// LIGHT_SKIP 1: the march jumps over the samples in empty occupancy cells, exactly (see the
-// march); 0, bindings.LIGHT_SKIP's default: every step is fetched (faster on llvmpipe).
-#ifndef LIGHT_SKIP
-#define LIGHT_SKIP 0
-#endif
 uniform int u_light_steps;
 uniform float u_inv_alpha;          // 1 / alpha_D, per unit density integral (metres)
 
@@ -110,51 +105,6 @@ void main() {
         float width = 2.0 * min(u_tan_half.x, u_tan_half.y) * (u_face_ortho == 1 ? 1.0 : k_in) / u_map_res;
         ray.lod = grid_ray_lod(ray, dt, width);     // the tightened steps may ask for level 0
         vec2 turn = vec2(cos(PI * dx), sin(PI * dx));         // cos, sin of pi x by rotation
-#if LIGHT_SKIP
-        // Summed by parts: with f_m = F at sample m (x_m = (m + 1/2) dx) and
-        // S_j(m) = sum_{k < m} cos(j pi x_k) = sin(j pi m dx) / (2 sin(j pi dx / 2)),
-        // sum_m f_m cos(j pi x_m) = sum_{m >= 1} (f_{m-1} - f_m) S_j(m) + f_last S_j(M), and
-        // S_j(M) = 0 for j >= 1 (S_0(m) = m). A sample with no density leaves tau, so f, unchanged
-        // for the samples after it while they have none: they add nothing, and the march jumps
-        // from a sample of density 0 in an empty occupancy cell (conservative for the level read)
-        // to the first sample past the cell. cs: cos, sin of pi m dx, by rotation, set after a jump.
-        vec2 cs = vec2(1.0, 0.0);
-        float f_prev = 1.0;         // the term of m = 0 is 0 whatever it is
-        for (int m = 0; m < u_light_steps; ++m) {
-            float t = k_in + (float(m) + 0.5) * dt;
-            float d = ray_density(ray, t);
-#ifndef OPTICAL_DEPTH_ONLY
-            float f = exp(-(tau + 0.5 * d * dt) * u_inv_alpha);
-            float df = f_prev - f;
-            f_prev = f;
-            float c1 = cs.x;
-            float s_prev = 0.0;     // sin(0 pi m dx)
-            float s = cs.y;         // sin(1 pi m dx)
-            c[0] += df * float(m);
-            for (int j = 1; j < N_COEFF; ++j) {
-                c[j] += df * s;
-                float s_next = 2.0 * c1 * s - s_prev;
-                s_prev = s;
-                s = s_next;
-            }
-            cs = vec2(cs.x * turn.x - cs.y * turn.y, cs.y * turn.x + cs.x * turn.y);
-#endif
-            tau += d * dt;
-            if (skip && d <= 0.0) {
-                int next = int(ceil((skip_empty(ob, db, t) - k_in) / dt - 0.501));
-                if (next > m + 1) {
-                    m = next - 1;
-#ifndef OPTICAL_DEPTH_ONLY
-                    cs = vec2(cos(PI * float(next) * dx), sin(PI * float(next) * dx));
-#endif
-                }
-            }
-        }
-#ifndef OPTICAL_DEPTH_ONLY
-        c[0] = (c[0] + f_prev * float(u_light_steps)) * dx;
-        for (int j = 1; j < N_COEFF; ++j) c[j] *= dx / sin(float(j) * 0.5 * PI * dx);
-#endif
-#else
         vec2 cs = vec2(cos(0.5 * PI * dx), sin(0.5 * PI * dx));
         for (int m = 0; m < u_light_steps; ++m) {
             float x = (float(m) + 0.5) * dx;
@@ -176,7 +126,6 @@ void main() {
             tau += d * dt;
         }
         for (int j = 0; j < 18; ++j) c[j] *= (j == 0 ? 1.0 : 2.0) * dx;
-#endif
     } else {
         c[0] = 1.0;                 // a ray that misses the medium: F = 1
         k_in = 0.0;

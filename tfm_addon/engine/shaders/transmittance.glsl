@@ -1,10 +1,6 @@
 // The transmittance from a light face to a point, by the method LIGHT_T:
 // 0 TFM lookup, 1 march (brute force), 2 analytic (homogeneous), 3 none (the light's rays never
-// cross the medium). Needs common.glsl. LIGHT_SKIP 1 (bindings.LIGHT_SKIP; default 0): the
-// march of a lone grid skips empty occupancy cells.
-#ifndef LIGHT_SKIP
-#define LIGHT_SKIP 0
-#endif
+// cross the medium). Needs common.glsl.
 uniform vec3 u_sigma_t;        // 1/m per unit density
 uniform int u_light_steps;
 uniform vec3 u_tfm_exponent;   // alpha_D * sigma_t: T = F^exponent
@@ -154,22 +150,7 @@ vec3 light_transmittance(vec3 p, vec3 q, float r) {
         GridRay ray = grid_ray(p, dir, 1.0);
         ray.lod = grid_ray_lod(ray, dt, dt);    // level 1 where the steps span two voxels
         float s = 0.0;
-#if LIGHT_SKIP
-        // From a sample of density 0 in an empty occupancy cell on to the first sample past the
-        // cell: the samples skipped are 0 (as tfm_build.frag). u_occupancy is the view march's,
-        // conservative for level 0 only: a march that reads level 1 does not jump.
-        vec3 ob = (u_world_to_box * vec4(p, 1.0)).xyz;
-        vec3 db = (u_world_to_box * vec4(dir, 0.0)).xyz;
-        for (int i = 0; i < u_light_steps; ++i) {
-            float t = a + (float(i) + 0.5) * dt;
-            float d = ray_density(ray, t);
-            s += d;
-            if (d <= 0.0 && ray.lod == 0.0)
-                i = max(i, int(ceil((skip_empty(ob, db, t) - a) / dt - 0.501)) - 1);
-        }
-#else
         for (int i = 0; i < u_light_steps; ++i) s += ray_density(ray, a + (float(i) + 0.5) * dt);
-#endif
         return EXP_RGB(-u_med_sigma_t[0] * (s * dt));
     }
 #endif

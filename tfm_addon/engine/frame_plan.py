@@ -1,0 +1,146 @@
+"""What a frame builds and draws, decided without GL: the light faces that add something (each
+with the maps it needs and how its light pass finds the transmittance) and how the light passes
+end (a lone pass that composes its own image, or the composite pass). ``Renderer`` plans a frame
+with ``plan_frame`` once its media are on the GPU, then builds and draws what the plan says."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .light import LightFrame, cone_meets_box, face_meets_box, light_faces
+from .passes.bindings import MEDIUM_BOX, MEDIUM_EVERYWHERE, MEDIUM_GRID, MediaGPU, MediumSlot
+from .passes.scattering import LIGHT_T_ANALYTIC, LIGHT_T_MARCH, LIGHT_T_NONE, LIGHT_T_TFM, LIGHT_T_UNIT
+from .passes.tfm import MIN_FOOTPRINT_RESOLUTION, tfm_resolution
+from .quality import footprint_texels_per_voxel
+from .scene import Light, RenderSettings, Scene
+
+
+@dataclass(frozen=True)
+class FacePlan:
+    """One face of a light that adds a light pass to the frame, before its maps are built.
+    ``light_t``: how the pass finds the transmittance from the light (passes/scattering
+    LIGHT_T_*; a TFM whose rays meet no density turns into LIGHT_T_NONE when built);
+    ``tfm_side``: the TFM's side, texels, where ``light_t`` is LIGHT_T_TFM; ``shadow_map``: the
+    face has a shadow map (some solid casts shadows and so does the light)."""
+
+    light: Light
+    frame: LightFrame
+    reached: tuple[int, ...]        # the media (MediaGPU.boxes) the face reaches
+    shadow_map: bool
+    light_t: int
+    tfm_side: int | None = None
+
+
+@dataclass(frozen=True)
+class FramePlan:
+    """What one frame builds and draws. ``faces``: a light pass each, in order (none: one pass
+    of ambient light, emission and surfaces alone); ``culled``: faces of point and area lights
+    that reach neither a medium nor a solid the camera sees (no maps, no pass); ``lone``: one
+    light pass writes the combined image itself, or adds its sample into the frame's sums (no
+    composite pass); ``clear_targets``: zero the light passes' targets first (a frame of the
+    active pixels alone); ``steps``: progress steps (scene, maps per light, G-buffer, a pass per
+    face)."""
+
+    faces: tuple[FacePlan, ...]
+    culled: int
+    lone: bool
+    clear_targets: bool
+    steps: int
+
+    @property
+    def tfm_side(self) -> int:
+        """The largest TFM side of the frame (0: none), for the render report."""
+        return max((f.tfm_side for f in self.faces if f.tfm_side is not None), default=0)
+
+
+def plan_faces(scene: Scene, settings: RenderSettings, light: Light, media: MediaGPU, *,
+               casts_shadows: bool, casters_bounds, seen_bounds, map_res: int,
+               image_side: int | None = None) -> tuple[list[FacePlan], int]:
+    """The faces of ``light`` that add something to a frame of ``media`` (the media as uploaded:
+    kind, boxes, slots), and how many were culled. ``casts_shadows``: some solid casts shadows;
+    ``casters_bounds``, ``seen_bounds``: the boxes of the shadow casters and of the solids the
+    camera sees (None: no culling by them); ``map_res``: the shadow maps' side, which caps the
+    TFMs'; ``image_side``: the image side a FOOTPRINT TFM is capped by (default: the camera's)."""
+    boxes = media.boxes
+    everywhere = media.kind == MEDIUM_EVERYWHERE
+    unit = settings.method == "UNSHADOWED" or not light.cast_shadow
+    side_cap = image_side or max(scene.camera.width_px, scene.camera.height_px)
+    faces, culled = [], 0
+    for frame in light_faces(light, boxes, casters_bounds):
+        reached = tuple(i for i, box in enumerate(boxes) if _reaches(light, frame, box))
+        if (light.kind in ("POINT", "AREA") and not reached and not everywhere
+                and (seen_bounds is None or not face_meets_box(frame, np.eye(4), *seen_bounds))):
+            culled += 1
+            continue
+        light_t, side = LIGHT_T_NONE, None
+        if media.kind == MEDIUM_GRID:
+            if reached and unit:
+                light_t = LIGHT_T_UNIT          # the floor, or a light nothing shadows
+            elif reached and light.use_tfm:
+                if settings.method == "BRUTE_FORCE":
+                    light_t = LIGHT_T_MARCH
+                else:
+                    light_t = LIGHT_T_TFM
+                    side = _face_side(settings, frame, media.slots, reached, map_res, side_cap)
+        elif media.kind in (MEDIUM_BOX, MEDIUM_EVERYWHERE):
+            if everywhere or reached:
+                light_t = LIGHT_T_UNIT if unit else LIGHT_T_ANALYTIC
+        shadow_map = bool(casts_shadows and light.cast_shadow)
+        faces.append(FacePlan(light, frame, reached, shadow_map, light_t, side))
+    return faces, culled
+
+
+def plan_passes(faces, *, lights: int, accumulate: bool, active: bool, maps: bool = True) -> dict:
+    """How a frame of ``faces`` ends and what its progress counts: ``lone`` (see FramePlan),
+    ``clear_targets``, ``steps``. ``accumulate``: the frame adds a sample into sums; ``active``:
+    only the active pixels are shaded; ``maps``: the lights' maps are a step each (``lights``
+    of them; False where a later sample reuses the first one's)."""
+    return dict(lone=len(faces) <= 1 and (accumulate or not active),
+                clear_targets=not accumulate and active,
+                steps=2 + (lights if maps else 0) + max(len(faces), 1))
+
+
+def plan_frame(scene: Scene, settings: RenderSettings, lights, media: MediaGPU, *, casts_shadows: bool,
+               casters_bounds, seen_bounds, map_res: int, image_side: int | None = None,
+               accumulate: bool = False, active: bool = False) -> FramePlan:
+    """The frame's plan: ``plan_faces`` for each of ``lights`` (those not dark), in order, and
+    ``plan_passes``."""
+    faces, culled = [], 0
+    for light in lights:
+        mine, dropped = plan_faces(scene, settings, light, media, casts_shadows=casts_shadows,
+                                   casters_bounds=casters_bounds, seen_bounds=seen_bounds,
+                                   map_res=map_res, image_side=image_side)
+        faces += mine
+        culled += dropped
+    return FramePlan(tuple(faces), culled, **plan_passes(faces, lights=len(lights), accumulate=accumulate,
+                                                         active=active))
+
+
+def _face_side(settings, frame: LightFrame, slots, reached, map_res: int, image_side: int) -> int:
+    """The TFM side of a face: the finest that the grids it reaches ask for (a homogeneous box has
+    no voxel; it sets the side only where the face reaches no grid), whatever the media's order."""
+    grids = [i for i in reached if slots[i].grid is not None] or reached
+    return max(_face_tfm_resolution(settings, frame, slots[i], map_res, image_side) for i in grids)
+
+
+def _face_tfm_resolution(settings, frame: LightFrame, slot: MediumSlot, map_res: int, image_side: int) -> int:
+    """The TFM side of a face for one medium (passes/tfm.tfm_resolution, the FOOTPRINT rule read
+    on ``slot``, at quality.footprint_texels_per_voxel of its density); an orthographic face's footprint
+    is its extent over the voxel."""
+    per_voxel = footprint_texels_per_voxel(slot.medium) if settings.tfm_resolution == "FOOTPRINT" else 1.0
+    if frame.ortho and settings.tfm_resolution == "FOOTPRINT":
+        voxel = float(np.linalg.norm(slot.box_to_world[:3, :3], axis=0).min())
+        cap = min(map_res, max(int(image_side), MIN_FOOTPRINT_RESOLUTION))
+        texels = per_voxel * 2.0 * max(frame.tan_xy) / max(voxel, 1e-12)
+        return int(min(cap, max(MIN_FOOTPRINT_RESOLUTION, 16 * math.ceil(texels / 16))))
+    return tfm_resolution(settings, frame, slot, map_res, image_side, per_voxel)
+
+
+def _reaches(light: Light, frame: LightFrame, box) -> bool:
+    """Whether the light's face reaches the box (a spot: its cone, within the frustum)."""
+    if light.kind == "SPOT":
+        return cone_meets_box(frame, *box)
+    return face_meets_box(frame, *box)
