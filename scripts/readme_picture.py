@@ -32,12 +32,12 @@ def main(argv=None) -> int:
     import tfm_addon
     from tfm_addon import scenes
     from tfm_addon.blender import scene_builder as sb
-    from tfm_addon.engine import Camera, Scene, SpotLight
+    from tfm_addon.engine import Camera, Light, Scene
 
     tfm_addon.register()
     bpy.ops.wm.read_homefile(use_empty=True)
     tmp = tempfile.mkdtemp(prefix="tfm_readme_")
-    light = SpotLight(matrix_world=scenes.look_at((-2.2, -0.8, 5.0), (0.4, 0.3, 0.0)), power_w=4000.0,
+    light = Light(matrix_world=scenes.look_at((-2.2, -0.8, 5.0), (0.4, 0.3, 0.0)), power_w=4000.0,
                       spot_size_rad=math.radians(38), spot_blend=0.2)
     meshes = (scenes.box_mesh((-1.15, -0.45, 3.4), (0.16, 1.4, 0.16), name="Bar"),
               scenes.box_mesh((1.2, 1.0, 0.5), (1.0, 1.0, 1.0), color=(0.7, 0.5, 0.3), name="Crate"),

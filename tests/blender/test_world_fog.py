@@ -9,7 +9,7 @@ import numpy as np
 from blender_helpers import MODULE, render_passes
 
 from tfm_addon import scenes
-from tfm_addon.engine import Camera, RenderSettings, Scene, SpotLight, metrics
+from tfm_addon.engine import Camera, Light, RenderSettings, Scene, metrics
 
 SETTINGS = RenderSettings(view_steps=128, light_steps=64, map_resolution=256, coefficients=8)
 
@@ -19,7 +19,7 @@ def _mod(name):
 
 
 def _shaft_scene(width=96, height=54) -> Scene:
-    light = SpotLight(matrix_world=scenes.look_at((-2.0, -1.0, 4.5), (0.3, 0.2, 0.0)), power_w=3000.0,
+    light = Light(matrix_world=scenes.look_at((-2.0, -1.0, 4.5), (0.3, 0.2, 0.0)), power_w=3000.0,
                       spot_size_rad=math.radians(35), spot_blend=0.15)
     meshes = (scenes.box_mesh((-1.05, -0.5, 3.2), (0.15, 1.2, 0.15), name="Bar"),
               scenes.plane_mesh((0, 0, 0), 10.0))

@@ -20,6 +20,23 @@ def _builder():
     return importlib.import_module(MODULE + ".tfm_addon.blender.scene_builder")
 
 
+def _against_cycles(tmp_path, cycles_samples: int):
+    """The context scene rendered by TFM with the world light shadowed and unshadowed, and by
+    Cycles: (SSIM, brightness) of each TFM image against Cycles, and the directions used."""
+    tfm_settings = bpy.context.scene.tfm
+    tfm_settings.world_light = 'SHADOWED'
+    tfm_settings.world_directions = int(os.environ.get("TFM_WORLD_DIRECTIONS", "64"))
+    shadowed = render_passes(tmp_path, "tfm")["Combined"]
+    tfm_settings.world_light = 'UNSHADOWED'
+    unshadowed = render_passes(tmp_path, "unshadowed")["Combined"]
+    _builder().cycles_single_scattering(bpy.context.scene, samples=cycles_samples)
+    cycles = render_passes(tmp_path, "cycles")["Combined"]
+    assert float(cycles[..., :3].mean()) > 1e-3
+    figures = [(metrics.ssim(im, cycles), metrics.brightness_ratio(im, cycles))
+               for im in (shadowed, unshadowed)]
+    return figures, tfm_settings.world_directions
+
+
 @pytest.mark.parametrize("density", [1.0, 10.0])
 def test_smoke_lit_by_a_white_world_matches_cycles(blank, tmp_path, density):
     scene = smoke(width=64, height=48, n=24, ambient=(1.0, 1.0, 1.0))
@@ -28,18 +45,9 @@ def test_smoke_lit_by_a_white_world_matches_cycles(blank, tmp_path, density):
         m, sigma_a=tuple(density * 0.1 * c / c for c in m.sigma_a),
         sigma_s=tuple(density * 0.9 * c / c for c in m.sigma_s)),))
     _builder().build(scene, str(tmp_path), settings=SETTINGS, samples=16)
-    tfm_settings = bpy.context.scene.tfm
-    tfm_settings.world_light = 'SHADOWED'
-    tfm_settings.world_directions = int(os.environ.get("TFM_WORLD_DIRECTIONS", "64"))
-    tfm = render_passes(tmp_path, "tfm")["Combined"]
-    tfm_settings.world_light = 'UNSHADOWED'
-    unshadowed = render_passes(tmp_path, "unshadowed")["Combined"]
-    _builder().cycles_single_scattering(bpy.context.scene, samples=512)
-    cycles = render_passes(tmp_path, "cycles")["Combined"]
-    ssim, ratio = metrics.ssim(tfm, cycles), metrics.brightness_ratio(tfm, cycles)
-    print(f"white world, density x{density:g}, {tfm_settings.world_directions} directions: SSIM {ssim:.4f}, "
-          f"brightness {ratio:.4f} (unshadowed: SSIM {metrics.ssim(unshadowed, cycles):.4f}, "
-          f"{metrics.brightness_ratio(unshadowed, cycles):.4f})")
+    ((ssim, ratio), (ssim_u, ratio_u)), n = _against_cycles(tmp_path, 512)
+    print(f"white world, density x{density:g}, {n} directions: SSIM {ssim:.4f}, brightness {ratio:.4f} "
+          f"(unshadowed: SSIM {ssim_u:.4f}, {ratio_u:.4f})")
     assert ssim >= 0.98 and abs(ratio - 1.0) <= 0.03
 
 
@@ -73,17 +81,7 @@ def test_smoke_lit_by_an_hdri_matches_cycles(blank, tmp_path):
     env = nt.nodes.new('ShaderNodeTexEnvironment')
     env.image = _hdri()
     nt.links.new(env.outputs["Color"], bg.inputs["Color"])
-    tfm_settings = bpy.context.scene.tfm
-    tfm_settings.world_light = 'SHADOWED'
-    tfm_settings.world_directions = int(os.environ.get("TFM_WORLD_DIRECTIONS", "64"))
-    tfm = render_passes(tmp_path, "tfm")["Combined"]
-    tfm_settings.world_light = 'UNSHADOWED'
-    flat = render_passes(tmp_path, "flat")["Combined"]
-    _builder().cycles_single_scattering(bpy.context.scene, samples=1024)
-    cycles = render_passes(tmp_path, "cycles")["Combined"]
-    ssim, ratio = metrics.ssim(tfm, cycles), metrics.brightness_ratio(tfm, cycles)
-    print(f"HDRI world, {tfm_settings.world_directions} directions: SSIM {ssim:.4f}, brightness {ratio:.4f} "
-          f"(its mean colour unshadowed: SSIM {metrics.ssim(flat, cycles):.4f}, "
-          f"{metrics.brightness_ratio(flat, cycles):.4f})")
-    assert float(cycles[..., :3].mean()) > 1e-3
+    ((ssim, ratio), (ssim_u, ratio_u)), n = _against_cycles(tmp_path, 1024)
+    print(f"HDRI world, {n} directions: SSIM {ssim:.4f}, brightness {ratio:.4f} "
+          f"(its mean colour unshadowed: SSIM {ssim_u:.4f}, {ratio_u:.4f})")
     assert ssim >= 0.95 and abs(ratio - 1.0) <= 0.10
