@@ -51,8 +51,8 @@ def test_no_light_renders_ambient_light_and_says_why(blank, tmp_path):
         bpy.data.objects.remove(light)
     image = render_passes(tmp_path)
     warnings = [m for level, m in _messages() if level == 'WARNING']
-    # The renderer explains it once (the add-on does not repeat it).
-    assert len([m for m in warnings if "no spot light" in m.lower()]) == 1, warnings
+    # The renderer explains it once (the add-on does not repeat it): the world lights it alone.
+    assert len([m for m in warnings if "world lights it alone" in m]) == 1, warnings
     assert image["Surfaces"].max() > 0.01  # the ground, lit by the world
     assert image["Scattering"].max() > 0.01  # the smoke scatters the world's light
     # A sun with an angle and a point light with a radius: rendered, each approximation said once.

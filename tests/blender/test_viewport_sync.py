@@ -106,9 +106,9 @@ def test_a_selection_click_changes_nothing_and_keeps_the_converged_image(blank, 
         assert bar.name in {m.name for m in session.extraction.meshes}
         def simplify():
             render.use_simplify, render.simplify_volumes = True, 0.5
-        full = session.extraction.medium.density.shape
+        full = session.extraction.media[0].density.shape
         assert Change.MEDIUM in updates.after(simplify)
-        assert session.extraction.medium.density.shape[0] < full[0]
+        assert session.extraction.media[0].density.shape[0] < full[0]
         assert session.request(camera, 2)                      # those restart the image
     finally:
         _remove(updates)
@@ -211,14 +211,14 @@ def test_moving_a_mesh_to_volume_object_places_its_grid_without_saving_it(blank,
     session, updates = _session_with_updates()
     cache = volumes.grid_cache
     try:
-        medium = session.extraction.medium
+        medium = session.extraction.media[0]
         assert medium is not None and max(medium.density.shape) >= 120
         saves, reads = cache.saves, cache.reads
         times = []
         for i in range(3):
             updates.after(lambda i=i: setattr(parent.location, "x", 0.5 * (i + 1)))
             times.append(max(updates.seconds))
-        moved = session.extraction.medium
+        moved = session.extraction.media[0]
         assert (cache.saves, cache.reads) == (saves, reads)       # neither saved nor hashed nor read
         assert moved.density is medium.density
         np.testing.assert_allclose(moved.index_to_world[:3, 3] - medium.index_to_world[:3, 3],
@@ -237,7 +237,7 @@ def test_moving_a_mesh_to_volume_object_places_its_grid_without_saving_it(blank,
         # Its settings edited: saved and read again.
         updates.after(lambda: setattr(mod, "density", 3.0))
         assert cache.saves == saves + 3
-        assert float(session.extraction.medium.density.max()) == 3.0
+        assert float(session.extraction.media[0].density.max()) == 3.0
     finally:
         _remove(updates)
         session.close()

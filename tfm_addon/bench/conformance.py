@@ -50,8 +50,7 @@ EXPECT: dict[str, str] = {
     "blackbody_node": "emits and scatters: its own emission is not scattered by it",
     "clamp": "gives a medium where the grids are empty, up to Cycles' volume bounds",
     "mix_float": "gives a medium where the grids are empty, up to Cycles' volume bounds",
-    "world_color": "The scene has no spot light (nor any other light): only surfaces and ambient "
-                   "light are rendered, and the medium scatters no light beam.",
+    "world_color": "the world lights it alone, from 16 directions",
 }
 # 'wrong': TFM renders the row, wrongly, and says nothing: a defect this suite found. The value
 # says what differs from Cycles.

@@ -96,7 +96,7 @@ def changes_from_depsgraph(depsgraph, medium_source=_UNKNOWN, scene: Change = Ch
     """Fold ``depsgraph.updates`` into one set of flags.
 
     ``medium_source``: the label of the object the current medium comes from
-    (``Extraction.medium_source``, None without a medium). Given, an edit of a mesh that is not
+    (the first of ``Extraction.medium_sources``, None without a medium). Given, an edit of a mesh that is not
     the medium and has no volume shader flags the solids alone, so the grid is not re-read; a
     mesh data update is then the solids' (Blender sends its object's update with it). Not given,
     every mesh update flags the medium too. ``scene``: what the Scene's own update made stale

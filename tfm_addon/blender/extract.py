@@ -193,7 +193,7 @@ def render_settings(scene) -> RenderSettings:
         quality=tfm.quality,
         film_transparent=bool(scene.render.film_transparent),
         world_light=getattr(tfm, "world_light", 'UNSHADOWED'),
-        world_directions=int(getattr(tfm, "world_directions", 32)),
+        world_directions=int(getattr(tfm, "world_directions", 16)),
     )
 
 

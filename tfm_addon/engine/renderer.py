@@ -889,7 +889,12 @@ def _frame_notes(scene: Scene, lights, warnings: list[str]) -> list[str]:
     """The render report: the frame's ``warnings`` once each, then what the lights say (none
     lit, approximations, cones past the maps' reach)."""
     warnings = list(warnings)
-    if not [light for light in scene.lights if not light.from_world]:
+    world = [light for light in scene.lights if light.from_world]
+    if world and len(world) == len(scene.lights):
+        warnings.append(f"The scene has no light of its own: the world lights it alone, from {len(world)} "
+                        f"directions (World Light: Shadowed), so the ground's shadow under a medium is "
+                        f"drawn as that many overlapping shadows")
+    elif not scene.lights:
         warnings.append("The scene has no spot light (nor any other light): only surfaces and "
                         "ambient light are rendered, and the medium scatters no light beam.")
     elif not [light for light in lights if not light.from_world]:

@@ -492,7 +492,7 @@ class RenderSettings:
     view_jitter: float | None = None
     alpha_from_probe: bool = False
     world_light: Literal["UNSHADOWED", "SHADOWED"] = "UNSHADOWED"
-    world_directions: int = 32
+    world_directions: int = 16
 
 
 @dataclass(frozen=True, eq=False)

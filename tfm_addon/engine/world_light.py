@@ -20,7 +20,7 @@ import numpy as np
 
 from .scene import Light, Scene
 
-DEFAULT_DIRECTIONS = 32
+DEFAULT_DIRECTIONS = 16
 
 
 def directions(n: int) -> np.ndarray:

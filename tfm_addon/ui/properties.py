@@ -97,7 +97,7 @@ class TFM_SceneSettings(bpy.types.PropertyGroup):
         description="How the world colour lights the medium and the surfaces",
     )
     world_directions: IntProperty(
-        name="World Directions", default=32, min=4, max=128,
+        name="World Directions", default=16, min=4, max=128,
         description="Directions the shadowed world light comes from: more is smoother and slower",
     )
     viewport_scale: FloatProperty(

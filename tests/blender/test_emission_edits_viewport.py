@@ -1,4 +1,4 @@
-"""Emission edits of a lone grid's material in Blender's viewport (review 6): a strength grid alone
+"""Emission edits of a lone grid's material in Blender's viewport: a strength grid alone
 and Blender's Quick Smoke fire (a blackbody grid alone), each edit a real depsgraph update of the
 material's nodes, rendered by the viewport session on the add-on's GL worker."""
 

@@ -1,6 +1,6 @@
-"""Regressions found reviewing the emission skipping, adaptive sampling and cheaper TFM build
-changes: each test fails without its fix, against a computation that does not share the code
-under test (the same march without skipping, the numpy reference)."""
+"""The emission skipping, adaptive sampling and the TFM build over the density's extent: each test
+fails without its fix, against a computation that does not share the code under test (the same
+march without skipping, the numpy reference)."""
 
 import dataclasses
 

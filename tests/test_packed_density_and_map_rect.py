@@ -1,5 +1,5 @@
-"""Regressions found reviewing the packed emission density, the TFM build over the map's rectangle
-with its level-1 occupancy, and the Sobol antialiasing: each test fails without its fix, against a
+"""The packed emission density, the TFM build over the map's rectangle with its level-1
+occupancy, and the Sobol antialiasing: each test fails without its fix, against a
 computation that does not share the code under test (the same march through every occupancy
 cell, a map built without the history the bug depends on)."""
 

@@ -1,4 +1,4 @@
-"""Review of the fire's emission combined per voxel (passes/emission.AttributesGPU.combine) and of
+"""The fire's emission combined per voxel (passes/emission.AttributesGPU.combine) and of
 the lone grid's view march at texture coordinates stepped along the ray (scatter.frag, grid_ray).
 
 The combined texture is checked texel by texel against the per-voxel emission computed here in

@@ -1,4 +1,4 @@
-"""Review of a lone emission grid combined per voxel (passes/emission.AttributesGPU: a strength grid
+"""A lone emission grid combined per voxel (passes/emission.AttributesGPU: a strength grid
 alone, or a blackbody grid alone as Blender's Quick Smoke fire), of the EMISSION 2 march adding a
 packed sample's emission without the box test, and of the emission summed once per ray
 (scatter.frag).
