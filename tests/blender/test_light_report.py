@@ -5,6 +5,7 @@ import dataclasses
 import importlib
 
 import bpy
+import pytest
 from blender_helpers import MODULE, render_passes, smoke
 
 from tfm_addon import scenes
@@ -41,3 +42,19 @@ def test_light_sizes_are_said_in_one_line(blank):
     lines = [w for w in ex.all_warnings if "Light sizes" in w]
     assert len(lines) == 1, ex.all_warnings
     assert "spot 'Spot' radius" in lines[0] and "point 'Point' radius" in lines[0] and "sun 'Sun'" in lines[0]
+
+
+@pytest.mark.parametrize("flag", ["visible_volume_scatter", "visible_diffuse"])
+def test_light_ray_visibility_matches_cycles(blank, tmp_path, flag):
+    """A spot whose Ray Visibility ▸ Volume Scatter is off lights the ground but not the smoke; with
+    Diffuse off, the smoke but not the ground (Cycles' light visibility)."""
+    made = _mod("scene_builder").build(smoke(width=64, height=48, n=24), str(tmp_path), settings=SETTINGS,
+                                       samples=16)
+    setattr(made["lights"][0], flag, False)
+    tfm = render_passes(tmp_path, "tfm")["Combined"]
+    _mod("scene_builder").cycles_single_scattering(bpy.context.scene, samples=512)
+    cycles = render_passes(tmp_path, "cycles")["Combined"]
+    ssim, ratio = metrics.ssim(tfm, cycles), metrics.brightness_ratio(tfm, cycles)
+    print(f"spot with {flag} off: SSIM {ssim:.4f}, brightness {ratio:.4f}")
+    assert float(cycles[..., :3].mean()) > 1e-3
+    assert ssim >= 0.98 and abs(ratio - 1.0) <= 0.03

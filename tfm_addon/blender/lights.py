@@ -69,7 +69,15 @@ def spot_light(light_object, matrix_world, warnings: list[str]) -> Light:
         name=light_object.name,
         cone_scale=cone_scale(matrix_world, light_object.name, warnings),
         cast_shadow=bool(getattr(light, "use_shadow", True)),
+        **ray_visibility(light_object),
     )
+
+
+def ray_visibility(light_object) -> dict:
+    """What the light object's Ray Visibility lets it light, as Cycles reads it: Volume Scatter
+    the media, Diffuse the (diffuse) surfaces."""
+    return dict(lights_medium=bool(getattr(light_object, "visible_volume_scatter", True)),
+                lights_surfaces=bool(getattr(light_object, "visible_diffuse", True)))
 
 
 def sizes_note(sizes: list[str]) -> str | None:
@@ -97,7 +105,7 @@ def light(light_object, matrix_world, warnings: list[str], sizes: list[str] | No
         return spot_light(light_object, matrix_world, warnings)
     common = dict(matrix_world=without_scale(matrix_world), color=light_color(data),
                   power_w=light_power_w(data), name=name,
-                  cast_shadow=bool(getattr(data, "use_shadow", True)))
+                  cast_shadow=bool(getattr(data, "use_shadow", True)), **ray_visibility(light_object))
     if kind == 'POINT':
         if float(getattr(data, "shadow_soft_size", 0.0)) > 0.0:
             sizes.append(f"point '{name}' radius {float(data.shadow_soft_size):.2g} m")

@@ -411,7 +411,8 @@ class Renderer:
         for i, plan in enumerate(frame.lights):
             t0 = time.perf_counter()
             run_light_pass(gl, first=(i == 0), light_t=plan.light_t, tfm=plan.tfm,
-                           light=(plan.frame, plan.light.intensity_w_per_sr, plan.shadow, plan.gobo),
+                           light=(plan.frame, plan.light.intensity_w_per_sr, plan.shadow, plan.gobo,
+                                  (float(plan.light.lights_medium), float(plan.light.lights_surfaces))),
                            tfm_sigma_t=plan.tfm_sigma_t, medium_shadow=plan.medium_shadow, **common)
             self.counters["light_passes"] += 1
             steps.step("scattering", t0)

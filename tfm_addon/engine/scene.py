@@ -115,8 +115,10 @@ class Light:
     spot of a non-uniformly scaled object as an elliptical cone whose half-widths at unit
     distance are tan(spot_size / 2) times these. ``cast_shadow`` False (Blender's
     ``use_shadow``): nothing shadows the light, neither the solids nor the media (as Cycles
-    renders it), for every kind. ``from_world``: a sun standing in for part of the world's light
-    (engine/world_light.py), not a light of the scene.
+    renders it), for every kind. ``lights_medium`` / ``lights_surfaces`` False: the light lights no
+    medium / no surface (the light object's Ray Visibility ▸ Volume Scatter / Diffuse off in
+    Blender), though it is still seen and still shadowed. ``from_world``: a sun standing in for
+    part of the world's light (engine/world_light.py), not a light of the scene.
     """
 
     matrix_world: np.ndarray
@@ -132,6 +134,8 @@ class Light:
     cone_scale: tuple[float, float] = (1.0, 1.0)
     cast_shadow: bool = True
     from_world: bool = False
+    lights_medium: bool = True
+    lights_surfaces: bool = True
 
     def __post_init__(self):
         if self.kind not in LIGHT_KINDS:

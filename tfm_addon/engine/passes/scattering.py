@@ -117,7 +117,8 @@ def run_light_pass(gl: GLContext, *, camera: Camera, plane: ViewPlane, medium: M
                    attributes=None, active=None, compose=None, sums=None,
                    medium_shadow: bool = True) -> None:
     """Add one pass into the bound ScatteringTargets. ``light`` is (face, intensity, ShadowMap
-    or None, gobo texture or None) or None for the ambient-only first pass; ``tfm_sigma_t`` the
+    or None, gobo texture or None[, (weight on the media, weight on the surfaces)]) or None for the
+    ambient-only first pass; ``tfm_sigma_t`` the
     extinction per unit of the TFM's weighted density (default: ``medium``'s). ``attributes``
     (emission.AttributesGPU or None): the first medium's emission, added by the first pass, and
     colour grid. ``active``: None (every pixel), or (vertex buffer, count) of rectangles in window
@@ -169,8 +170,9 @@ def run_light_pass(gl: GLContext, *, camera: Camera, plane: ViewPlane, medium: M
                  u_view_steps=int(settings.view_steps), u_light_steps=int(settings.light_steps),
                  u_view_jitter=-1.0 if settings.view_jitter is None else float(settings.view_jitter))
     if light is not None:
-        frame, intensity, shadow, gobo = light
+        frame, intensity, shadow, gobo = light[:4]
         bind_light(prog, frame, intensity, settings.map_resolution, shadow, gobo)
+        set_uniforms(prog, u_light_targets=tuple(light[4]) if len(light) > 4 else (1.0, 1.0))
     if tfm is not None:
         tfm.bind(prog, medium.sigma_t if tfm_sigma_t is None else tfm_sigma_t)
     if emits or colored:

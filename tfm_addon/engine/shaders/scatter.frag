@@ -40,6 +40,8 @@ layout(location = 3) out vec4 o_combined;
 #endif
 
 #if HAS_LIGHT
+uniform vec2 u_light_targets;    // what the light lights: the media (x) and the surfaces (y), 0 or 1
+
 // Radiance arriving at p (q in light space) from the light face, past solids and medium; r is
 // set to the light distance (light.py: the faces of a point light split the sphere).
 vec3 light_arriving(vec3 p, vec3 q, out float r) {
@@ -123,7 +125,7 @@ void main() {
         if (ndl > 0.0) {
             float r;
             g_bias_texels = 3.0;    // the solid's own shadow-map texels must not shadow it
-            surface += albedo / PI * ndl * light_arriving(P, qP, r);
+            surface += albedo / PI * ndl * light_arriving(P, qP, r) * u_light_targets.y;
             g_bias_texels = 0.0;
         }
 #endif
@@ -267,7 +269,7 @@ void main() {
                     vec3 ssp = vec3(0.0);
                     for (int m = 0; m < N_MEDIA; ++m)
                         ssp += u_med_sigma_s[m] * (m == 0 ? tint0 : vec3(1.0)) * (D[m] * hg_phase(c, u_med_g[m]));
-                    src += li * ssp;
+                    src += li * ssp * u_light_targets.x;
                 }
 #endif
                 scatter += tv * dt * src;
@@ -332,7 +334,8 @@ void main() {
                 vec3 li = light_arriving(o + d * t, q, r);
                 if (any(greaterThan(li, vec3(0.0)))) {
                     vec3 tv = exp(-u_sigma_t * (t - seg.x));
-                    scatter += tv * u_sigma_s * dt * li * hg_phase(-dot(light_travel(q, r), dq), phase_g);
+                    scatter += tv * u_sigma_s * dt * li * hg_phase(-dot(light_travel(q, r), dq), phase_g)
+                               * u_light_targets.x;
                 }
             }
         }
