@@ -58,3 +58,11 @@ def test_light_ray_visibility_matches_cycles(blank, tmp_path, flag):
     print(f"spot with {flag} off: SSIM {ssim:.4f}, brightness {ratio:.4f}")
     assert float(cycles[..., :3].mean()) > 1e-3
     assert ssim >= 0.98 and abs(ratio - 1.0) <= 0.03
+
+
+def test_light_linking_is_said(blank):
+    bpy.ops.object.light_add(type='SPOT')
+    spot = bpy.context.object
+    spot.light_linking.receiver_collection = bpy.data.collections.new("Lit")
+    ex = _mod("extract").extract(bpy.context.evaluated_depsgraph_get())
+    assert len([w for w in ex.all_warnings if "'Spot'" in w and "linking" in w]) == 1, ex.all_warnings

@@ -98,6 +98,11 @@ def light(light_object, matrix_world, warnings: list[str], sizes: list[str] | No
         sizes = warnings
     if getattr(data, "use_nodes", False):
         warnings.append(f"Light '{name}': light nodes are not rendered (its colour and power are used)")
+    linking = getattr(light_object, "light_linking", None)
+    if linking is not None and (getattr(linking, "receiver_collection", None) is not None
+                                or getattr(linking, "blocker_collection", None) is not None):
+        warnings.append(f"Light '{name}': light and shadow linking are not rendered (it lights, and is "
+                        f"shadowed by, everything)")
     kind = data.type
     if kind == 'SPOT':
         if float(getattr(data, "shadow_soft_size", 0.0)) > 0.0:
