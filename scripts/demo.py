@@ -114,7 +114,10 @@ def main(argv=None) -> int:
     addon, how = enable_addon(args.zip, args.direct)
     import importlib
 
-    scene_builder = importlib.import_module(addon.__name__ + ".blender.scene_builder")
+    # Not in the extension zip (development code): the repository's copy, writing the properties
+    # the enabled add-on registered.
+    from tfm_addon.blender import scene_builder
+
     final_render = importlib.import_module(addon.__name__ + ".blender.final_render")
     engine_api = importlib.import_module(addon.__name__ + ".engine")
 

@@ -8,6 +8,8 @@ import numpy as np
 import pytest
 from blender_helpers import MODULE, SETTINGS, render_passes, smoke
 
+from tfm_addon.blender import scene_builder
+
 
 def _mod(name):
     return importlib.import_module(f"{MODULE}.tfm_addon.blender.{name}")
@@ -18,7 +20,7 @@ def _messages():
 
 
 def _smoke_in_blender(tmp_path, **kwargs):
-    return _mod("scene_builder").build(smoke(**kwargs), str(tmp_path), settings=SETTINGS)
+    return scene_builder.build(smoke(**kwargs), str(tmp_path), settings=SETTINGS)
 
 
 def test_missing_volume_file_renders_the_rest_and_names_the_file(blank, tmp_path):
@@ -38,7 +40,7 @@ def test_vector_only_grid_says_which_grid_was_expected(blank, tmp_path):
     velocity = np.zeros((8, 8, 8, 3), np.float32)
     velocity[2:6, 2:6, 2:6] = (1.0, 0.0, 0.0)
     path = str(tmp_path / "velocity.vdb")
-    _mod("scene_builder").write_vdb(path, velocity, name="velocity")
+    scene_builder.write_vdb(path, velocity, name="velocity")
     made["medium"].data.filepath = path
     render_passes(tmp_path)
     warnings = [m for level, m in _messages() if level == 'WARNING']

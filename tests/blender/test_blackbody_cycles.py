@@ -12,6 +12,7 @@ import pytest
 from blender_helpers import MODULE, render_passes
 
 from tfm_addon import scenes
+from tfm_addon.blender import scene_builder
 from tfm_addon.engine import RenderSettings, metrics
 from tfm_addon.engine.scene import GridValue
 
@@ -39,11 +40,11 @@ def test_a_blackbody_fire_in_kelvin_glows_as_in_cycles(blank, tmp_path, uniform)
         m, grids={"temperature": _kelvin(m.density, uniform)}, blackbody_intensity=GridValue(offset=2.0),
         temperature=GridValue("temperature", 1.0, 0.0), blackbody_tint=(1.0, 1.0, 1.0))
     scene = dataclasses.replace(base, media=(medium,))
-    made = _mod("scene_builder").build(scene, str(tmp_path), settings=SETTINGS, samples=16)
+    made = scene_builder.build(scene, str(tmp_path), settings=SETTINGS, samples=16)
     extraction = _mod("extract").extract(bpy.context.evaluated_depsgraph_get())
     print(extraction.all_warnings, extraction.media[0].blackbody_intensity, extraction.media[0].temperature)
     tfm = render_passes(tmp_path, "tfm")["Combined"][..., :3]
-    _mod("scene_builder").cycles_single_scattering(bpy.context.scene, samples=SAMPLES)
+    scene_builder.cycles_single_scattering(bpy.context.scene, samples=SAMPLES)
     made["medium"].visible_diffuse = False
     made["medium"].visible_volume_scatter = False
     cycles = render_passes(tmp_path, "cycles")["Combined"][..., :3]

@@ -1,18 +1,15 @@
 """The bridge loses nothing: a scene built in Blender renders like the renderer called directly."""
 
 import dataclasses
-import importlib
 
 import bpy
 import numpy as np
-from blender_helpers import MODULE, SETTINGS, render_passes, smoke
+from blender_helpers import SETTINGS, render_passes, smoke
+
+from tfm_addon.blender import scene_builder
 
 PASSES = {"Combined": None, "Scattering": "scattering", "Surfaces": "surfaces",
           "Transmittance": "transmittance"}
-
-
-def _builder():
-    return importlib.import_module(MODULE + ".tfm_addon.blender.scene_builder")
 
 
 def _direct_images(worker, scene):
@@ -42,7 +39,7 @@ def _as_stored(scene, made):
 
 def test_render_through_blender_equals_direct_render(blank, tmp_path, direct_worker):
     scene = smoke(width=64, height=48, n=32)
-    made = _builder().build(scene, str(tmp_path), settings=SETTINGS)
+    made = scene_builder.build(scene, str(tmp_path), settings=SETTINGS)
     through_blender = render_passes(tmp_path)
     direct = _direct_images(direct_worker, _as_stored(scene, made))
     for name in PASSES:
@@ -59,7 +56,7 @@ def test_render_through_blender_equals_direct_render(blank, tmp_path, direct_wor
 
 def test_render_border_is_the_same_window_of_the_full_frame(blank, tmp_path, direct_worker):
     scene = smoke(width=64, height=48, n=32)
-    _builder().build(scene, str(tmp_path), settings=SETTINGS)
+    scene_builder.build(scene, str(tmp_path), settings=SETTINGS)
     full = _direct_images(direct_worker, scene)["Combined"]
     r = bpy.context.scene.render
     r.use_border, r.use_crop_to_border = True, True

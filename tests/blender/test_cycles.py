@@ -1,11 +1,11 @@
 """The physical reference: Cycles with single scattering only (BLENDER.md) against TFM."""
 
-import importlib
 import time
 
 import bpy
-from blender_helpers import MODULE, render_passes, smoke
+from blender_helpers import render_passes, smoke
 
+from tfm_addon.blender import scene_builder
 from tfm_addon.engine import RenderSettings, metrics
 
 SETTINGS = RenderSettings(view_steps=128, light_steps=128, map_resolution=256, coefficients=16)
@@ -13,10 +13,9 @@ CYCLES_SAMPLES = 1024  # 128x72: about 17 s on 2 cores
 
 
 def test_tfm_agrees_with_cycles(blank, tmp_path):
-    builder = importlib.import_module(MODULE + ".tfm_addon.blender.scene_builder")
-    builder.build(smoke(width=128, height=72, n=32), str(tmp_path), settings=SETTINGS)
+    scene_builder.build(smoke(width=128, height=72, n=32), str(tmp_path), settings=SETTINGS)
     tfm = render_passes(tmp_path, "tfm")["Combined"]
-    builder.cycles_single_scattering(bpy.context.scene, samples=CYCLES_SAMPLES)
+    scene_builder.cycles_single_scattering(bpy.context.scene, samples=CYCLES_SAMPLES)
     t0 = time.perf_counter()
     cycles = render_passes(tmp_path, "cycles")["Combined"]
     seconds = time.perf_counter() - t0

@@ -3,15 +3,15 @@ settings), 160x90: the scene is written into Blender by scene_builder and render
 through bpy.ops.render.render()."""
 
 import dataclasses
-import importlib
 import math
 import time
 
 import bpy
 import numpy as np
 import pytest
-from blender_helpers import MODULE, render_passes
+from blender_helpers import render_passes
 
+from tfm_addon.blender import scene_builder
 from tfm_addon.engine import Camera, Light, Medium, RenderSettings, Scene, metrics
 from tfm_addon.scenes import box_mesh, grid_to_world, look_at, plane_mesh, smoke_density, translate_scale
 
@@ -76,14 +76,13 @@ LIMITS = {"sun_shaft": (0.98, 0.03), "point_inside": (0.98, 0.03), "two_overlapp
 
 @pytest.mark.parametrize("case", list(LIMITS))
 def test_lights_and_volumes_agree_with_cycles(blank, tmp_path, case):
-    builder = importlib.import_module(MODULE + ".tfm_addon.blender.scene_builder")
     scene = _scenes()[case]
-    made = builder.build(scene, str(tmp_path), settings=SETTINGS)
+    made = scene_builder.build(scene, str(tmp_path), settings=SETTINGS)
     assert len(made["media"]) == len(scene.media)
     if case == "instanced_three":
         assert len({ob.data.name for ob in made["media"]}) == 1      # one Volume data, three objects
     tfm = render_passes(tmp_path, "tfm")["Combined"]
-    builder.cycles_single_scattering(bpy.context.scene, samples=CYCLES_SAMPLES)
+    scene_builder.cycles_single_scattering(bpy.context.scene, samples=CYCLES_SAMPLES)
     t0 = time.perf_counter()
     cycles = render_passes(tmp_path, "cycles")["Combined"]
     seconds = time.perf_counter() - t0

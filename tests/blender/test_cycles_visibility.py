@@ -1,14 +1,14 @@
 """Object visibility against Cycles (single scattering, BLENDER.md settings), 160x90: a bar that
 casts no shadow loses its shaft in both; a holdout ground cuts alpha in both."""
 
-import importlib
 import time
 
 import bpy
 import numpy as np
 import pytest
-from blender_helpers import MODULE, render_passes, smoke
+from blender_helpers import render_passes, smoke
 
+from tfm_addon.blender import scene_builder
 from tfm_addon.engine import RenderSettings, metrics
 
 SETTINGS = RenderSettings(view_steps=128, light_steps=128, map_resolution=256, coefficients=16)
@@ -16,7 +16,7 @@ CYCLES_SAMPLES = 512
 
 
 def _build(tmp_path):
-    builder = importlib.import_module(MODULE + ".tfm_addon.blender.scene_builder")
+    builder = scene_builder
     made = builder.build(smoke(width=160, height=90, n=32), str(tmp_path), settings=SETTINGS)
     return builder, {ob.name.split(".")[0]: ob for ob in made["meshes"]}
 

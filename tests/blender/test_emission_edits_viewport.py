@@ -11,6 +11,7 @@ import pytest
 from blender_helpers import MODULE, SETTINGS, render_passes
 
 from tfm_addon import scenes
+from tfm_addon.blender import scene_builder
 
 COUNTERS = ("attribute_uploads", "grid_uploads", "shadow_maps", "tfms")
 
@@ -69,7 +70,7 @@ def test_an_emission_edit_in_the_viewport_uploads_nothing(blank, tmp_path, flags
     each is a MEDIUM change whose viewport frame shows it and uploads no grid or attribute texture
     and builds no map; the last frame is Blender's final render of the edited scene."""
     changes = _mod("changes")
-    made = _mod("scene_builder").build(scenes.fire_scene(48, 27, 24, kind=kind, with_light=True),
+    made = scene_builder.build(scenes.fire_scene(48, 27, 24, kind=kind, with_light=True),
                                        str(tmp_path), settings=SETTINGS)
     nodes = made["medium"].data.materials[0].node_tree.nodes
     session = _mod("viewport").ViewportSession()
@@ -114,11 +115,11 @@ def test_a_strength_grid_with_negative_voxels_glows_as_in_cycles(blank, tmp_path
     i, j, k = np.indices(flame.shape)
     signed = np.where((i + j + k) % 2 == 0, -0.6 * flame, flame).astype(np.float32)
     scene = dataclasses.replace(scene, media=(dataclasses.replace(m, grids={**m.grids, "flame": signed}),))
-    made = _mod("scene_builder").build(scene, str(tmp_path), settings=SETTINGS)
+    made = scene_builder.build(scene, str(tmp_path), settings=SETTINGS)
     tfm = render_passes(tmp_path, "tfm")["Combined"][..., :3]
     blend = render_reference(scene, view_steps=SETTINGS.view_steps,
                              light_steps=SETTINGS.light_steps).combined[..., :3]
-    _mod("scene_builder").cycles_single_scattering(bpy.context.scene, samples=256)
+    scene_builder.cycles_single_scattering(bpy.context.scene, samples=256)
     made["medium"].visible_diffuse = False
     made["medium"].visible_volume_scatter = False
     cycles = render_passes(tmp_path, "cycles")["Combined"][..., :3]
@@ -143,9 +144,9 @@ def test_a_blackbody_intensity_grid_glows_as_in_cycles(blank, tmp_path):
     scene = scenes.fire_scene(64, 36, 24, kind="QUICK_FIRE")
     scene = dataclasses.replace(scene, media=(dataclasses.replace(
         scene.media[0], blackbody_intensity=GridValue("flame", 1.0, 0.0)),))
-    made = _mod("scene_builder").build(scene, str(tmp_path), settings=SETTINGS)
+    made = scene_builder.build(scene, str(tmp_path), settings=SETTINGS)
     tfm = render_passes(tmp_path, "tfm")["Combined"][..., :3]
-    _mod("scene_builder").cycles_single_scattering(bpy.context.scene, samples=256)
+    scene_builder.cycles_single_scattering(bpy.context.scene, samples=256)
     made["medium"].visible_diffuse = False
     made["medium"].visible_volume_scatter = False
     cycles = render_passes(tmp_path, "cycles")["Combined"][..., :3]

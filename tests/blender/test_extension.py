@@ -1,13 +1,29 @@
-"""Packaging: the zip Blender's extension tool built installs, renders, and leaves nothing behind."""
+"""Packaging: the zip Blender's extension tool built holds no development code, installs, renders
+(also in a Python that has only bpy, numpy and the zip's wheels), and leaves nothing behind."""
 
+import ast
 import importlib
+import os
+import posixpath
+import subprocess
+import sys
 import threading
 import tomllib
 import zipfile
 
 import bpy
 import numpy as np
-from blender_helpers import MODULE, SETTINGS, render_passes, smoke
+from blender_helpers import MODULE, SETTINGS, read_passes, render_passes, smoke
+
+from tfm_addon.blender import scene_builder
+
+# Development code the zip must not hold: benchmarks and the conformance suite, test scenes, the
+# code that builds them in Blender, the numpy reference renderer and the scikit-image metrics.
+EXCLUDED = ("tfm_addon/bench/", "tfm_addon/scenes.py", "tfm_addon/blender/scene_builder.py",
+            "tfm_addon/engine/metrics.py", "tfm_addon/engine/reference.py")
+# Imports no shipped module may make (Blender's Python has none of them, and ``tfm_addon`` is the
+# repository's copy, not the installed package).
+FOREIGN = {"skimage", "scipy", "matplotlib", "tfm_addon", "pytest"}
 
 # Built-in panels the add-on shows for its engine (a sample of its list).
 OPTED_IN = ("RENDER_PT_format", "RENDER_PT_output", "DATA_PT_lens", "DATA_PT_spot",
@@ -59,7 +75,7 @@ def test_zip_holds_the_extension_and_nothing_else(extension_zip):
     assert "tfm_addon/blender/render_engine.py" in names
     assert any(n.startswith("tfm_addon/engine/shaders/") for n in names)
     stray = [n for n in names if n.split("/")[0] in {"tests", "docs", "scripts", ".venv", "build"}
-             or "__pycache__" in n or n.startswith("tfm_addon/bench/")]
+             or "__pycache__" in n or n.startswith(EXCLUDED)]
     assert stray == []
     assert manifest["id"] == "tfm_volumes"
     assert manifest["license"] == ["SPDX:GPL-3.0-or-later"]
@@ -71,10 +87,130 @@ def test_zip_holds_the_extension_and_nothing_else(extension_zip):
     assert not any(w.split("/")[-1].startswith("numpy") for w in wheels)
 
 
+def _import_problems(names: list[str], sources: dict[str, str]) -> list[str]:
+    """Imports of the zip's modules that would fail in Blender: a relative import of a module the
+    zip lacks, or an absolute import of a FOREIGN package (unless inside ``try: ... except
+    ImportError``, an optional import with a fallback)."""
+    problems = []
+    for path, text in sources.items():
+        package = posixpath.dirname(path).split("/") if posixpath.dirname(path) else []
+        tree = ast.parse(text)
+        optional = {id(inner) for node in ast.walk(tree) if isinstance(node, ast.Try)
+                    and any(isinstance(h.type, ast.Name)
+                            and h.type.id in ("ImportError", "ModuleNotFoundError")
+                            for h in node.handlers)
+                    for stmt in node.body for inner in ast.walk(stmt)}
+        for node in ast.walk(tree):
+            if id(node) in optional:
+                continue
+            if isinstance(node, ast.Import):
+                problems += [f"{path}: import {a.name}" for a in node.names
+                             if a.name.split(".")[0] in FOREIGN]
+            elif isinstance(node, ast.ImportFrom) and node.level == 0:
+                if node.module.split(".")[0] in FOREIGN:
+                    problems.append(f"{path}: from {node.module} import ...")
+            elif isinstance(node, ast.ImportFrom):
+                base = package[:len(package) - (node.level - 1)]
+                target = base + (node.module.split(".") if node.module else [])
+                candidates = ([target + [a.name] for a in node.names] if not node.module
+                              else [target])
+                init = "/".join(target + ["__init__.py"])
+                for parts in candidates:
+                    stem = "/".join(parts)
+                    if stem + ".py" in names or stem + "/__init__.py" in names:
+                        continue
+                    if not node.module and init in sources and parts[-1] in sources[init]:
+                        continue  # a name defined by the package
+                    problems.append(f"{path}: {'.' * node.level}{node.module or ''} -> {stem}")
+    return problems
+
+
+def test_zip_holds_no_development_code(extension_zip):
+    with zipfile.ZipFile(extension_zip) as z:
+        names = z.namelist()
+        sources = {n: z.read(n).decode() for n in names if n.endswith(".py")}
+    for path in EXCLUDED:
+        assert not any(n == path or n.startswith(path) for n in names), path
+    assert "tfm_addon/blender/final_render.py" in names
+    # Every import of every shipped module resolves inside the zip or outside the repository.
+    assert _import_problems(names, sources) == []
+    # The check sees a missing module: a shipped file importing scene_builder would fail it.
+    broken = dict(sources)
+    broken["tfm_addon/blender/viewport.py"] += "\nfrom . import scene_builder\nfrom ..scenes import x\n"
+    assert len(_import_problems(names, broken)) == 2
+
+
+# Run by test_installed_zip_renders_with_bpy_alone in a Python started with -S -E -s: no
+# site-packages, no PYTHONPATH, the repository nowhere on sys.path, only links to bpy and numpy
+# (and the wheels' packages when the zip bundles none) next to this script.
+BARE_RENDER = """
+import os
+import sys
+
+import bpy
+
+zip_path, blend, out = sys.argv[-3:]
+repo_dir = os.path.join(out, "repo")
+os.makedirs(repo_dir)
+bpy.context.preferences.extensions.repos.new(name="Bare", module="bare", custom_directory=repo_dir,
+                                             source='USER')
+assert bpy.ops.extensions.package_install_files(filepath=zip_path, repo="bare",
+                                                enable_on_install=True) == {'FINISHED'}
+bpy.ops.wm.open_mainfile(filepath=blend)
+scene = bpy.context.scene
+assert scene.render.engine == 'TFM', scene.render.engine
+bpy.ops.render.render()
+settings = scene.render.image_settings
+settings.media_type = 'MULTI_LAYER_IMAGE'
+settings.file_format = 'OPEN_EXR_MULTILAYER'
+settings.color_depth = '32'
+bpy.data.images["Render Result"].save_render(os.path.join(out, "render.exr"))
+print("LOADED", " ".join(sorted(n for n in sys.modules if n.startswith("bl_ext.bare."))))
+print("FOREIGN", " ".join(sorted(n for n in sys.modules if n.split(".")[0] in
+                                 ("tfm_addon", "skimage", "scipy", "matplotlib"))))
+"""
+
+
+def test_installed_zip_renders_with_bpy_alone(extension_zip, blank, tmp_path):
+    """The zip installed and enabled in a fresh Python that has bpy and numpy and nothing of the
+    repository or its development tools renders a saved smoke scene."""
+    scene_builder.build(smoke(width=48, height=32, n=16), str(tmp_path), settings=SETTINGS)
+    blend = str(tmp_path / "smoke.blend")
+    bpy.ops.wm.save_as_mainfile(filepath=blend)
+    with zipfile.ZipFile(extension_zip) as z:
+        bundles_wheels = bool(tomllib.loads(z.read("blender_manifest.toml").decode()).get("wheels"))
+    site = os.path.dirname(os.path.dirname(np.__file__))  # site-packages: bpy, numpy
+    bare = tmp_path / "bare"
+    bare.mkdir()
+    keep = ["bpy", "numpy", "numpy.libs", "zstandard"]
+    if not bundles_wheels:  # built offline: the packages the wheels would have brought
+        keep += ["moderngl", "_moderngl.py", "glcontext", "Imath.py"]
+        keep += [n for n in os.listdir(site) if n.startswith("OpenEXR") and n.endswith(".so")]
+    for name in keep:
+        if os.path.exists(os.path.join(site, name)):
+            os.symlink(os.path.join(site, name), bare / name)
+    (bare / "bare_render.py").write_text(BARE_RENDER)
+    out = tmp_path / "out"
+    out.mkdir()
+    env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "PYTHONHOME")}
+    env["BLENDER_USER_RESOURCES"] = str(tmp_path / "user")
+    done = subprocess.run([sys.executable, "-S", "-E", "-s", str(bare / "bare_render.py"),
+                           extension_zip, blend, str(out)],
+                          cwd=str(tmp_path), env=env, capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-3000:]
+    lines = dict(line.split(" ", 1) if " " in line else (line, "")
+                 for line in done.stdout.splitlines() if line.startswith(("LOADED", "FOREIGN")))
+    assert "bl_ext.bare.tfm_volumes.tfm_addon.blender.final_render" in lines["LOADED"].split()
+    assert lines["FOREIGN"] == ""
+    image = read_passes(str(out / "render.exr"))
+    assert image["Scattering"].max() > 0.05
+    assert np.isfinite(image["Combined"]).all()
+
+
 def test_installed_extension_renders(blank, tmp_path):
     assert _tfm_engine_registered()
     scene = smoke(width=48, height=32)
-    importlib.import_module(MODULE + ".tfm_addon.blender.scene_builder").build(
+    scene_builder.build(
         scene, str(tmp_path), settings=SETTINGS)
     image = render_passes(tmp_path)
     # The smoke scatters the spot light toward the camera, and the ground is lit.
@@ -107,7 +243,7 @@ def test_enable_disable_twenty_times_leaves_nothing(addon, tmp_path):
         if i % 5 == 0:  # start the GL thread now and then, so that disabling must stop it
             bpy.ops.wm.read_homefile(use_empty=True)
             pkg = importlib.import_module(MODULE + ".tfm_addon")
-            importlib.import_module(MODULE + ".tfm_addon.blender.scene_builder").build(
+            scene_builder.build(
                 smoke(width=16, height=12, n=16), str(tmp_path), settings=SETTINGS)
             bpy.ops.render.render()
             assert pkg.blender.render_worker.is_running()

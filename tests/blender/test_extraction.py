@@ -11,6 +11,7 @@ import pytest
 from blender_helpers import MODULE
 from mathutils import Euler, Matrix
 
+from tfm_addon.blender import scene_builder
 from tfm_addon.engine.camera import clip_matrix
 
 
@@ -132,7 +133,7 @@ def test_spot_light_gobo_is_read_top_row_first(blank):
 # Meshes --------------------------------------------------------------------------------------
 
 def test_meshes_are_triangulated_coloured_and_instanced(blank):
-    builder = _mod("scene_builder")
+    builder = scene_builder
     cube_mesh = bpy.data.meshes.new("Cube")
     corners = [(x, y, z) for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)]
     cube_mesh.from_pydata(corners, [], [(0, 1, 3, 2), (4, 6, 7, 5), (0, 4, 5, 1), (2, 3, 7, 6),
@@ -167,7 +168,7 @@ def test_meshes_are_triangulated_coloured_and_instanced(blank):
 # Volumes -------------------------------------------------------------------------------------
 
 def test_volume_grid_placement_and_cache(blank, tmp_path):
-    builder, volumes = _mod("scene_builder"), _mod("volumes")
+    builder, volumes = scene_builder, _mod("volumes")
     density = _blob()
     path = builder.write_vdb(str(tmp_path / "blob.vdb"), density, voxel_size_m=0.1)
     ob = _volume(path, location=(1.0, 2.0, 3.0))
@@ -218,7 +219,7 @@ def test_mesh_to_volume_modifier_is_read_and_follows_edits(blank):
 
 
 def test_instanced_volume_takes_the_instance_transform(blank, tmp_path):
-    path = _mod("scene_builder").write_vdb(str(tmp_path / "blob.vdb"), _blob(), voxel_size_m=0.1)
+    path = scene_builder.write_vdb(str(tmp_path / "blob.vdb"), _blob(), voxel_size_m=0.1)
     collection = bpy.data.collections.new("SmokeAsset")
     data = bpy.data.volumes.new("Smoke")
     data.filepath = path
@@ -287,7 +288,7 @@ def test_scatter_plus_absorption_reading_a_grid(blank):
 def test_noise_texture_colour_is_evaluated_per_voxel(blank, tmp_path):
     """A Noise Texture into the Principled Volume's colour: the graph is evaluated over the grid's
     voxels (no fallback to the panel's values): the scattering colour varies as the noise does."""
-    path = _mod("scene_builder").write_vdb(str(tmp_path / "blob.vdb"), _blob(), voxel_size_m=0.1)
+    path = scene_builder.write_vdb(str(tmp_path / "blob.vdb"), _blob(), voxel_size_m=0.1)
     ob = _volume(path)
     mat, nt, out = _material_with()
     node = nt.nodes.new('ShaderNodeVolumePrincipled')
@@ -315,7 +316,7 @@ def test_world_colour_is_ambient(blank):
 
 def test_box_mesh_with_volume_material_is_a_homogeneous_box(blank):
     """A closed mesh that fills its bounding box holds the exact homogeneous box (no grid)."""
-    builder = _mod("scene_builder")
+    builder = scene_builder
     mesh = bpy.data.meshes.new("Box")
     mesh.from_pydata([(x, y, z) for x in (-1, 1) for y in (-1, 1) for z in (0, 2)], [],
                      [(0, 1, 3, 2), (4, 6, 7, 5), (0, 4, 5, 1), (2, 3, 7, 6), (0, 2, 6, 4), (1, 5, 7, 3)])
@@ -390,7 +391,7 @@ def test_every_volume_is_a_medium_and_instances_share_their_grid(blank, tmp_path
               for x in (-1.5, 0.0, 1.5)]
     fog = Medium(sigma_a=(0.0,) * 3, sigma_s=(0.3,) * 3, box_to_world=scenes.translate_scale((0, 2, 1), 1.0))
     scene = Scene(camera=scenes.smoke_scene(16, 12, 16).camera, media=(*copies, fog))
-    made = _mod("scene_builder").build(scene, str(tmp_path))
+    made = scene_builder.build(scene, str(tmp_path))
     assert len({ob.data.name for ob in made["media"][:3]}) == 1
     ex = _extract()
     assert len(ex.media) == 4

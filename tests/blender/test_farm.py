@@ -7,7 +7,9 @@ import sys
 
 import bpy
 import numpy as np
-from blender_helpers import MODULE, ROOT, SETTINGS, smoke
+from blender_helpers import ROOT, SETTINGS, smoke
+
+from tfm_addon.blender import scene_builder
 
 # One worker: Blender with the add-on enabled, rendering the animation of a saved file between
 # two frames, like `blender -b file.blend -s S -e E -a` (the bpy module takes no such arguments).
@@ -52,8 +54,8 @@ def _farm(blend, first, last, out):
 
 
 def test_split_frame_ranges_give_the_frames_of_one_process(blank, tmp_path):
-    made = __import__("importlib").import_module(f"{MODULE}.tfm_addon.blender.scene_builder").build(
-        smoke(width=32, height=24, n=16), str(tmp_path), settings=SETTINGS, samples=16)
+    made = scene_builder.build(smoke(width=32, height=24, n=16), str(tmp_path), settings=SETTINGS,
+                               samples=16)
     scene = bpy.context.scene
     scene.frame_start, scene.frame_end = 1, 4
     camera = scene.camera
@@ -83,8 +85,7 @@ def test_split_frame_ranges_give_the_frames_of_one_process(blank, tmp_path):
 def _smoke_file(tmp_path, name="shot.blend", samples=1):
     """A small smoke scene (a Volume object reading a .vdb next to the .blend) saved to a file;
     the Volume object and the path."""
-    build = __import__("importlib").import_module(f"{MODULE}.tfm_addon.blender.scene_builder").build
-    build(smoke(width=32, height=24, n=16), str(tmp_path), settings=SETTINGS, samples=samples)
+    scene_builder.build(smoke(width=32, height=24, n=16), str(tmp_path), settings=SETTINGS, samples=samples)
     volume = next(ob for ob in bpy.context.scene.objects if ob.type == 'VOLUME')
     return volume, str(tmp_path / name)
 

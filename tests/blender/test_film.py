@@ -8,6 +8,7 @@ import bpy
 import numpy as np
 from blender_helpers import MODULE, render_passes, smoke
 
+from tfm_addon.blender import scene_builder
 from tfm_addon.engine import RenderSettings, metrics
 
 SETTINGS = RenderSettings(view_steps=128, light_steps=128, map_resolution=256, coefficients=16)
@@ -21,10 +22,10 @@ def _over_grey(image):
 
 
 def _renders(tmp_path, transparent: bool):
-    builder = importlib.import_module(MODULE + ".tfm_addon.blender.scene_builder")
     scene = bpy.context.scene
     # No ground: its far edge, a horizon across the frame, would test anti-aliasing instead.
-    builder.build(smoke(width=160, height=90, n=32, with_ground=False), str(tmp_path), settings=SETTINGS)
+    scene_builder.build(smoke(width=160, height=90, n=32, with_ground=False), str(tmp_path),
+                        settings=SETTINGS)
     if not transparent:
         world = scene.world
         world.node_tree.nodes["Background"].inputs["Color"].default_value = (*WORLD, 1.0)
@@ -34,7 +35,7 @@ def _renders(tmp_path, transparent: bool):
         v.diffuse = v.glossy = v.transmission = v.scatter = False
     scene.render.film_transparent = transparent
     tfm = render_passes(tmp_path, "tfm")["Combined"]
-    builder.cycles_single_scattering(scene, samples=CYCLES_SAMPLES)
+    scene_builder.cycles_single_scattering(scene, samples=CYCLES_SAMPLES)
     scene.render.film_transparent = transparent
     t0 = time.perf_counter()
     cycles = render_passes(tmp_path, "cycles")["Combined"]
@@ -68,10 +69,9 @@ def test_opaque_film_shows_the_world_like_cycles(blank, tmp_path):
 def test_viewport_follows_the_film(blank, tmp_path):
     """The viewport draws the combined image: opaque film, the world and alpha 1; transparent,
     the sky's alpha 0 (a settings change re-reads the film)."""
-    builder = importlib.import_module(MODULE + ".tfm_addon.blender.scene_builder")
     changes = importlib.import_module(MODULE + ".tfm_addon.blender.changes")
     scene = bpy.context.scene
-    builder.build(smoke(width=64, height=36, n=32, with_ground=False), str(tmp_path), settings=SETTINGS)
+    scene_builder.build(smoke(width=64, height=36, n=32, with_ground=False), str(tmp_path), settings=SETTINGS)
     scene.world.node_tree.nodes["Background"].inputs["Color"].default_value = (*WORLD, 1.0)
     scene.render.film_transparent = False
     session = importlib.import_module(MODULE + ".tfm_addon.blender.viewport").ViewportSession()

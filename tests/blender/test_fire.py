@@ -10,6 +10,7 @@ import pytest
 from blender_helpers import MODULE, render_passes
 
 from tfm_addon import scenes
+from tfm_addon.blender import scene_builder
 from tfm_addon.engine import RenderSettings, metrics
 
 SETTINGS = RenderSettings(view_steps=128, light_steps=128, map_resolution=256, coefficients=16)
@@ -30,13 +31,13 @@ def _mod(name):
 def test_fire_agrees_with_cycles(blank, tmp_path, case):
     kwargs, samples = CASES[case]
     scene = scenes.fire_scene(96, 54, 32, **kwargs)
-    made = _mod("scene_builder").build(scene, str(tmp_path), settings=SETTINGS)
+    made = scene_builder.build(scene, str(tmp_path), settings=SETTINGS)
     extraction = _mod("extract").extract(bpy.context.evaluated_depsgraph_get())
     assert not [w for w in extraction.all_warnings if "Smoke" in w and "colour grid" not in w
                 and "emits and scatters" not in w], extraction.all_warnings
     assert extraction.media[0].has_emission == scene.media[0].has_emission
     tfm = render_passes(tmp_path, "tfm")["Combined"][..., :3]
-    _mod("scene_builder").cycles_single_scattering(bpy.context.scene, samples=samples)
+    scene_builder.cycles_single_scattering(bpy.context.scene, samples=samples)
     # Cycles lets the fire light the ground and its own smoke (diffuse and volume-scatter rays that
     # meet the emission are direct light); the engine's emission lights nothing, so the comparison
     # keeps those rays from seeing the volume.
@@ -66,7 +67,7 @@ def test_a_constant_emission_glows_where_cycles_puts_the_volume(blank, tmp_path)
     scene = scenes.fire_scene(96, 54, 32, kind="EMISSION")
     scene = dataclasses.replace(scene, media=(dataclasses.replace(
         scene.media[0], emission_strength=GridValue(offset=0.3), blackbody_intensity=GridValue(offset=0.0)),))
-    made = _mod("scene_builder").build(scene, str(tmp_path), settings=SETTINGS)
+    made = scene_builder.build(scene, str(tmp_path), settings=SETTINGS)
     extraction = _mod("extract").extract(bpy.context.evaluated_depsgraph_get())
     medium = extraction.media[0]
     n = np.asarray(medium.density.shape, np.float64)
@@ -74,7 +75,7 @@ def test_a_constant_emission_glows_where_cycles_puts_the_volume(blank, tmp_path)
     print(f"grid {medium.density.shape}, glow box {lo} .. {hi}; notes {extraction.all_warnings}")
     assert np.all(lo <= -1.0) and np.all(hi >= n) and np.any(hi - lo > n + 2.0)   # wider than [-1, n]
     tfm = render_passes(tmp_path, "tfm")["Combined"][..., :3]
-    _mod("scene_builder").cycles_single_scattering(bpy.context.scene, samples=256)
+    scene_builder.cycles_single_scattering(bpy.context.scene, samples=256)
     made["medium"].visible_diffuse = False
     made["medium"].visible_volume_scatter = False
     cycles = render_passes(tmp_path, "cycles")["Combined"][..., :3]

@@ -9,6 +9,7 @@ import pytest
 from blender_helpers import MODULE
 
 from tfm_addon import scenes
+from tfm_addon.blender import scene_builder
 
 
 def _mod(name):
@@ -90,9 +91,8 @@ def test_emission_shader_into_volume_output_with_scatter(blank):
 
 def test_color_ramp_into_emission_is_evaluated_per_voxel(blank, tmp_path):
     """A Color Ramp the affine reader cannot fold is evaluated over the lattice (no fallback)."""
-    builder = _mod("scene_builder")
     scene = scenes.fire_scene(32, 18, 16, kind="EMISSION")
-    made = builder.build(scene, str(tmp_path))
+    made = scene_builder.build(scene, str(tmp_path))
     nt = made["medium"].data.materials[0].node_tree
     pv = next(n for n in nt.nodes if n.bl_idname == 'ShaderNodeVolumePrincipled')
     ramp = nt.nodes.new('ShaderNodeValToRGB')
@@ -109,9 +109,8 @@ def test_color_ramp_into_emission_is_evaluated_per_voxel(blank, tmp_path):
 
 
 def test_unknown_node_is_named_once_and_the_rest_renders(blank, tmp_path):
-    builder = _mod("scene_builder")
     scene = scenes.fire_scene(32, 18, 16, kind="EMISSION")
-    made = builder.build(scene, str(tmp_path))
+    made = scene_builder.build(scene, str(tmp_path))
     nt = made["medium"].data.materials[0].node_tree
     pv = next(n for n in nt.nodes if n.bl_idname == 'ShaderNodeVolumePrincipled')
     magic = nt.nodes.new('ShaderNodeTexMagic')
@@ -127,9 +126,8 @@ def test_unknown_node_is_named_once_and_the_rest_renders(blank, tmp_path):
 
 
 def test_panel_emission_fallback_scales_the_emission_grid(blank, tmp_path):
-    builder = _mod("scene_builder")
     scene = scenes.fire_scene(32, 18, 16, kind="EMISSION")
-    made = builder.build(scene, str(tmp_path), use_node_material=False)
+    made = scene_builder.build(scene, str(tmp_path), use_node_material=False)
     tfm = made["medium"].data.tfm
     tfm.emission_strength, tfm.emission_color, tfm.emission_grid = 3.0, (0.1, 0.2, 0.3), "flame"
     m = _mod("extract").extract(bpy.context.evaluated_depsgraph_get()).media[0]
@@ -180,13 +178,12 @@ def test_surface_and_volume_material_is_named_once(blank):
 def test_material_edit_neither_rereads_nor_rehashes_the_grid(blank, tmp_path):
     """A 64 x 64 x 96 fire: after the first extraction, a material edit re-extracts the medium from the
     cached grids and builds its keys from the file's stamp (no array is hashed)."""
-    builder = _mod("scene_builder")
     volumes = _mod("volumes")
     extract = _mod("extract")
     changes = _mod("changes")
     scene_module = importlib.import_module(f"{MODULE}.tfm_addon.engine.scene")
     fire = scenes.fire_scene(32, 18, 64, kind="FIRE")
-    made = builder.build(fire, str(tmp_path))
+    made = scene_builder.build(fire, str(tmp_path))
     first = extract.extract(bpy.context.evaluated_depsgraph_get())
     reads = volumes.grid_cache.reads
     assert first.media[0].source_key is not None and set(first.media[0].grids) == {"flame", "temperature"}

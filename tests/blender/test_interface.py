@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 from blender_helpers import MODULE, ROOT, SETTINGS, read_passes, render_passes, smoke
 
+from tfm_addon.blender import scene_builder
 from tfm_addon.engine import metrics
 
 
@@ -73,8 +74,8 @@ def test_physics_tab_sets_up_a_fluid_domain_under_tfm(blank):
 
 
 def test_simplify_volume_resolution_halves_the_viewport_grid(blank, tmp_path, direct_worker):
-    builder, extract = _module("blender.scene_builder"), _module("blender.extract")
-    builder.build(smoke(width=80, height=48, n=64), str(tmp_path), settings=SETTINGS)
+    extract = _module("blender.extract")
+    scene_builder.build(smoke(width=80, height=48, n=64), str(tmp_path), settings=SETTINGS)
     depsgraph = bpy.context.evaluated_depsgraph_get()      # the viewport's (mode 'VIEWPORT')
     assert depsgraph.mode == 'VIEWPORT'
     full = extract.extract(depsgraph)
@@ -126,8 +127,7 @@ def test_simplify_downsamples_the_attribute_grids_once_per_grid(addon, monkeypat
 
 
 def test_hide_render_and_excluded_collections_leave_the_render(blank, tmp_path):
-    builder = _module("blender.scene_builder")
-    made = builder.build(smoke(width=48, height=32, n=16), str(tmp_path), settings=SETTINGS)
+    made = scene_builder.build(smoke(width=48, height=32, n=16), str(tmp_path), settings=SETTINGS)
     bar = next(ob for ob in made["meshes"] if ob.name.startswith("Bar"))
     full = render_passes(tmp_path, "full")["Scattering"]
     bar.hide_render = True
@@ -145,8 +145,8 @@ def test_hide_render_and_excluded_collections_leave_the_render(blank, tmp_path):
 
 
 def test_ignored_settings_get_one_report_line(blank, tmp_path):
-    builder, final_render = _module("blender.scene_builder"), _module("blender.final_render")
-    made = builder.build(smoke(width=32, height=24, n=16), str(tmp_path), settings=SETTINGS)
+    final_render = _module("blender.final_render")
+    made = scene_builder.build(smoke(width=32, height=24, n=16), str(tmp_path), settings=SETTINGS)
     made["medium"].visible_shadow = False
     blank.render.use_multiview = True
     bpy.ops.render.render()
@@ -156,8 +156,7 @@ def test_ignored_settings_get_one_report_line(blank, tmp_path):
 
 
 def test_view_layer_passes_reach_the_compositor_from_the_command_line(blank, tmp_path):
-    builder = _module("blender.scene_builder")
-    builder.build(smoke(width=48, height=32, n=16), str(tmp_path), settings=SETTINGS)
+    scene_builder.build(smoke(width=48, height=32, n=16), str(tmp_path), settings=SETTINGS)
     layer = blank.view_layers[0]
     layer.tfm.use_pass_surfaces = False
     tree = bpy.data.node_groups.new("Composite Scattering", 'CompositorNodeTree')
@@ -209,8 +208,8 @@ def _reset_simplify_state(addon):
 
 
 def test_visibility_flags_reach_the_meshes(blank, tmp_path):
-    builder, extract = _module("blender.scene_builder"), _module("blender.extract")
-    made = builder.build(smoke(width=32, height=24, n=16), str(tmp_path), settings=SETTINGS)
+    extract = _module("blender.extract")
+    made = scene_builder.build(smoke(width=32, height=24, n=16), str(tmp_path), settings=SETTINGS)
     bar, ground = sorted(made["meshes"], key=lambda ob: ob.name)
     bar.visible_shadow = False
     ground.visible_camera = False

@@ -9,6 +9,7 @@ import pytest
 from blender_helpers import MODULE, render_passes, smoke
 
 from tfm_addon import scenes
+from tfm_addon.blender import scene_builder
 from tfm_addon.engine import Light, RenderSettings, metrics
 
 SETTINGS = RenderSettings(view_steps=96, light_steps=64, map_resolution=192, coefficients=12)
@@ -22,11 +23,11 @@ def test_area_light_without_normalize_matches_cycles(blank, tmp_path):
     scene = smoke(width=64, height=48, n=24, with_bar=False)    # no shadow for its size to soften
     area = Light(matrix_world=scenes.look_at((-2.5, -1.0, 4.5), (0.0, 0.0, 1.2)), kind="AREA", power_w=400.0,
                  size_m=(1.5, 1.5), name="Panel")
-    made = _mod("scene_builder").build(dataclasses.replace(scene, lights=(area,)), str(tmp_path),
+    made = scene_builder.build(dataclasses.replace(scene, lights=(area,)), str(tmp_path),
                                        settings=SETTINGS, samples=16)
     made["lights"][0].data.normalize = False
     tfm = render_passes(tmp_path, "tfm")["Combined"]
-    _mod("scene_builder").cycles_single_scattering(bpy.context.scene, samples=512)
+    scene_builder.cycles_single_scattering(bpy.context.scene, samples=512)
     cycles = render_passes(tmp_path, "cycles")["Combined"]
     ssim, ratio = metrics.ssim(tfm, cycles), metrics.brightness_ratio(tfm, cycles)
     print(f"area 1.5 x 1.5 m, Normalize off: SSIM {ssim:.4f}, brightness {ratio:.4f}")

@@ -8,6 +8,7 @@ import bpy
 import numpy as np
 from blender_helpers import MODULE, SETTINGS, render_passes, smoke
 
+from tfm_addon.blender import scene_builder
 from tfm_addon.engine import Renderer, metrics
 
 CYCLES_SAMPLES = 1024           # 96x54: a few seconds each on 2 cores
@@ -22,7 +23,7 @@ def _extract(**kwargs):
 
 
 def _cycles(tmp_path, name):
-    _mod("scene_builder").cycles_single_scattering(bpy.context.scene, samples=CYCLES_SAMPLES)
+    scene_builder.cycles_single_scattering(bpy.context.scene, samples=CYCLES_SAMPLES)
     image = render_passes(tmp_path, name)["Combined"]
     bpy.context.scene.render.engine = 'TFM'
     return image
@@ -37,7 +38,7 @@ def _render(scene):
 
 
 def test_a_non_uniformly_scaled_spot_renders_the_ellipse_cycles_renders(blank, tmp_path):
-    made = _mod("scene_builder").build(smoke(width=96, height=54, n=32), str(tmp_path), settings=SETTINGS)
+    made = scene_builder.build(smoke(width=96, height=54, n=32), str(tmp_path), settings=SETTINGS)
     ob = made["lights"][0]
     ob.scale = (1.8, 0.7, 1.3)
     scene = _extract().scene()
@@ -55,7 +56,7 @@ def test_a_non_uniformly_scaled_spot_renders_the_ellipse_cycles_renders(blank, t
 
 
 def test_use_shadow_off_lets_the_light_through_solids_and_medium_as_cycles_does(blank, tmp_path):
-    made = _mod("scene_builder").build(smoke(width=96, height=54, n=32), str(tmp_path), settings=SETTINGS)
+    made = scene_builder.build(smoke(width=96, height=54, n=32), str(tmp_path), settings=SETTINGS)
     made["lights"][0].data.use_shadow = False
     scene = _extract().scene()
     light = scene.lights[0]
@@ -73,7 +74,7 @@ def test_use_shadow_off_lets_the_light_through_solids_and_medium_as_cycles_does(
 
 def test_the_volume_clipping_is_read_and_applied(blank, tmp_path):
     assert bpy.data.volumes.new("Default").render.clipping == np.float32(0.001)   # Blender's default
-    made = _mod("scene_builder").build(smoke(width=48, height=32, n=32), str(tmp_path), settings=SETTINGS)
+    made = scene_builder.build(smoke(width=48, height=32, n=32), str(tmp_path), settings=SETTINGS)
     made["medium"].data.render.clipping = 0.2
     medium = _extract().media[0]
     assert abs(medium.clipping - 0.2) < 1e-6
@@ -90,7 +91,7 @@ def test_the_volume_clipping_is_read_and_applied(blank, tmp_path):
 def test_a_mesh_edit_next_to_the_volume_reads_no_grid(blank, tmp_path):
     Change = _mod("changes").Change
     changes = _mod("changes")
-    made = _mod("scene_builder").build(smoke(width=48, height=32, n=32), str(tmp_path), settings=SETTINGS)
+    made = scene_builder.build(smoke(width=48, height=32, n=32), str(tmp_path), settings=SETTINGS)
     session = _mod("viewport").ViewportSession()
     session.update(bpy.context.evaluated_depsgraph_get())
     assert session.extraction.media

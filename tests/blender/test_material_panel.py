@@ -1,17 +1,17 @@
 """Sigma from a Principled Volume material renders like the same sigma typed into the panel."""
 
-import importlib
 
 import numpy as np
 import pytest
-from blender_helpers import MODULE, SETTINGS, render_passes, smoke
+from blender_helpers import SETTINGS, render_passes, smoke
+
+from tfm_addon.blender import scene_builder
 
 
 def test_principled_volume_equals_panel_sigma(blank, tmp_path):
-    builder = importlib.import_module(MODULE + ".tfm_addon.blender.scene_builder")
     sigma_a, sigma_s = (0.3, 0.2, 0.1), (1.2, 1.6, 2.0)
     scene = smoke(width=64, height=48, n=32, sigma_a=sigma_a, sigma_s=sigma_s)
-    made = builder.build(scene, str(tmp_path), settings=SETTINGS)
+    made = scene_builder.build(scene, str(tmp_path), settings=SETTINGS)
     volume = made["medium"].data
     # The material says: Principled Volume with density, colour and absorption colour.
     node = volume.materials[0].node_tree.nodes["Principled Volume"]

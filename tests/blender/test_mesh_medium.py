@@ -15,6 +15,7 @@ from mathutils import Vector
 from scipy import ndimage
 
 from tfm_addon import scenes
+from tfm_addon.blender import scene_builder
 from tfm_addon.engine import Camera, Light, RenderSettings, Scene, metrics
 
 SETTINGS = RenderSettings(view_steps=128, light_steps=128, map_resolution=256, coefficients=16)
@@ -54,7 +55,7 @@ def _add_medium(kind: str, builder):
 
 
 def _render_both(tmp_path, kind):
-    builder = _mod("blender.scene_builder")
+    builder = scene_builder
     builder.build(_scene(kind), str(tmp_path), settings=SETTINGS, samples=AA_SAMPLES)
     ob = _add_medium(kind, builder)
     tfm = render_passes(tmp_path, "tfm")["Combined"]
@@ -104,7 +105,7 @@ def test_mesh_medium_matches_cycles(blank, tmp_path, kind):
 
 
 def test_orbit_rebuilds_nothing_and_an_edit_rebuilds_once(blank, tmp_path):
-    builder = _mod("blender.scene_builder")
+    builder = scene_builder
     builder.build(_scene("sphere"), str(tmp_path), settings=SETTINGS)
     ob = _add_medium("sphere", builder)
     scene = bpy.context.scene
@@ -138,7 +139,7 @@ def test_orbit_rebuilds_nothing_and_an_edit_rebuilds_once(blank, tmp_path):
 def test_instances_share_one_grid(blank, tmp_path, monkeypatch):
     """Two linked duplicates of a mesh medium: two media, one voxelisation, one density array,
     the mesh's triangles read once (they were read and hashed per instance)."""
-    builder = _mod("blender.scene_builder")
+    builder = scene_builder
     builder.build(_scene("sphere"), str(tmp_path), settings=SETTINGS)
     ob = _add_medium("sphere", builder)
     twin = ob.copy()                       # shares the mesh data

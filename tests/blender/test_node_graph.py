@@ -14,18 +14,15 @@ import numpy as np
 import pytest
 from blender_helpers import MODULE, render_passes, smoke
 
+from tfm_addon.blender import scene_builder
 from tfm_addon.engine import RenderSettings, metrics
 
 SETTINGS = RenderSettings(view_steps=96, light_steps=96, map_resolution=192, coefficients=12)
 CYCLES_SAMPLES = 512        # 64x48: a few seconds on 2 cores
 
 
-def _builder():
-    return importlib.import_module(MODULE + ".tfm_addon.blender.scene_builder")
-
-
 def _smoke_scene(tmp_path, lights: bool = True):
-    made = _builder().build(smoke(width=64, height=48, n=24), str(tmp_path), settings=SETTINGS, samples=16)
+    made = scene_builder.build(smoke(width=64, height=48, n=24), str(tmp_path), settings=SETTINGS, samples=16)
     if not lights:          # emission alone: no light, no bar
         for ob in made["lights"] + made["meshes"][:1]:
             bpy.data.objects.remove(ob)
@@ -45,7 +42,7 @@ def _compare(tmp_path, *, ssim_min=0.98, tolerance=0.03, per_channel=False):
     """TFM then Cycles on the context scene, compared; both images."""
     scene = bpy.context.scene
     tfm = render_passes(tmp_path, "tfm")["Combined"]
-    _builder().cycles_single_scattering(scene, samples=CYCLES_SAMPLES)
+    scene_builder.cycles_single_scattering(scene, samples=CYCLES_SAMPLES)
     t0 = time.perf_counter()
     cycles = render_passes(tmp_path, "cycles")["Combined"]
     seconds = time.perf_counter() - t0
@@ -160,15 +157,15 @@ def test_space_object_scaled_volume_matches_cycles(blank, tmp_path):
     """A volume scaled down on import (a .vdb in centimetres at scale 0.02 here, its voxels 50x
     larger): with Space Object (the default) Cycles divides the density by the scale."""
     scene = smoke(width=64, height=48, n=24)
-    made = _builder().build(scene, str(tmp_path), settings=SETTINGS, samples=16)
+    made = scene_builder.build(scene, str(tmp_path), settings=SETTINGS, samples=16)
     ob = made["medium"]
     assert ob.data.render.space == 'OBJECT'
     m = np.asarray(scene.media[0].index_to_world, np.float64)
     voxel = float(abs(np.linalg.det(m[:3, :3])) ** (1.0 / 3.0)) * 50.0
     path = str(tmp_path / "centimetres.vdb")
-    _builder().write_vdb(path, scene.media[0].density, voxel)
+    scene_builder.write_vdb(path, scene.media[0].density, voxel)
     ob.data.filepath = path
-    ob.matrix_world = _builder().to_blender_matrix(m @ np.diag([1.0 / voxel] * 3 + [1.0]))
+    ob.matrix_world = scene_builder.to_blender_matrix(m @ np.diag([1.0 / voxel] * 3 + [1.0]))
     assert ob.scale[0] == pytest.approx(0.02, rel=1e-3)
     _compare(tmp_path)
 
@@ -224,7 +221,7 @@ def test_node_edit_reevaluates_once_off_blenders_thread_and_camera_move_not_at_a
 def test_procedural_noise_cloud_in_a_cube_matches_cycles(blank, tmp_path):
     """The standard procedural cloud: a 2 m cube, its volume-only material's Principled Density
     Noise Texture (Object coordinates) -> Map Range -> x4, lit by a spot."""
-    made = _builder().build(smoke(width=64, height=48, n=24), str(tmp_path), settings=SETTINGS, samples=16)
+    made = scene_builder.build(smoke(width=64, height=48, n=24), str(tmp_path), settings=SETTINGS, samples=16)
     bpy.data.objects.remove(made["medium"])
     bpy.ops.mesh.primitive_cube_add(size=2.0, location=(0.0, 0.0, 1.2))
     cube = bpy.context.active_object
@@ -249,7 +246,7 @@ def test_procedural_noise_cloud_in_a_cube_matches_cycles(blank, tmp_path):
 
 
 def test_render_report_says_what_auto_chose(blank, tmp_path):
-    _builder().build(smoke(width=64, height=48, n=24), str(tmp_path))     # the add-on's defaults: Auto
+    scene_builder.build(smoke(width=64, height=48, n=24), str(tmp_path))     # the add-on's defaults: Auto
     assert bpy.context.scene.tfm.quality == 'AUTO'
     render_passes(tmp_path, "auto")
     final = importlib.import_module(MODULE + ".tfm_addon.blender.final_render")

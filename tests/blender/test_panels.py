@@ -7,6 +7,8 @@ from types import SimpleNamespace
 import pytest
 from blender_helpers import MODULE, smoke
 
+from tfm_addon.blender import scene_builder
+
 
 class Layout:
     """Records what a panel draws and checks that every drawn property exists."""
@@ -50,8 +52,7 @@ def _draw(panel_name, context):
 
 @pytest.fixture
 def context(blank, tmp_path):
-    builder = importlib.import_module(MODULE + ".tfm_addon.blender.scene_builder")
-    made = builder.build(smoke(width=16, height=12, n=16), str(tmp_path))
+    made = scene_builder.build(smoke(width=16, height=12, n=16), str(tmp_path))
     return SimpleNamespace(engine='TFM', scene=blank, volume=made["medium"].data,
                            light=made["lights"][0].data, world=blank.world)
 

@@ -21,6 +21,8 @@ import numpy as np
 import pytest
 from blender_helpers import MODULE
 
+from tfm_addon.blender import scene_builder
+
 CYCLES_SAMPLES = 128
 SIZE = 128
 
@@ -179,10 +181,10 @@ def test_preview_matches_cycles(blank, tmp_path, kind, shape):
     scene.tfm.quality = 'CUSTOM'
     settings = _mod("blender.final_render").preview_settings(_mod("blender.extract").render_settings(scene),
                                                              SIZE, SIZE)
-    _mod("blender.scene_builder").apply_settings(scene.tfm, settings)
+    scene_builder.apply_settings(scene.tfm, settings)
     same = _as_preview(scene, tmp_path, "tfm")
     route = np.abs(same - tfm).mean()
-    _mod("blender.scene_builder").cycles_single_scattering(scene, samples=CYCLES_SAMPLES)
+    scene_builder.cycles_single_scattering(scene, samples=CYCLES_SAMPLES)
     scene.render.film_transparent = setup["film"]
     for k, value in setup["view"].items():
         setattr(scene.view_settings, k, value)

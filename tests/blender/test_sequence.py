@@ -13,6 +13,7 @@ import numpy as np
 from blender_helpers import MODULE, ROOT, SETTINGS, read_passes, render_passes, smoke
 
 from tfm_addon import scenes
+from tfm_addon.blender import scene_builder
 
 
 def _centroid_x(image):
@@ -21,15 +22,14 @@ def _centroid_x(image):
 
 
 def test_three_frame_sequence_renders_three_frames_from_the_command_line(blank, tmp_path):
-    builder = importlib.import_module(MODULE + ".tfm_addon.blender.scene_builder")
     scene = scenes.smoke_scene(width=64, height=48, n=32)
-    made = builder.build(scene, str(tmp_path), settings=SETTINGS)
+    made = scene_builder.build(scene, str(tmp_path), settings=SETTINGS)
     # Three frames of the puff drifting along +x by 4 voxels a frame.
     density = scene.media[0].density
     for frame in (1, 2, 3):
         shifted = np.zeros_like(density)
         shifted[4 * frame:] = density[:density.shape[0] - 4 * frame]
-        builder.write_vdb(str(tmp_path / f"smoke_{frame:04d}.vdb"), shifted, voxel_size_m=2.0 / 32)
+        scene_builder.write_vdb(str(tmp_path / f"smoke_{frame:04d}.vdb"), shifted, voxel_size_m=2.0 / 32)
     volume = made["medium"].data
     volume.filepath = str(tmp_path / "smoke_0001.vdb")
     volume.is_sequence = True
@@ -67,12 +67,11 @@ def test_three_frame_sequence_renders_three_frames_from_the_command_line(blank, 
 
 
 def test_sequence_outside_its_frame_range_renders_no_medium_quietly(blank, tmp_path):
-    builder = importlib.import_module(MODULE + ".tfm_addon.blender.scene_builder")
     extract = importlib.import_module(MODULE + ".tfm_addon.blender.extract")
     density = np.zeros((8, 8, 8), np.float32)
     density[2:6, 2:6, 2:6] = 1.0
     for frame in (1, 2, 3):
-        builder.write_vdb(str(tmp_path / f"puff_{frame:04d}.vdb"), density)
+        scene_builder.write_vdb(str(tmp_path / f"puff_{frame:04d}.vdb"), density)
     data = bpy.data.volumes.new("Puff")
     data.filepath = str(tmp_path / "puff_0001.vdb")
     data.is_sequence, data.frame_start, data.frame_duration, data.sequence_mode = True, 1, 3, 'CLIP'
@@ -88,13 +87,12 @@ def test_a_frame_missing_from_a_sequence_names_the_file_tried_once(blank, tmp_pa
     """Frames 1, 2 and 4 of a 4-frame sequence on disk: frame 3 renders the rest of the scene and
     the render report names the full path Blender tried, in one line (Blender's own message:
     'puff_0003.vdb not found'); frame 2 renders the medium with no such line."""
-    builder = importlib.import_module(MODULE + ".tfm_addon.blender.scene_builder")
     final_render = importlib.import_module(MODULE + ".tfm_addon.blender.final_render")
-    made = builder.build(smoke(), str(tmp_path), settings=SETTINGS)
+    made = scene_builder.build(smoke(), str(tmp_path), settings=SETTINGS)
     density = np.zeros((8, 8, 8), np.float32)
     density[2:6, 2:6, 2:6] = 1.0
     for frame in (1, 2, 4):
-        builder.write_vdb(str(tmp_path / "seq" / f"puff_{frame:04d}.vdb"), density, 0.25)
+        scene_builder.write_vdb(str(tmp_path / "seq" / f"puff_{frame:04d}.vdb"), density, 0.25)
     data = made["medium"].data
     data.filepath = str(tmp_path / "seq" / "puff_0001.vdb")
     data.is_sequence, data.frame_start, data.frame_duration, data.sequence_mode = True, 1, 4, 'CLIP'

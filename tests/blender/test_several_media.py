@@ -7,6 +7,7 @@ import math
 import bpy
 from blender_helpers import MODULE, SETTINGS
 
+from tfm_addon.blender import scene_builder
 from tfm_addon.engine import Camera, Light, Medium, Scene
 from tfm_addon.scenes import grid_to_world, look_at, smoke_density
 
@@ -26,7 +27,7 @@ def test_moving_one_volume_rebuilds_only_the_map_of_the_light_reaching_it(blank,
     lights = tuple(Light(matrix_world=look_at((x, 0.0, 4.5), (x, 0.0, 1.2)), spot_size_rad=math.radians(30),
                          name=n) for x, n in ((-2.0, "SpotL"), (2.0, "SpotR")))
     camera = Camera(matrix_world=look_at((0.0, -8.0, 1.6), (0, 0, 1.2)), width_px=48, height_px=27)
-    made = _mod("scene_builder").build(Scene(camera=camera, lights=lights, media=media), str(tmp_path),
+    made = scene_builder.build(Scene(camera=camera, lights=lights, media=media), str(tmp_path),
                                        settings=SETTINGS)
     worker = _mod("render_worker").get_worker()
     session = _mod("viewport").ViewportSession()

@@ -9,6 +9,8 @@ import numpy as np
 from blender_helpers import MODULE, SETTINGS, render_passes, smoke
 from mathutils import Matrix
 
+from tfm_addon.blender import scene_builder
+
 
 def _mod(name):
     return importlib.import_module(f"{MODULE}.tfm_addon.blender.{name}")
@@ -24,7 +26,7 @@ def _delta(before, after, key):
 
 def test_change_flags_and_what_gets_rebuilt(blank, tmp_path, flags_of_next_update):
     Change = _mod("changes").Change
-    made = _mod("scene_builder").build(smoke(width=48, height=36), str(tmp_path), settings=SETTINGS)
+    made = scene_builder.build(smoke(width=48, height=36), str(tmp_path), settings=SETTINGS)
     session = _mod("viewport").ViewportSession()
     session.update(bpy.context.evaluated_depsgraph_get())
     camera = session.extraction.camera
@@ -70,7 +72,7 @@ def test_change_flags_and_what_gets_rebuilt(blank, tmp_path, flags_of_next_updat
 
 
 def test_viewport_image_equals_final_render_for_the_same_view(blank, tmp_path):
-    _mod("scene_builder").build(smoke(width=48, height=36), str(tmp_path), settings=SETTINGS)
+    scene_builder.build(smoke(width=48, height=36), str(tmp_path), settings=SETTINGS)
     final = render_passes(tmp_path)["Combined"]
     dg = bpy.context.evaluated_depsgraph_get()
     session = _mod("viewport").ViewportSession()
@@ -105,7 +107,7 @@ def _converged(session, samples, timeout_s=60.0):
 
 
 def test_converged_viewport_equals_the_final_render_at_the_same_samples(blank, tmp_path):
-    _mod("scene_builder").build(smoke(width=48, height=36), str(tmp_path), settings=SETTINGS, samples=6)
+    scene_builder.build(smoke(width=48, height=36), str(tmp_path), settings=SETTINGS, samples=6)
     final = render_passes(tmp_path)["Combined"]
     dg = bpy.context.evaluated_depsgraph_get()
     session = _mod("viewport").ViewportSession()
@@ -125,7 +127,7 @@ def test_two_rendered_viewports_both_show_an_edit_and_closing_one_frees_its_maps
     """Each viewport session has its own worker slot and cache client: two sessions requesting at
     once both converge (on one shared slot the second superseded the first, which never showed a
     frame), and closing one releases what only it kept."""
-    _mod("scene_builder").build(smoke(width=48, height=36), str(tmp_path), settings=SETTINGS)
+    scene_builder.build(smoke(width=48, height=36), str(tmp_path), settings=SETTINGS)
     dg = bpy.context.evaluated_depsgraph_get()
     sessions = [_mod("viewport").ViewportSession() for _ in range(2)]
     for session, (w, h) in zip(sessions, ((48, 36), (40, 30)), strict=True):
@@ -159,7 +161,7 @@ def test_disabling_with_a_viewport_render_in_flight_leaves_no_thread_timer_or_co
         bpy.ops.wm.read_homefile(use_empty=True)
         pkg = importlib.import_module(MODULE + ".tfm_addon")
         viewport = importlib.import_module(MODULE + ".tfm_addon.blender.viewport")
-        importlib.import_module(MODULE + ".tfm_addon.blender.scene_builder").build(
+        scene_builder.build(
             smoke(width=96, height=64, n=16), str(tmp_path), settings=SETTINGS)
         dg = bpy.context.evaluated_depsgraph_get()
         session = viewport.ViewportSession()

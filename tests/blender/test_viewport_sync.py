@@ -9,6 +9,8 @@ import bpy
 import numpy as np
 from blender_helpers import MODULE, SETTINGS, smoke
 
+from tfm_addon.blender import scene_builder
+
 
 def _mod(name):
     return importlib.import_module(f"{MODULE}.tfm_addon.blender.{name}")
@@ -62,7 +64,7 @@ def _converged(session, samples, timeout_s=60.0):
 
 def test_a_selection_click_changes_nothing_and_keeps_the_converged_image(blank, tmp_path):
     Change = _mod("changes").Change
-    made = _mod("scene_builder").build(smoke(width=48, height=36), str(tmp_path), settings=SETTINGS,
+    made = scene_builder.build(smoke(width=48, height=36), str(tmp_path), settings=SETTINGS,
                                        samples=2)
     session, updates = _session_with_updates()
     try:

@@ -9,6 +9,7 @@ import numpy as np
 from blender_helpers import MODULE, render_passes
 
 from tfm_addon import scenes
+from tfm_addon.blender import scene_builder
 from tfm_addon.engine import Camera, Light, RenderSettings, Scene, metrics
 
 SETTINGS = RenderSettings(view_steps=128, light_steps=64, map_resolution=256, coefficients=8)
@@ -37,14 +38,13 @@ def _world_fog(density: float):
 
 
 def test_world_fog_light_shaft_matches_cycles(blank, tmp_path):
-    builder = _mod("scene_builder")
-    builder.build(_shaft_scene(), str(tmp_path), settings=SETTINGS, samples=16)
+    scene_builder.build(_shaft_scene(), str(tmp_path), settings=SETTINGS, samples=16)
     _world_fog(0.06)
     ex = _mod("extract").extract(bpy.context.evaluated_depsgraph_get())
     fog = [m for m in ex.scene().media if m.box_to_world is None and m.density is None]
     assert len(fog) == 1 and np.allclose(fog[0].sigma_s, 0.06 * 0.8)      # Volume Scatter's colour 0.8
     tfm = render_passes(tmp_path, "tfm")["Combined"]
-    builder.cycles_single_scattering(bpy.context.scene, samples=512)
+    scene_builder.cycles_single_scattering(bpy.context.scene, samples=512)
     cycles = render_passes(tmp_path, "cycles")["Combined"]
     ssim, ratio = metrics.ssim(tfm, cycles), metrics.brightness_ratio(tfm, cycles)
     print(f"world fog shaft: SSIM {ssim:.4f}, brightness {ratio:.4f}")

@@ -4,20 +4,16 @@ the world's light from 64 directions (fewer: docs/benchmark.md; TFM_WORLD_DIRECT
 Unshadowed, the same scene came out 1.028 / 1.124 of Cycles' brightness (density 1 / 10)."""
 
 import dataclasses
-import importlib
 import os
 
 import bpy
 import pytest
-from blender_helpers import MODULE, render_passes, smoke
+from blender_helpers import render_passes, smoke
 
+from tfm_addon.blender import scene_builder
 from tfm_addon.engine import RenderSettings, metrics
 
 SETTINGS = RenderSettings(view_steps=96, light_steps=64, map_resolution=192, coefficients=12)
-
-
-def _builder():
-    return importlib.import_module(MODULE + ".tfm_addon.blender.scene_builder")
 
 
 def _against_cycles(tmp_path, cycles_samples: int):
@@ -29,7 +25,7 @@ def _against_cycles(tmp_path, cycles_samples: int):
     shadowed = render_passes(tmp_path, "tfm")["Combined"]
     tfm_settings.world_light = 'UNSHADOWED'
     unshadowed = render_passes(tmp_path, "unshadowed")["Combined"]
-    _builder().cycles_single_scattering(bpy.context.scene, samples=cycles_samples)
+    scene_builder.cycles_single_scattering(bpy.context.scene, samples=cycles_samples)
     cycles = render_passes(tmp_path, "cycles")["Combined"]
     assert float(cycles[..., :3].mean()) > 1e-3
     figures = [(metrics.ssim(im, cycles), metrics.brightness_ratio(im, cycles))
@@ -44,7 +40,7 @@ def test_smoke_lit_by_a_white_world_matches_cycles(blank, tmp_path, density):
     scene = dataclasses.replace(scene, lights=(), media=(dataclasses.replace(
         m, sigma_a=tuple(density * 0.1 * c / c for c in m.sigma_a),
         sigma_s=tuple(density * 0.9 * c / c for c in m.sigma_s)),))
-    _builder().build(scene, str(tmp_path), settings=SETTINGS, samples=16)
+    scene_builder.build(scene, str(tmp_path), settings=SETTINGS, samples=16)
     ((ssim, ratio), (ssim_u, ratio_u)), n = _against_cycles(tmp_path, 512)
     print(f"white world, density x{density:g}, {n} directions: SSIM {ssim:.4f}, brightness {ratio:.4f} "
           f"(unshadowed: SSIM {ssim_u:.4f}, {ratio_u:.4f})")
@@ -74,7 +70,7 @@ def _hdri(width=64, height=32):
 def test_smoke_lit_by_an_hdri_matches_cycles(blank, tmp_path):
     scene = smoke(width=64, height=48, n=24, ambient=(1.0, 1.0, 1.0))
     scene = dataclasses.replace(scene, lights=())
-    _builder().build(scene, str(tmp_path), settings=SETTINGS, samples=16)
+    scene_builder.build(scene, str(tmp_path), settings=SETTINGS, samples=16)
     world = bpy.context.scene.world
     nt = world.node_tree
     bg = next(n for n in nt.nodes if n.bl_idname == 'ShaderNodeBackground')

@@ -3,7 +3,9 @@
 Volume objects reading .vdb files written here (heterogeneous media; instances of one grid share
 one Volume data) or cubes with a volume material (homogeneous boxes), lights of every kind, meshes
 with Diffuse BSDF materials, a camera and a world.
-Used by the demo scene and by the tests, which render the same Scene directly and through Blender.
+Used by the demo scene, the benchmarks and the tests, which render the same Scene directly and
+through Blender. Development code, left out of the extension zip (the add-on never imports it): it
+is imported from the repository and needs only bpy and the properties of an enabled add-on.
 """
 
 from __future__ import annotations
