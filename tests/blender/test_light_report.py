@@ -49,11 +49,11 @@ def test_light_sizes_are_said_in_one_line(blank):
 def test_light_ray_visibility_matches_cycles(blank, tmp_path, flag):
     """A spot whose Ray Visibility ▸ Volume Scatter is off lights the ground but not the smoke; with
     Diffuse off, the smoke but not the ground (Cycles' light visibility)."""
-    made = _mod("scene_builder").build(smoke(width=64, height=48, n=24), str(tmp_path), settings=SETTINGS,
-                                       samples=16)
+    made = scene_builder.build(smoke(width=64, height=48, n=24), str(tmp_path), settings=SETTINGS,
+                               samples=16)
     setattr(made["lights"][0], flag, False)
     tfm = render_passes(tmp_path, "tfm")["Combined"]
-    _mod("scene_builder").cycles_single_scattering(bpy.context.scene, samples=512)
+    scene_builder.cycles_single_scattering(bpy.context.scene, samples=512)
     cycles = render_passes(tmp_path, "cycles")["Combined"]
     ssim, ratio = metrics.ssim(tfm, cycles), metrics.brightness_ratio(tfm, cycles)
     print(f"spot with {flag} off: SSIM {ssim:.4f}, brightness {ratio:.4f}")
