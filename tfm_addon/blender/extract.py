@@ -177,7 +177,7 @@ class _Arrays:
         return result
 
 
-def render_settings(scene) -> RenderSettings:
+def render_settings(scene, viewport: bool = False) -> RenderSettings:
     """RenderSettings from the scene's TFM properties."""
     tfm = scene.tfm
     return RenderSettings(
@@ -192,7 +192,7 @@ def render_settings(scene) -> RenderSettings:
         ambient=tfm.ambient,
         quality=tfm.quality,
         film_transparent=bool(scene.render.film_transparent),
-        world_light=getattr(tfm, "world_light", 'UNSHADOWED'),
+        world_light=getattr(tfm, "world_light_viewport" if viewport else "world_light", 'UNSHADOWED'),
         world_directions=int(getattr(tfm, "world_directions", 16)),
     )
 
@@ -224,7 +224,7 @@ def extract(depsgraph, *, parts: Change = Change.ALL, previous: Extraction | Non
     warnings = dict(previous.warnings)
 
     if Change.SETTINGS in parts:
-        changes["settings"] = render_settings(scene)
+        changes["settings"] = render_settings(scene, viewport=depsgraph.mode != 'RENDER')
         warnings[Change.SETTINGS] = tuple(_settings_warnings(scene))
 
     if Change.CAMERA in parts:
@@ -276,7 +276,8 @@ def scene_state(depsgraph) -> dict:
         if ob.type in meshes.MESH_TYPES:
             entry += tuple(meshes.visibility(instance, depsgraph.view_layer).values())
         census.append(entry)
-    return {"settings": (render_settings(scene), tuple(_settings_warnings(scene))),
+    return {"settings": (render_settings(scene, viewport=depsgraph.mode != 'RENDER'),
+                         tuple(_settings_warnings(scene))),
             "world": ambient_radiance(scene.world),
             "frame": (scene.frame_current, float(scene.frame_subframe)),
             "size": render_size(scene),

@@ -43,7 +43,8 @@ class TFM_PT_render(_TFMPanel, bpy.types.Panel):
         world_col = col.column()
         world_col.active = tfm.ambient
         world_col.prop(tfm, "world_light")
-        if tfm.world_light == 'SHADOWED':
+        world_col.prop(tfm, "world_light_viewport", text="Viewport")
+        if 'SHADOWED' in (tfm.world_light, tfm.world_light_viewport):
             world_col.prop(tfm, "world_directions")
         col.prop(tfm, "viewport_scale")
         col.prop(tfm, "samples")

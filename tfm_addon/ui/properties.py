@@ -96,6 +96,16 @@ class TFM_SceneSettings(bpy.types.PropertyGroup):
         default='SHADOWED',
         description="How the world colour lights the medium and the surfaces",
     )
+    world_light_viewport: EnumProperty(
+        name="Viewport World Light",
+        items=(
+            ('SHADOWED', "Shadowed", "As the final render: the world's light through what lies in its way"),
+            ('UNSHADOWED', "Unshadowed", "The world's light added as is: the viewport stays fast (a shadowed "
+             "world costs a light pass per direction)"),
+        ),
+        default='UNSHADOWED',
+        description="How the world colour lights the medium and the surfaces in the viewport",
+    )
     world_directions: IntProperty(
         name="World Directions", default=16, min=4, max=128,
         description="Directions the shadowed world light comes from: more is smoother and slower",
