@@ -44,6 +44,24 @@ def egl_device_request() -> tuple[int | None, str]:
     return index, ""
 
 
+def foreign_wheels(paths: list[str] | None = None) -> list[str]:
+    """Compiled modules of moderngl or glcontext on ``paths`` (default sys.path) built for another
+    CPython than this one (``mgl.cpython-313-...so``, ``mgl.cp313-win_amd64.pyd``)."""
+    mine = (f"cpython-{sys.version_info.major}{sys.version_info.minor}",
+            f"cp{sys.version_info.major}{sys.version_info.minor}")
+    found = []
+    for base in sys.path if paths is None else paths:
+        for package in ("moderngl", "glcontext"):
+            folder = os.path.join(base, package)
+            if not os.path.isdir(folder):
+                continue
+            for name in sorted(os.listdir(folder)):
+                tagged = ".cpython-3" in name or (name.endswith(".pyd") and ".cp3" in name)
+                if tagged and not any(f".{tag}" in name for tag in mine):
+                    found.append(os.path.join(folder, name))
+    return found
+
+
 def create_context():
     """A standalone OpenGL >= 3.3 context, current on the calling thread. On Linux the EGL device
     is TFM_EGL_DEVICE's index when set (glcontext's ``device_index``: the order of
@@ -52,7 +70,16 @@ def create_context():
     global device_note
     try:
         import moderngl
-    except ImportError as exc:  # pragma: no cover - packaging error
+    except ImportError as exc:  # a packaging error: say which, not "the graphics driver"
+        foreign = foreign_wheels()
+        if foreign:
+            raise GLUnavailableError(
+                f"The moderngl installed with the add-on was built for another Python ({foreign[0]}) than "
+                f"Blender's Python {sys.version_info.major}.{sys.version_info.minor}: this Blender installed "
+                f"the extension's wheels without matching them to its Python (Blender 4.2.0 does). Install "
+                f"the extension built for Python {sys.version_info.major}.{sys.version_info.minor} "
+                f"(scripts/build_extension.py --python {sys.version_info.major}.{sys.version_info.minor}) "
+                f"or use Blender 4.2.1 or later.") from exc
         raise GLUnavailableError(f"the moderngl package is missing ({exc})") from exc
     index, device_note = egl_device_request()
     errors = []
