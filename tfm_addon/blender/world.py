@@ -55,6 +55,21 @@ def environment(world) -> tuple[np.ndarray | None, str | None]:
     w, h = image.size
     if w < 1 or h < 1:
         return None, f"World '{world.name}': image '{image.name}' could not be loaded"
+    return _image_radiance(image) * np.float32(strength), note
+
+
+_images: dict = {}      # image signature -> its radiance averaged down (the last ones read)
+
+
+def _image_radiance(image) -> np.ndarray:
+    """An image's RGB averaged down to at most ENVIRONMENT_SIDE wide, top row first; kept by the
+    image's identity, size, file and dirty flag, so that a scene update (a click) does not read an
+    HDRI's pixels again."""
+    w, h = image.size
+    key = (image.as_pointer(), image.name_full, w, h, image.channels, image.filepath_raw, image.is_dirty)
+    hit = _images.get(key)
+    if hit is not None:
+        return hit
     px = np.empty(w * h * image.channels, np.float32)
     image.pixels.foreach_get(px)
     rgb = px.reshape(h, w, image.channels)[::-1, :, :3]        # Blender's rows are bottom first
@@ -62,7 +77,12 @@ def environment(world) -> tuple[np.ndarray | None, str | None]:
     hh, ww = (h // f) * f, (w // f) * f
     if f > 1 and hh > 0 and ww > 0:
         rgb = rgb[:hh, :ww].reshape(hh // f, f, ww // f, f, 3).mean(axis=(1, 3))
-    return np.ascontiguousarray(rgb * np.float32(strength), np.float32), note
+    out = np.ascontiguousarray(rgb, np.float32)
+    out.setflags(write=False)
+    if len(_images) >= 4:
+        _images.pop(next(iter(_images)))
+    _images[key] = out
+    return out
 
 
 def ambient_radiance(world) -> tuple[RGB, str | None]:
