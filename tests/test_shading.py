@@ -101,8 +101,7 @@ def test_resolve_constant_albedo_needs_no_colour_grid_and_mask_empties_outside()
 def test_procedural_density_reads_generated_coordinates():
     """A Gradient Texture with its Vector unlinked reads Generated coordinates (the texture space)."""
     shape = (8, 1, 1)
-    graph = S.ShaderGraph((S.Node("TEX_GRADIENT", (("gradient_type", "LINEAR"),),
-                                  (S.Input("Vector", "VECTOR", (0.0, 0.0, 0.0)),)),
+    graph = S.ShaderGraph((S.Node("TEX_GRADIENT", (("gradient_type", "LINEAR"),)),     # no Vector input
                            _principled(L(0, "Fac"))), L(1, "Volume", "SHADER"),
                           texspace=((3.5, 0.0, 0.0), (4.0, 1.0, 1.0)))
     r = S.resolve(graph, {}, shape, np.eye(4))

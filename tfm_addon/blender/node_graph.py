@@ -133,7 +133,9 @@ def _inputs(node):
         return [("Factor", by_id[f]), ("A", by_id[a]), ("B", by_id[b])]
     if kind == 'ShaderNodeMixRGB':
         return [("Factor", node.inputs["Fac"]), ("A", node.inputs["Color1"]), ("B", node.inputs["Color2"])]
-    return [(s.identifier, s) for s in node.inputs if s.enabled and s.type != 'STRING']
+    texture = node.bl_idname.startswith('ShaderNodeTex')
+    return [(s.identifier, s) for s in node.inputs if s.enabled and s.type != 'STRING'
+            and not (texture and s.identifier == "Vector" and not s.is_linked)]   # unlinked: Generated
 
 
 def _output_name(node, socket) -> str:

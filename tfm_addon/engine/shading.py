@@ -603,10 +603,11 @@ def _mapping(node, ins, ev):
 
 
 def _texture_vector(ins, ev):
+    """A texture's coordinates: its Vector input, or Generated where the compiler left an unlinked
+    Vector out (as Cycles' texture nodes read Generated coordinates by default)."""
     v = ins.get("Vector")
-    unlinked = v is None or (np.ndim(v) == 1 and not np.any(v))
-    if unlinked and ev.position is not None:    # an unlinked Vector reads Generated coordinates
-        v = _tex_coord(None, {}, ev)["Generated"]
+    if v is None:
+        v = _tex_coord(None, {}, ev).get("Generated", np.zeros(3, F))
     return np.broadcast_to(np.asarray(v, np.float64), (ev.n, 3))
 
 

@@ -15,6 +15,7 @@ integral, and a medium sample's sum of phase-weighted shares is close to L. An e
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 
@@ -91,8 +92,6 @@ def mean_radiance(env: np.ndarray) -> tuple[float, float, float]:
 def with_world_light(scene: Scene, n: int = DEFAULT_DIRECTIONS) -> Scene:
     """``scene`` with its ambient light replaced by ``n`` shadowed world suns (what a frame renders
     when RenderSettings.world_light is 'SHADOWED'); the world seen behind everything is unchanged."""
-    from dataclasses import replace
-
     if not any(c > 0.0 for c in scene.ambient):
         return scene
     env = scene.environment
