@@ -51,6 +51,7 @@ EXPECT: dict[str, str] = {
     "clamp": "gives a medium where the grids are empty, up to Cycles' volume bounds",
     "mix_float": "gives a medium where the grids are empty, up to Cycles' volume bounds",
     "world_color": "the world lights it alone, from 16 directions",
+    "world_hdri": "the world lights it alone, from 16 directions",
 }
 # 'wrong': TFM renders the row, wrongly, and says nothing: a defect this suite found. The value
 # says what differs from Cycles.
@@ -773,6 +774,63 @@ for _kind, _loc in (('SPOT', (2.5, -2.5, 3.0)), ('POINT', (-1.8, -1.5, 2.2)), ('
 
     ROWS.append(Row(id=f"light_{_kind.lower()}", title=f"{_kind.title()} light (Add menu defaults) "
                     "with the smoke", build=_build))
+
+
+for _flag, _what in (('visible_volume_scatter', "Volume Scatter"), ('visible_diffuse', "Diffuse")):
+    def _build(tmpdir, flag=_flag):
+        mat, nt, out = material()
+        principled(nt, out)
+        base(lights=None)
+        setattr(light('SPOT'), flag, False)
+        volume_object(tmpdir, mat=mat)
+
+    ROWS.append(Row(id=f"light_{_flag}_off", title=f"Spot light, Object ▸ Visibility ▸ Ray Visibility ▸ "
+                    f"{_what} off", build=_build))
+
+
+@row("area_normalize_off", "Area light 1.5 × 1.5 m, Normalize off (its power grows with its area)")
+def _(tmpdir):
+    mat, nt, out = material()
+    principled(nt, out)
+    base(lights=None)
+    area = light('AREA', (2.0, -2.0, 2.5), energy=200.0)
+    area.data.size = 1.5
+    area.data.normalize = False
+    volume_object(tmpdir, mat=mat)
+
+
+@row("world_hdri", "World ▸ Environment Texture (an equirectangular image made by code) lighting the "
+     "smoke, no lamp", coloured=True)
+def _(tmpdir):
+    import bpy
+
+    mat, nt, out = material()
+    principled(nt, out)
+    base(lights=None)
+    world = bpy.context.scene.world
+    bg = next(n for n in world.node_tree.nodes if n.bl_idname == 'ShaderNodeBackground')
+    env = world.node_tree.nodes.new('ShaderNodeTexEnvironment')
+    env.image = _sky_image()
+    world.node_tree.links.new(env.outputs["Color"], bg.inputs["Color"])
+    volume_object(tmpdir, mat=mat)
+
+
+def _sky_image(width: int = 64, height: int = 32):
+    """A blue sky over a dark ground with a small warm patch of high radiance 30 degrees up (an
+    equirectangular float image, Blender's rows bottom first)."""
+    import bpy
+
+    v = (np.arange(height) + 0.5) / height
+    u = (np.arange(width) + 0.5) / width
+    vv, uu = np.meshgrid(v, u, indexing="ij")
+    theta, phi = np.pi * (1.0 - vv), np.pi - 2.0 * np.pi * uu
+    d = np.stack([np.sin(theta) * np.cos(phi), np.sin(theta) * np.sin(phi), np.cos(theta)], -1)
+    rgb = np.where((d[..., 2] > 0)[..., None], [0.25, 0.45, 0.9], [0.05, 0.04, 0.03]).astype(np.float32)
+    sun = np.array([0.6, -0.6, 0.5]) / np.linalg.norm([0.6, -0.6, 0.5])
+    rgb[(d @ sun) > 0.96] = (40.0, 30.0, 20.0)
+    image = bpy.data.images.new("Sky", width, height, float_buffer=True)
+    image.pixels.foreach_set(np.concatenate([rgb, np.ones((height, width, 1), np.float32)], -1).ravel())
+    return image
 
 
 @row("mesh_shadow", "A mesh (Diffuse plane) casting its shadow into the smoke")

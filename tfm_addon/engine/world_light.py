@@ -9,7 +9,8 @@ over the sphere by a Fibonacci lattice, each carrying the irradiance of its shar
 angle, L · 4π/n: the sum over the suns is a quadrature of that integral. Where nothing shadows,
 the sum of a surface's cos θ · 4π/n over the suns above it is close to π, the exact cosine
 integral, and a medium sample's sum of phase-weighted shares is close to L. An environment image
-(an HDRI) gives each direction the irradiance of the part of the sphere nearest to it.
+(an HDRI) gives each direction the irradiance of the part of the sphere nearest to it, coming from
+that part's brightness-weighted mean direction.
 """
 
 from __future__ import annotations
@@ -75,11 +76,18 @@ def environment_suns(env: np.ndarray, n: int = DEFAULT_DIRECTIONS) -> tuple[Ligh
     dirs, omega = environment_directions(env)
     centres = directions(n)
     nearest = np.argmax(dirs @ centres.T, axis=1)
+    weight = env.reshape(-1, 3) * omega[:, None]
     power = np.zeros((n, 3))
-    np.add.at(power, nearest, env.reshape(-1, 3) * omega[:, None])
+    np.add.at(power, nearest, weight)
+    # each sun comes from its part's brightness-weighted mean direction (a small bright sun in the
+    # image lights from where it is, not from the lattice point nearest to it)
+    toward = np.zeros((n, 3))
+    np.add.at(toward, nearest, dirs * weight.mean(axis=1)[:, None])
+    length = np.linalg.norm(toward, axis=1, keepdims=True)
+    toward = np.where(length > 1e-12, toward / np.maximum(length, 1e-300), centres)
     return tuple(Light(matrix_world=_sun_matrix(w), color=tuple(float(c) for c in power[k]), power_w=1.0,
                        kind="SUN", name=f"World {k + 1}/{n}", from_world=True)
-                 for k, w in enumerate(centres) if np.any(power[k] > 0.0))
+                 for k, w in enumerate(toward) if np.any(power[k] > 0.0))
 
 
 def mean_radiance(env: np.ndarray) -> tuple[float, float, float]:
