@@ -66,3 +66,17 @@ def crop_to_active(scene: Scene) -> Scene:
 def smoke(width=64, height=48, n=32, **kwargs) -> Scene:
     """The renderer's smoke test scene, cropped like a .vdb file crops it."""
     return crop_to_active(scenes.smoke_scene(width=width, height=height, n=n, **kwargs))
+
+
+def against_cycles(directory, samples: int = 512) -> tuple[float, float, np.ndarray]:
+    """The context scene rendered by TFM, then by Cycles with single scattering (``samples``):
+    (SSIM, brightness ratio) of TFM against Cycles, and Cycles' Combined."""
+    import bpy
+
+    from tfm_addon.blender import scene_builder
+    from tfm_addon.engine import metrics
+
+    tfm = render_passes(directory, "tfm")["Combined"]
+    scene_builder.cycles_single_scattering(bpy.context.scene, samples=samples)
+    cycles = render_passes(directory, "cycles")["Combined"]
+    return metrics.ssim(tfm, cycles), metrics.brightness_ratio(tfm, cycles), cycles

@@ -6,11 +6,11 @@ import importlib
 
 import bpy
 import pytest
-from blender_helpers import MODULE, render_passes, smoke
+from blender_helpers import MODULE, against_cycles, smoke
 
 from tfm_addon import scenes
 from tfm_addon.blender import scene_builder
-from tfm_addon.engine import Light, RenderSettings, metrics
+from tfm_addon.engine import Light, RenderSettings
 
 SETTINGS = RenderSettings(view_steps=96, light_steps=64, map_resolution=192, coefficients=12)
 
@@ -26,10 +26,7 @@ def test_area_light_without_normalize_matches_cycles(blank, tmp_path):
     made = scene_builder.build(dataclasses.replace(scene, lights=(area,)), str(tmp_path),
                                        settings=SETTINGS, samples=16)
     made["lights"][0].data.normalize = False
-    tfm = render_passes(tmp_path, "tfm")["Combined"]
-    scene_builder.cycles_single_scattering(bpy.context.scene, samples=512)
-    cycles = render_passes(tmp_path, "cycles")["Combined"]
-    ssim, ratio = metrics.ssim(tfm, cycles), metrics.brightness_ratio(tfm, cycles)
+    ssim, ratio, cycles = against_cycles(tmp_path)
     print(f"area 1.5 x 1.5 m, Normalize off: SSIM {ssim:.4f}, brightness {ratio:.4f}")
     assert ssim >= 0.98 and abs(ratio - 1.0) <= 0.10     # the point approximation's stated tolerance
 
@@ -52,10 +49,7 @@ def test_light_ray_visibility_matches_cycles(blank, tmp_path, flag):
     made = scene_builder.build(smoke(width=64, height=48, n=24), str(tmp_path), settings=SETTINGS,
                                samples=16)
     setattr(made["lights"][0], flag, False)
-    tfm = render_passes(tmp_path, "tfm")["Combined"]
-    scene_builder.cycles_single_scattering(bpy.context.scene, samples=512)
-    cycles = render_passes(tmp_path, "cycles")["Combined"]
-    ssim, ratio = metrics.ssim(tfm, cycles), metrics.brightness_ratio(tfm, cycles)
+    ssim, ratio, cycles = against_cycles(tmp_path)
     print(f"spot with {flag} off: SSIM {ssim:.4f}, brightness {ratio:.4f}")
     assert float(cycles[..., :3].mean()) > 1e-3
     assert ssim >= 0.98 and abs(ratio - 1.0) <= 0.03

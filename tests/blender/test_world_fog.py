@@ -6,11 +6,11 @@ import math
 
 import bpy
 import numpy as np
-from blender_helpers import MODULE, render_passes
+from blender_helpers import MODULE, against_cycles
 
 from tfm_addon import scenes
 from tfm_addon.blender import scene_builder
-from tfm_addon.engine import Camera, Light, RenderSettings, Scene, metrics
+from tfm_addon.engine import Camera, Light, RenderSettings, Scene
 
 SETTINGS = RenderSettings(view_steps=128, light_steps=64, map_resolution=256, coefficients=8)
 
@@ -43,10 +43,7 @@ def test_world_fog_light_shaft_matches_cycles(blank, tmp_path):
     ex = _mod("extract").extract(bpy.context.evaluated_depsgraph_get())
     fog = [m for m in ex.scene().media if m.box_to_world is None and m.density is None]
     assert len(fog) == 1 and np.allclose(fog[0].sigma_s, 0.06 * 0.8)      # Volume Scatter's colour 0.8
-    tfm = render_passes(tmp_path, "tfm")["Combined"]
-    scene_builder.cycles_single_scattering(bpy.context.scene, samples=512)
-    cycles = render_passes(tmp_path, "cycles")["Combined"]
-    ssim, ratio = metrics.ssim(tfm, cycles), metrics.brightness_ratio(tfm, cycles)
+    ssim, ratio, cycles = against_cycles(tmp_path)
     print(f"world fog shaft: SSIM {ssim:.4f}, brightness {ratio:.4f}")
     assert float(cycles[..., :3].mean()) > 1e-3
     assert ssim >= 0.98 and abs(ratio - 1.0) <= 0.03
