@@ -216,7 +216,7 @@ def test_a_frame_above_the_memory_budget_is_refused_before_rendering(blank, tmp_
     assert need > 0.01 * 1024 ** 3
     assert message.startswith(f"The frame is 256x256 (0.1 megapixels): TFM would need about "
                               f"{need / 1024 ** 3:.2f} GiB")
-    assert "above the memory budget of 0.01 GiB (Render Properties > Sampling > Memory Budget)" in message
+    assert "above the memory budget of 0.01 GiB (Render Properties > Performance > Memory Limit)" in message
 
     monkeypatch.setenv(final_render.BUDGET_ENV, "64")        # the environment overrides the scene
     assert final_render.budget_refusal(bpy.context.scene, 256, 256, 3) is None

@@ -248,7 +248,7 @@ def test_enable_disable_twenty_times_leaves_nothing(addon, tmp_path):
             bpy.ops.render.render()
             assert pkg.blender.render_worker.is_running()
             assert len(_gl_threads()) == baseline_threads + 1
-    assert set(_tfm_classes()) >= {"TFM_PT_render", "TFM_SceneSettings", "TFMRenderEngine"}
+    assert set(_tfm_classes()) >= {"TFM_PT_volumes", "TFM_SceneSettings", "TFMRenderEngine"}
 
 
 def _raise(ex):

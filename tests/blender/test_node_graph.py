@@ -252,4 +252,5 @@ def test_render_report_says_what_auto_chose(blank, tmp_path):
     final = importlib.import_module(MODULE + ".tfm_addon.blender.final_render")
     lines = [m for level, m in final.last_messages if m.startswith("Auto quality:")]
     assert len(lines) == 1, final.last_messages
-    assert "view steps" in lines[0] and "coefficients" in lines[0] and "transmittance maps up to" in lines[0]
+    assert all(f" {name} " in lines[0] for name in ("Steps", "Shadow Steps", "Coefficients",
+                                                      "Volume Shadow Maps up to"))

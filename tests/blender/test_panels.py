@@ -1,5 +1,7 @@
-"""The panels draw only properties that exist, and only for the TFM engine (a recording layout
-stands in for Blender's UI, which background mode does not have)."""
+"""The panels draw only properties that exist, only for the TFM engine, and in Blender's terms:
+Auto shows what it chose and hides the hand-set fields, the world light has one place, the light's
+settings sit under Blender's Light panel (a recording layout stands in for Blender's UI, which
+background mode does not have)."""
 
 import importlib
 from types import SimpleNamespace
@@ -41,12 +43,16 @@ class Layout:
         pass
 
 
-def _draw(panel_name, context):
-    panel = getattr(importlib.import_module(MODULE + ".tfm_addon.ui.panels"), panel_name)
+def _panel(panel_name):
+    return getattr(importlib.import_module(MODULE + ".tfm_addon.ui.panels"), panel_name)
+
+
+def _draw(panel_name, context, method="draw"):
+    panel = _panel(panel_name)
     assert panel.poll(context)
     assert not panel.poll(SimpleNamespace(**{**context.__dict__, "engine": "CYCLES"}))
     drawn = []
-    panel.draw(SimpleNamespace(layout=Layout(drawn)), context)
+    getattr(panel, method)(SimpleNamespace(layout=Layout(drawn)), context)
     return drawn
 
 
@@ -57,11 +63,45 @@ def context(blank, tmp_path):
                            light=made["lights"][0].data, world=blank.world)
 
 
-def test_render_panels(context):
-    assert {"view_steps", "light_steps", "sampling", "method", "ambient"} <= set(
-        _draw("TFM_PT_render", context))
-    assert {"coefficients", "density_weight_auto", "density_weight", "map_resolution"} <= set(
-        _draw("TFM_PT_render_maps", context))
+RENDER_PANELS = ("TFM_PT_sampling", "TFM_PT_light_paths", "TFM_PT_volumes", "TFM_PT_volume_shadows",
+                 "TFM_PT_performance")
+# Set by hand under Custom; under Auto chosen per scene, and not shown.
+MANUAL = ("view_steps", "light_steps", "sampling", "coefficients", "tfm_filter", "density_weight_auto",
+          "density_weight")
+
+
+def _render_tab(context):
+    return [name for panel in RENDER_PANELS for name in _draw(panel, context)]
+
+
+def test_auto_shows_what_it_chose_and_hides_the_manual_fields(context, addon):
+    import bpy
+
+    final_render = importlib.import_module(MODULE + ".tfm_addon.blender.final_render")
+    final_render.auto_choices.pop(context.scene.name, None)
+    assert context.scene.tfm.quality == 'AUTO'
+    drawn = _render_tab(context)
+    assert not set(MANUAL) & set(drawn), drawn
+    assert {"samples", "viewport_samples", "quality", "method", "map_resolution", "memory_budget_gb",
+            "viewport_scale", "strict"} <= set(drawn)
+    assert "label:Auto chooses when you render (F12)" in drawn
+    # A final render: the panel shows what Auto chose, as the render report says it.
+    bpy.ops.render.render()
+    chosen = final_render.auto_choices[context.scene.name]
+    shown = [d[len("label:"):] for d in _draw("TFM_PT_volumes", context) if ": " in d]
+    assert shown == [f"{name}: {value}" for name, value in final_render.auto_fields(chosen)]
+    assert shown[:3] == [f"Steps: {chosen['view_steps']}", f"Shadow Steps: {chosen['light_steps']}",
+                         f"Coefficients: {chosen['coefficients']}"]
+    (line,) = [m for _, m in final_render.last_messages if m.startswith("Auto quality:")]
+    assert line == "Auto quality: " + ", ".join(s.replace(": ", " ") for s in shown)
+
+
+def test_custom_shows_each_manual_field_once(context):
+    context.scene.tfm.quality = 'CUSTOM'
+    drawn = _render_tab(context)
+    assert not any(d.startswith("label:Auto") for d in drawn)
+    assert all(drawn.count(name) == 1 for name in MANUAL), drawn
+    assert "label:Volume: 0 (light scatters once)" in _draw("TFM_PT_light_paths", context)
 
 
 def test_medium_panel_says_where_sigma_comes_from(context):
@@ -71,14 +111,29 @@ def test_medium_panel_says_where_sigma_comes_from(context):
     assert any(d.startswith("label:Read from Principled Volume") for d in drawn), drawn
 
 
-def test_light_and_world_panels(context):
-    assert {"use_tfm", "gobo"} <= set(_draw("TFM_PT_light", context))
-    assert "default_value" in _draw("TFM_PT_world", context)
+def test_light_settings_sit_under_the_light_panel(context):
+    import bpy
+
+    for name in ("TFM_PT_light", "TFM_PT_light_texture"):   # Object Data > Light > ...
+        assert _panel(name).bl_parent_id == "DATA_PT_EEVEE_light"
+    assert 'TFM' in bpy.types.DATA_PT_EEVEE_light.COMPAT_ENGINES
+    assert _draw("TFM_PT_light", context) == ["use_tfm"]
+    assert _draw("TFM_PT_light_texture", context) == ["gobo"]
     context.light.type = 'POINT'
     context.light.shadow_soft_size = 0.2
+    assert not _panel("TFM_PT_light_texture").poll(context)     # a spot's only
     assert _draw("TFM_PT_light", context) == ["use_tfm", "label:The radius is treated as zero"]
     context.light.type = 'AREA'
     assert _draw("TFM_PT_light", context) == ["use_tfm", "label:Rendered as a point with a cosine profile"]
+
+
+def test_world_light_has_one_place_the_world_tab(context):
+    assert "default_value" in _draw("TFM_PT_world", context)
+    assert _draw("TFM_PT_world_lighting", context, "draw_header") == ["ambient"]
+    assert _draw("TFM_PT_world_lighting", context) == ["world_light", "world_light_viewport",
+                                                      "world_directions"]
+    world = {"ambient", "world_light", "world_light_viewport", "world_directions"}
+    assert not world & set(_render_tab(context))
 
 
 def test_visibility_and_passes_panels(context):

@@ -28,6 +28,9 @@ PASSES = (("Scattering", "scattering"), ("Surfaces", "surfaces"), ("Transmittanc
 last_messages: list[tuple[str, str]] = []
 # Seconds per stage of the last final render, as the renderer measured them.
 last_timings: dict[str, float] = {}
+# Scene name -> what Auto chose for that scene's last final render (RenderOutput.chosen), shown
+# under Render Properties ▸ Volumes.
+auto_choices: dict[str, dict] = {}
 # Warnings already given in a material preview: each is reported once per session, since Blender
 # renders the same preview scene again for every material and shape.
 _preview_reported: set[str] = set()
@@ -71,7 +74,7 @@ def memory_budget(scene) -> tuple[int | None, str]:
             pass
     gb = float(getattr(getattr(scene, "tfm", None), "memory_budget_gb", 0.0) or 0.0)
     if gb > 0:
-        return int(gb * GIB), "Render Properties > Sampling > Memory Budget"
+        return int(gb * GIB), "Render Properties > Performance > Memory Limit"
     try:
         total = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
     except (AttributeError, ValueError, OSError):
@@ -88,7 +91,7 @@ def budget_refusal(scene, width: int, height: int, passes: int) -> str | None:
     return (f"The frame is {width}x{height} ({width * height / 1e6:.1f} megapixels): TFM would need "
             f"about {need / GIB:.2f} GiB to render it, above the memory budget of {budget / GIB:.2f} "
             f"GiB ({source}). Nothing was rendered: lower the resolution, turn off passes, or raise "
-            f"the budget (Memory Budget, or {BUDGET_ENV})")
+            f"the limit (Memory Limit, or {BUDGET_ENV})")
 
 
 def strict_mode(scene) -> bool:
@@ -235,12 +238,20 @@ def _warn(engine, message: str, preview: bool) -> None:
     _tell(engine, 'WARNING', message)
 
 
+def auto_fields(chosen: dict) -> list[tuple[str, str]]:
+    """What Auto chose (RenderOutput.chosen) as (setting, value) pairs, named as the panels name
+    the settings."""
+    fields = [("Steps", str(chosen["view_steps"])), ("Shadow Steps", str(chosen["light_steps"])),
+              ("Coefficients", str(chosen["coefficients"]))]
+    side = chosen.get("tfm_side", 0)
+    if side:
+        fields.append(("Volume Shadow Maps", f"up to {side}x{side}"))
+    return fields
+
+
 def auto_line(chosen: dict) -> str:
     """The report line saying what Auto chose for the frame."""
-    side = chosen.get("tfm_side", 0)
-    maps = f", transmittance maps up to {side}x{side}" if side else ""
-    return (f"Auto quality: {chosen['view_steps']} view steps, {chosen['light_steps']} light steps, "
-            f"{chosen['coefficients']} coefficients{maps}")
+    return "Auto quality: " + ", ".join(f"{name} {value}" for name, value in auto_fields(chosen))
 
 
 def render(engine, depsgraph) -> None:
@@ -324,6 +335,7 @@ def _render(engine, depsgraph, strict: bool) -> str:
             _warn(engine, message, preview)
     last_timings.update(output.timings_s)
     if settings.quality == 'AUTO' and output.chosen and not preview:
+        auto_choices[scene.name] = dict(output.chosen)
         _tell(engine, 'INFO', auto_line(output.chosen))
     written = write_result(engine, output, depsgraph.view_layer.name, width, height,
                            passes=enabled_passes(depsgraph.view_layer))

@@ -22,58 +22,112 @@ class _TFMPanel:
         return context.engine in cls.COMPAT_ENGINES
 
 
-class TFM_PT_render(_TFMPanel, bpy.types.Panel):
+def _split(layout):
+    layout.use_property_split = True
+    layout.use_property_decorate = False
+    return layout
+
+
+class TFM_PT_sampling(_TFMPanel, bpy.types.Panel):
+    """Samples per pixel, as EEVEE's Sampling panel (Render, Viewport)."""
+
     bl_label = "Sampling"
     bl_context = "render"
 
     def draw(self, context):
-        layout = self.layout
-        layout.use_property_split = True
-        layout.use_property_decorate = False
+        tfm = context.scene.tfm
+        col = _split(self.layout).column(align=True)
+        col.prop(tfm, "samples")
+        col.prop(tfm, "viewport_samples")
+
+
+class TFM_PT_light_paths(_TFMPanel, bpy.types.Panel):
+    """Where Cycles sets its bounces."""
+
+    bl_label = "Light Paths"
+    bl_context = "render"
+    bl_options = {'DEFAULT_CLOSED'}
+
+    def draw(self, context):
+        col = _split(self.layout).column(heading="Max Bounces")
+        # The volume bounces setting goes here (Cycles: Light Paths ▸ Max Bounces ▸ Volume).
+        col.label(text="Volume: 0 (light scatters once)")
+
+
+class TFM_PT_volumes(_TFMPanel, bpy.types.Panel):
+    """Volume quality, as Cycles' and EEVEE's Volumes panels: Auto shows what it chose for the
+    last render; the hand-set fields exist only under Custom."""
+
+    bl_label = "Volumes"
+    bl_context = "render"
+
+    def draw(self, context):
+        layout = _split(self.layout)
+        tfm = context.scene.tfm
+        layout.row().prop(tfm, "quality", expand=True)
+        if tfm.quality == 'AUTO':
+            draw_auto_choice(layout, context.scene)
+            return
+        col = layout.column(align=True)
+        col.prop(tfm, "view_steps")
+        col.prop(tfm, "sampling")
+
+
+def draw_auto_choice(layout, scene):
+    """What Auto chose for ``scene``'s last final render, or how to see it."""
+    from ..blender import final_render
+
+    box = layout.box()
+    chosen = final_render.auto_choices.get(scene.name)
+    if not chosen:
+        box.label(text="Auto chooses when you render (F12)", icon='INFO')
+        return
+    box.label(text="Auto chose for the last render:", icon='CHECKMARK')
+    for name, value in final_render.auto_fields(chosen):
+        box.label(text=f"{name}: {value}")
+
+
+class TFM_PT_volume_shadows(_TFMPanel, bpy.types.Panel):
+    """How volumes shadow themselves and each other."""
+
+    bl_label = "Shadows"
+    bl_context = "render"
+    bl_parent_id = "TFM_PT_volumes"
+
+    def draw(self, context):
+        layout = _split(self.layout)
         tfm = context.scene.tfm
         col = layout.column()
         col.prop(tfm, "method")
-        col.prop(tfm, "quality")
-        custom = col.column()
-        custom.active = tfm.quality == 'CUSTOM'
-        custom.prop(tfm, "view_steps")
-        custom.prop(tfm, "light_steps")
-        custom.prop(tfm, "sampling")
-        col.prop(tfm, "ambient")
-        world_col = col.column()
-        world_col.active = tfm.ambient
-        world_col.prop(tfm, "world_light")
-        world_col.prop(tfm, "world_light_viewport", text="Viewport")
-        if 'SHADOWED' in (tfm.world_light, tfm.world_light_viewport):
-            world_col.prop(tfm, "world_directions")
-        col.prop(tfm, "viewport_scale")
-        col.prop(tfm, "samples")
-        col.prop(tfm, "viewport_samples")
-        col.prop(tfm, "strict")
-        col.prop(tfm, "memory_budget_gb")
+        maps = col.column()
+        maps.active = tfm.method == 'TFM'
+        maps.prop(tfm, "map_resolution")
+        if tfm.quality != 'CUSTOM':
+            return
+        col.prop(tfm, "light_steps")
+        maps = col.column()
+        maps.active = tfm.method == 'TFM'
+        maps.prop(tfm, "coefficients")
+        maps.prop(tfm, "tfm_filter")
+        maps.prop(tfm, "density_weight_auto", text="Automatic Weight")
+        sub = maps.column()
+        sub.active = tfm.method == 'TFM' and not tfm.density_weight_auto
+        sub.prop(tfm, "density_weight")
 
 
-class TFM_PT_render_maps(_TFMPanel, bpy.types.Panel):
-    bl_label = "Transmittance Maps"
+class TFM_PT_performance(_TFMPanel, bpy.types.Panel):
+    """As Cycles' Performance panel: memory, the viewport's resolution, final renders."""
+
+    bl_label = "Performance"
     bl_context = "render"
-    bl_parent_id = "TFM_PT_render"
+    bl_options = {'DEFAULT_CLOSED'}
 
     def draw(self, context):
-        layout = self.layout
-        layout.use_property_split = True
-        layout.use_property_decorate = False
+        layout = _split(self.layout)
         tfm = context.scene.tfm
-        layout.active = tfm.method == 'TFM'
-        col = layout.column()
-        col.prop(tfm, "map_resolution")
-        col.prop(tfm, "tfm_filter")
-        custom = col.column()
-        custom.active = tfm.quality == 'CUSTOM'
-        custom.prop(tfm, "coefficients")
-        custom.prop(tfm, "density_weight_auto", text="Automatic Weight")
-        sub = custom.column()
-        sub.active = tfm.quality == 'CUSTOM' and not tfm.density_weight_auto
-        sub.prop(tfm, "density_weight")
+        layout.prop(tfm, "memory_budget_gb")
+        layout.prop(tfm, "viewport_scale")
+        layout.prop(tfm, "strict")
 
 
 class TFM_PT_volume_medium(_TFMPanel, bpy.types.Panel):
@@ -114,22 +168,24 @@ class TFM_PT_volume_medium(_TFMPanel, bpy.types.Panel):
         col.prop_search(tfm, "emission_grid", volume, "grids")
 
 
-class TFM_PT_light(_TFMPanel, bpy.types.Panel):
-    bl_label = "TFM"
+class _LightSubpanel(_TFMPanel):
+    """A subpanel of Blender's Light panel (Object Data ▸ Light), which TFM shows."""
+
     bl_context = "data"
+    bl_parent_id = "DATA_PT_EEVEE_light"
 
     @classmethod
     def poll(cls, context):
         return context.light is not None and super().poll(context)
 
+
+class TFM_PT_light(_LightSubpanel, bpy.types.Panel):
+    bl_label = "Volumes"
+
     def draw(self, context):
-        layout = self.layout
-        layout.use_property_split = True
-        layout.use_property_decorate = False
+        layout = _split(self.layout)
         light = context.light
         layout.prop(light.tfm, "use_tfm")
-        if light.type == 'SPOT':
-            layout.template_ID(light.tfm, "gobo", open="image.open")
         if light.type in ('SPOT', 'POINT') and light.shadow_soft_size > 0.0:
             layout.label(text="The radius is treated as zero", icon='INFO')
         elif light.type == 'SUN' and light.angle > 0.0:
@@ -138,8 +194,21 @@ class TFM_PT_light(_TFMPanel, bpy.types.Panel):
             layout.label(text="Rendered as a point with a cosine profile", icon='INFO')
 
 
+class TFM_PT_light_texture(_LightSubpanel, bpy.types.Panel):
+    bl_label = "Projected Texture"
+
+    @classmethod
+    def poll(cls, context):
+        return super().poll(context) and context.light.type == 'SPOT'
+
+    def draw(self, context):
+        self.layout.template_ID(context.light.tfm, "gobo", open="image.open")
+
+
 class TFM_PT_world(_TFMPanel, bpy.types.Panel):
-    bl_label = "Ambient"
+    """The world's colour, and how it lights the scene: the one place for world light."""
+
+    bl_label = "Surface"
     bl_context = "world"
 
     @classmethod
@@ -149,16 +218,32 @@ class TFM_PT_world(_TFMPanel, bpy.types.Panel):
     def draw(self, context):
         from ..blender import world
 
-        layout = self.layout
-        layout.use_property_split = True
-        layout.use_property_decorate = False
+        layout = _split(self.layout)
         node = world.background_node(context.world)
         if node is not None:
             layout.prop(node.inputs["Color"], "default_value", text="Color")
             layout.prop(node.inputs["Strength"], "default_value", text="Strength")
         else:
             layout.prop(context.world, "color")
-        layout.prop(context.scene.tfm, "ambient", text="Light the Medium")
+
+
+class TFM_PT_world_lighting(_TFMPanel, bpy.types.Panel):
+    bl_label = "Lighting"
+    bl_context = "world"
+    bl_parent_id = "TFM_PT_world"
+
+    def draw_header(self, context):
+        self.layout.prop(context.scene.tfm, "ambient", text="")
+
+    def draw(self, context):
+        layout = _split(self.layout)
+        tfm = context.scene.tfm
+        layout.active = tfm.ambient
+        col = layout.column()
+        col.prop(tfm, "world_light")
+        col.prop(tfm, "world_light_viewport")
+        if 'SHADOWED' in (tfm.world_light, tfm.world_light_viewport):
+            col.prop(tfm, "world_directions")
 
 
 GEOMETRY_TYPES = {'MESH', 'CURVE', 'SURFACE', 'META', 'FONT', 'VOLUME'}
@@ -212,11 +297,16 @@ class TFM_PT_view_layer_passes(_TFMPanel, bpy.types.Panel):
 
 
 classes = (
-    TFM_PT_render,
-    TFM_PT_render_maps,
+    TFM_PT_sampling,
+    TFM_PT_light_paths,
+    TFM_PT_volumes,
+    TFM_PT_volume_shadows,
+    TFM_PT_performance,
     TFM_PT_volume_medium,
     TFM_PT_light,
+    TFM_PT_light_texture,
     TFM_PT_world,
+    TFM_PT_world_lighting,
     TFM_PT_object_visibility,
     TFM_PT_view_layer_passes,
 )

@@ -18,121 +18,132 @@ class TFM_SceneSettings(bpy.types.PropertyGroup):
     quality: EnumProperty(
         name="Quality",
         items=(
-            ('AUTO', "Auto", "Choose coefficients, density weight, steps and sampling from the scene "
-                             "(the cheapest settings the benchmark found to reach SSIM 0.99)", 0),
-            ('CUSTOM', "Custom", "Use the steps, coefficients and weight set below", 1),
+            ('AUTO', "Auto", "Choose the steps, shadow steps, coefficients and map sizes from the scene: "
+                             "the fewest that keep the picture within SSIM 0.99 of a converged one. "
+                             "The panel and the render report show what was chosen", 0),
+            ('CUSTOM', "Custom", "Set the steps, shadow steps, coefficients and density weight by hand", 1),
         ),
         default='AUTO',
-        description="How the quality settings are chosen",
+        description="Who sets the volume quality: Auto from the scene, or you",
     )
     view_steps: IntProperty(
-        name="View Steps", default=100, min=1, soft_max=512, max=4096,
-        description="Samples along each view ray through the medium",
+        name="Steps", default=100, min=1, soft_max=512, max=4096,
+        description="Steps along each camera ray through a volume: more keeps thin wisps and sharp "
+                    "shafts from banding, at a cost that grows with the steps",
     )
     light_steps: IntProperty(
-        name="Light Steps", default=100, min=1, soft_max=512, max=4096,
-        description="Samples along each light ray when a transmittance map is built",
+        name="Shadow Steps", default=100, min=1, soft_max=512, max=4096,
+        description="Steps along each light ray when the volume's shadow is computed: more keeps "
+                    "small dense clumps casting their shadows into the volume",
     )
     coefficients: IntProperty(
         name="Coefficients", default=8, min=1, max=16,
-        description="Cosine coefficients stored per transmittance map texel",
+        description="Detail of the volume's shadow along each light ray: more keeps shadow edges "
+                    "inside the volume sharp and removes ringing, and costs memory and time",
     )
     density_weight_auto: BoolProperty(
         name="Automatic Density Weight", default=True,
-        description="Choose the density weight from the thickest light ray of the medium",
+        description="Choose the density weight from the thickest part of the volume as seen from "
+                    "the light",
     )
     density_weight: FloatProperty(
         name="Density Weight", default=10.0, min=1.0, soft_max=100.0,
-        description="Alpha: the transmittance map stores T to the power 1/alpha, which rings less "
-                    "in thick media; at least the optical depth along the light rays",
+        description="Higher removes the light and dark rings that very dense volumes can show in "
+                    "their shadows, and softens thin shadow detail; at least the volume's "
+                    "thickness (optical depth) along the light rays",
     )
     map_resolution: IntProperty(
-        name="Map Resolution", default=512, min=16, soft_max=2048, max=8192, subtype='PIXEL',
-        description="Side of the shadow and transmittance maps, texels",
+        name="Shadow Resolution", default=512, min=16, soft_max=2048, max=8192, subtype='PIXEL',
+        description="Size of each light's shadow maps: higher gives sharper shadows of objects and "
+                    "of the volume, and uses more memory. Auto uses it as the largest size",
     )
     sampling: EnumProperty(
-        name="Sampling",
+        name="Distribution",
         items=(
-            ('WORLD', "World", "Space view samples evenly along the view ray", 0),
-            ('PROJECTIVE', "Projective", "Space view samples evenly in the light's shadow map, "
-                                         "following its texel density", 1),
+            ('WORLD', "Even", "Steps evenly spaced along the camera ray", 0),
+            ('PROJECTIVE', "Toward Lights", "Steps spaced as a spot light's shadow map is: denser "
+                                            "near the light, where its beam is narrow and sharp", 1),
         ),
         default='WORLD',
-        description="How view samples are spaced in a homogeneous medium",
+        description="How the steps are spread along a camera ray through fog of even density",
     )
     method: EnumProperty(
-        name="Method",
+        name="Volume Shadows",
         items=(
-            ('TFM', "Transmittance Maps", "Transmittance function mapping (fast)", 0),
-            ('BRUTE_FORCE', "Brute Force", "March toward the light at every view sample "
-                                           "(slow reference)", 1),
+            ('TFM', "Shadow Maps", "Each light's shadow through the volume is computed once per light "
+                                   "and stored in a map (fast)", 0),
+            ('BRUTE_FORCE', "Ray Marched", "Each step marches toward every light: exact shadows, many "
+                                           "times slower (a reference to compare with)", 1),
         ),
         default='TFM',
-        description="How the transmittance toward the lights is found",
+        description="How the shadow the volume casts on itself is computed",
     )
     tfm_filter: EnumProperty(
-        name="Map Filter",
+        name="Filter",
         items=(
-            ('EXACT', "Exact", "Reconstruct the four nearest map texels, each over its own light "
-                               "ray, and blend the results", 0),
-            ('LINEAR', "Linear", "Let the GPU blend neighbouring coefficients (faster; blurs the "
-                                 "medium's edges as seen from the light)", 1),
+            ('EXACT', "Exact", "Blend four neighbouring shadow map texels each along its own light ray: "
+                               "crisper volume edges as seen from the light, slower", 0),
+            ('LINEAR', "Linear", "Let the GPU blend neighbouring texels: faster, slightly softer "
+                                 "volume edges as seen from the light", 1),
         ),
         default='LINEAR',
-        description="How transmittance maps are filtered between texels",
+        description="How the volume's shadow maps are smoothed between texels",
     )
     ambient: BoolProperty(
-        name="Ambient", default=True,
-        description="Light the medium and the solids with the world colour",
+        name="World Lighting", default=True,
+        description="The world's colour lights the volumes and the surfaces; off, only the lights "
+                    "do (the world still shows behind them)",
     )
     world_light: EnumProperty(
-        name="World Light",
+        name="Render Shadows",
         items=(
-            ('SHADOWED', "Shadowed", "The world's light reaches the medium and the surfaces through what "
-             "lies in its way, as in Cycles (world directions as shadowed suns)"),
+            ('SHADOWED', "Shadowed", "The world's light reaches the volumes and the surfaces through "
+             "what lies in its way, as in Cycles (it comes as shadowed suns from the world's directions)"),
             ('UNSHADOWED', "Unshadowed", "The world's light is added as is: faster, brighter inside dense "
              "smoke and under objects"),
         ),
         default='SHADOWED',
-        description="How the world colour lights the medium and the surfaces",
+        description="Whether the world's light casts shadows in final renders",
     )
     world_light_viewport: EnumProperty(
-        name="Viewport World Light",
+        name="Viewport Shadows",
         items=(
-            ('SHADOWED', "Shadowed", "As the final render: the world's light through what lies in its way"),
+            ('SHADOWED', "Shadowed", "As in final renders: the world's light through what lies in its way"),
             ('UNSHADOWED', "Unshadowed", "The world's light added as is: the viewport stays fast (a shadowed "
-             "world costs a light pass per direction)"),
+             "world costs a shadow pass per direction)"),
         ),
         default='UNSHADOWED',
-        description="How the world colour lights the medium and the surfaces in the viewport",
+        description="Whether the world's light casts shadows in the viewport",
     )
     world_directions: IntProperty(
-        name="World Directions", default=16, min=4, max=128,
-        description="Directions the shadowed world light comes from: more is smoother and slower",
+        name="Directions", default=16, min=4, max=128,
+        description="Directions the shadowed world light comes from: more gives smoother shadows of "
+                    "the sky, slower",
     )
     viewport_scale: FloatProperty(
         name="Viewport Resolution", default=0.5, min=0.1, max=1.0, subtype='FACTOR',
-        description="Resolution of the viewport image relative to the viewport",
+        description="Resolution of the rendered viewport relative to the viewport: lower is faster "
+                    "and blurrier",
     )
     samples: IntProperty(
-        name="Samples", default=0, min=0, soft_max=256, max=4096,
-        description="Antialiasing samples per pixel of a final render, each at its own place in the "
-                    "pixel (one-pixel box filter) with its own view-march start; 0 chooses "
-                    "automatically (16), 1 renders pixel centres",
+        name="Render Samples", default=0, min=0, soft_max=256, max=4096,
+        description="Samples per pixel of a final render: more gives smoother edges and less "
+                    "banding in volumes; 0 chooses 16, 1 renders each pixel's centre once",
     )
     viewport_samples: IntProperty(
         name="Viewport Samples", default=16, min=1, soft_max=256, max=4096,
-        description="Samples the viewport accumulates while nothing changes",
+        description="Samples the viewport adds up while nothing changes: more gives a smoother "
+                    "image after a short wait",
     )
     strict: BoolProperty(
-        name="Strict", default=False,
+        name="Fail on Missing Data", default=False,
         description="Fail a final render instead of rendering without something it needs (a "
                     "missing or unreadable volume file or grid, no OpenGL): the frame is not written, "
                     "and command-line Blender exits with a non-zero code. The environment variable "
                     "TFM_STRICT=1 turns it on for every scene",
     )
     memory_budget_gb: FloatProperty(
-        name="Memory Budget", default=0.0, min=0.0, soft_max=256.0, unit='NONE',
+        name="Memory Limit", default=0.0, min=0.0, soft_max=256.0, unit='NONE',
         description="Largest memory (GiB) a final render's image may use; a frame estimated above it "
                     "is refused before anything is allocated, with its size and the estimate. 0: "
                     "half of the machine's memory (the environment variable TFM_MEMORY_BUDGET_GB "
@@ -157,24 +168,27 @@ class TFM_VolumeSettings(bpy.types.PropertyGroup):
     )
     use_node_material: BoolProperty(
         name="Use Node Material", default=True,
-        description="Take absorption, scattering and anisotropy from the volume's node material "
-                    "(Principled Volume, Volume Scatter, Volume Absorption) when it can be read",
+        description="Render the volume with its material, as Cycles does (any volume node graph). "
+                    "Off, or with no material, the colours and density below are used",
     )
     sigma_a: FloatVectorProperty(
         name="Absorption", subtype='COLOR', size=3, default=(0.1, 0.1, 0.1), min=0.0, soft_max=1.0,
-        description="Absorption coefficient per unit density, per metre",
+        description="Light absorbed per metre at density 1, per colour: darkens the volume and its "
+                    "shadow without lighting it (soot, dark smoke)",
     )
     sigma_s: FloatVectorProperty(
         name="Scattering", subtype='COLOR', size=3, default=(1.0, 1.0, 1.0), min=0.0, soft_max=1.0,
-        description="Scattering coefficient per unit density, per metre",
+        description="Light scattered per metre at density 1, per colour: how brightly the volume "
+                    "is lit and how much it dims the light behind it (white smoke, fog, clouds)",
     )
     density_scale: FloatProperty(
         name="Density Scale", default=1.0, min=0.0, soft_max=100.0,
-        description="Multiplies the absorption and scattering colours above",
+        description="Multiplies the absorption and scattering above: thicker or thinner volume",
     )
     anisotropy: FloatProperty(
         name="Anisotropy", default=0.0, min=-0.99, max=0.99, subtype='FACTOR',
-        description="Henyey-Greenstein g: negative scatters backward, positive forward",
+        description="Direction light scatters in: positive sends it on forward (bright when looking "
+                    "toward the light, as in fog), negative back toward the light",
     )
     emission_color: FloatVectorProperty(
         name="Emission Color", subtype='COLOR', size=3, default=(1.0, 0.5, 0.15), min=0.0, soft_max=1.0,
@@ -199,15 +213,17 @@ class TFM_VolumeSettings(bpy.types.PropertyGroup):
 
 
 class TFM_LightSettings(bpy.types.PropertyGroup):
-    """Per spot light settings (Light Data Properties)."""
+    """Per light settings (Light Data Properties ▸ Light)."""
 
     use_tfm: BoolProperty(
-        name="Transmittance Map", default=True,
-        description="Shadow the medium by itself along this light's rays with a transmittance map",
+        name="Volume Shadow", default=True,
+        description="Volumes shadow this light: their dense parts darken the light behind them, "
+                    "as in Cycles. Off, the light crosses every volume undimmed (faster, flatter)",
     )
     gobo: PointerProperty(
         name="Projected Texture", type=bpy.types.Image,
-        description="Image projected by the light over the square that bounds its cone",
+        description="Image the spot light projects, like a slide in a projector: its colours tint "
+                    "the beam over the square that bounds the cone",
     )
 
     @classmethod
