@@ -1,7 +1,7 @@
 """The panels draw only properties that exist, only for the TFM engine, and in Blender's terms:
 Auto shows what it chose and hides the hand-set fields, the world light has one place, the light's
-settings sit under Blender's Light panel (a recording layout stands in for Blender's UI, which
-background mode does not have)."""
+settings sit under Blender's Light panel (the recording layout that draws the README's picture of
+the panels stands in for Blender's UI, which background mode does not have)."""
 
 import importlib
 from types import SimpleNamespace
@@ -9,38 +9,8 @@ from types import SimpleNamespace
 import pytest
 from blender_helpers import MODULE, smoke
 
+from tfm_addon.bench.panels_picture import record
 from tfm_addon.blender import scene_builder
-
-
-class Layout:
-    """Records what a panel draws and checks that every drawn property exists."""
-
-    def __init__(self, drawn):
-        self.drawn = drawn
-        self.use_property_split = self.use_property_decorate = self.active = True
-
-    def _child(self, *args, **kwargs):
-        return Layout(self.drawn)
-
-    column = row = box = split = _child
-
-    def prop(self, data, name, **kwargs):
-        assert name in data.bl_rna.properties, f"{data!r} has no property {name!r}"
-        self.drawn.append(name)
-
-    def prop_search(self, data, name, search_data, search_name, **kwargs):
-        assert name in data.bl_rna.properties and search_name in search_data.bl_rna.properties
-        self.drawn.append(name)
-
-    def template_ID(self, data, name, **kwargs):
-        assert name in data.bl_rna.properties
-        self.drawn.append(name)
-
-    def label(self, text="", **kwargs):
-        self.drawn.append("label:" + text)
-
-    def separator(self, **kwargs):
-        pass
 
 
 def _panel(panel_name):
@@ -51,9 +21,7 @@ def _draw(panel_name, context, method="draw"):
     panel = _panel(panel_name)
     assert panel.poll(context)
     assert not panel.poll(SimpleNamespace(**{**context.__dict__, "engine": "CYCLES"}))
-    drawn = []
-    getattr(panel, method)(SimpleNamespace(layout=Layout(drawn)), context)
-    return drawn
+    return [row.key for row in record(panel, context, method)]
 
 
 @pytest.fixture
