@@ -1,4 +1,4 @@
-"""The benchmark (issue 4) runs end to end at its quick size, and its outputs hold numbers that can
+"""The benchmark runs end to end at its quick size, and its outputs hold numbers that can
 fail: one row per scene and method, density weighting beating a truncated series where it rings,
 no TFM for homogeneous media or lights that miss the medium, Cycles converging.
 

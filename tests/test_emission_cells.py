@@ -1,4 +1,4 @@
-"""The emitting medium's march skips empty space too (issue 10's cost target): the occupancy grid
+"""The emitting medium's march skips empty space too: the occupancy grid
 of the emitting medium (R: density, G: where its grids can emit), the constant part of the
 emission added over the samples a skip passes, and the emission box set from the uniforms.
 Each is checked by what it must not change: the numpy reference, the same march without

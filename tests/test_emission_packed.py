@@ -1,5 +1,5 @@
-"""The emitting medium's density packed beside the values its view march reads anyway (issue 10's
-cost target: one texture fetch per sample instead of two). Each packed frame is checked against
+"""The emitting medium's density packed beside the values its view march reads anyway (one
+texture fetch per sample instead of two). Each packed frame is checked against
 the numpy reference (engine/reference.py), and the path a frame took is counted."""
 
 import dataclasses

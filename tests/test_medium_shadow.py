@@ -1,4 +1,4 @@
-"""The media's shadow-map lookups skipped where no solid can shadow them (issue 8, session 5):
+"""The media's shadow-map lookups skipped where no solid can shadow them:
 light.solids_may_shadow against hand-placed casters, and frames with the skip equal, to the bit,
 frames that look the shadow map up, while a caster between the light and the medium keeps it."""
 

@@ -1,4 +1,4 @@
-"""Issue 14: frames are transactions, bad voxels, exact cache keys, scale-free biases, lights."""
+"""Robustness: frames are transactions, bad voxels, exact cache keys, scale-free biases, lights."""
 
 import dataclasses
 

@@ -1,4 +1,4 @@
-"""Issue 8's speed features, checked by what they must not change: the floor method against a
+"""The speed features, checked by what they must not change: the floor method against a
 numpy reference whose light transmittance is forced to 1, empty-space skipping against the
 reference on a sparse grid, the occupancy grid and the tight box against the trilinear density
 itself (scipy), the footprint TFM side. Timings live in ``python -m tfm_addon.bench.speed``."""

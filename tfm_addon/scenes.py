@@ -168,7 +168,7 @@ def demo_scene(width: int = 640, height: int = 360, n: int = 64) -> Scene:
 
 
 # --------------------------------------------------------------------------------------------
-# Benchmark scenes (issue 4): a sharp-edged voxelised mesh, a large cloud, a dense smoke.
+# Benchmark scenes: a sharp-edged voxelised mesh, a large cloud, a dense smoke.
 # --------------------------------------------------------------------------------------------
 
 def smooth_noise_grid(shape, scale: float, rng: np.random.Generator) -> np.ndarray:
@@ -371,7 +371,7 @@ def inside_scene(homogeneous: bool, light_inside: bool, camera_inside: bool, wid
 
 
 # --------------------------------------------------------------------------------------------
-# Fire: emission, blackbody and colour grids (issue 10)
+# Fire: emission, blackbody and colour grids
 # --------------------------------------------------------------------------------------------
 
 def fire_grids(density: np.ndarray) -> dict[str, np.ndarray]:

@@ -1,4 +1,4 @@
-"""Issue 14 inside Blender: what a spot's scale and use_shadow do (against Cycles), the volume's
+"""Lights and edits inside Blender: what a spot's scale and use_shadow do (against Cycles), the volume's
 clipping, and a mesh edit that leaves the medium alone."""
 
 import dataclasses

@@ -1,8 +1,8 @@
 """``python -m tfm_addon.bench [--quick | --gpu] [--out DIR] [--only SECTION ...] [--no-blender]``
 
-Runs the benchmark of issue 4 and writes everything under one folder (default out/bench):
+Runs the benchmark and writes everything under one folder (default out/bench):
 summary.md, the method table (results.md/.csv) with its speed-accuracy charts, the paper's
-Table 1, the stability sweeps, Cycles and EEVEE, the issue-2 table, and EXR/PNG images of every
+Table 1, the stability sweeps, Cycles and EEVEE, the renderer table, and EXR/PNG images of every
 render and of its error. A progress bar runs on stderr; the summary is printed at the end.
 
 --quick: small sizes, for the tests (about 3 minutes on 2 cores with llvmpipe).
@@ -21,7 +21,7 @@ import sys
 import time
 from pathlib import Path
 
-SECTIONS = ("methods", "table1", "sweeps", "blender", "issue2", "emission", "viewport", "lights")
+SECTIONS = ("methods", "table1", "sweeps", "blender", "renderer", "emission", "viewport", "lights")
 # Run only when named with --only: the conformance suite against Cycles writes docs/conformance.md
 # and docs/conformance/ (tfm_addon/bench/conformance.py, in a Blender subprocess).
 OPT_IN = ("conformance",)
@@ -94,13 +94,13 @@ def main(argv: list[str] | None = None) -> int:
         total += sweeps.count(config)
     if "blender" in sections:
         total += blender_bench.count(config)
-    if "issue2" in sections:
+    if "renderer" in sections:
         total += 1
     if "viewport" in sections:
         total += 1
     progress = Progress(total)
 
-    rows, checks, table1_rows, blender_res, blender_targets, issue2_text = [], [], [], None, [], ""
+    rows, checks, table1_rows, blender_res, blender_targets, renderer_text = [], [], [], None, [], ""
     viewport_text = ""
     if "methods" in sections:
         rows, _ = methods_table.run(config, bench_scenes, renderer, out, progress, cache)
@@ -127,13 +127,13 @@ def main(argv: list[str] | None = None) -> int:
         except Exception as ex:  # the renderer's figures stay useful without Blender's
             progress.log(f"Blender part failed: {ex}")
     renderer.release()
-    if "issue2" in sections:
+    if "renderer" in sections:
         size = (renderer_bench.QUICK if args.quick else renderer_bench.PAPER if args.gpu
                 else renderer_bench.FULL)
-        issue2_rows = renderer_bench.run(size, log=progress.log)
-        issue2_text = renderer_bench.report(issue2_rows)
-        (out / "renderer.md").write_text(issue2_text + "\n")
-        progress.step("issue 2 table")
+        renderer_rows = renderer_bench.run(size, log=progress.log)
+        renderer_text = renderer_bench.report(renderer_rows)
+        (out / "renderer.md").write_text(renderer_text + "\n")
+        progress.step("renderer table")
     if "emission" in sections:
         from . import emission_bench
 
@@ -159,7 +159,7 @@ def main(argv: list[str] | None = None) -> int:
     text = summary.write(out / "summary.md", config=config, machine=machine,
                          seconds=time.perf_counter() - t_start, rows=rows, checks=checks, table1=table1_rows,
                          blender_res=blender_res, blender_targets=blender_targets,
-                         sweeps_done="sweeps" in sections, issue2_text=issue2_text)
+                         sweeps_done="sweeps" in sections, renderer_text=renderer_text)
     if viewport_text:
         text += "\n" + viewport_text + "\n"
         (out / "summary.md").write_text(text)

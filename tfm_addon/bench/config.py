@@ -61,7 +61,7 @@ QUICK = Config(
     table1=True,
     blender=True, blender_width=64, blender_height=36, blender_smoke_n=32,
     cycles_samples=(4, 16, 64), cycles_gt_samples=256, eevee_runs=(("default", 1), ("high", 1)),
-    caps=("quick run: grids 32^3 smoke, 64^3 Suzanne, 150x100x50 cloud (not the issue's sizes)",
+    caps=("quick run: grids 32^3 smoke, 64^3 Suzanne, 150x100x50 cloud (not the full run's sizes)",
           "Cycles ground truth 256 samples, EEVEE 1 TAA sample"),
 )
 

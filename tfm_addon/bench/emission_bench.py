@@ -1,4 +1,4 @@
-"""What emission costs a frame (issue 10): the burning plume lit by a spot, rendered with and
+"""What emission costs a frame: the burning plume lit by a spot, rendered with and
 without its emission, per kind of emission (Blender's Quick Fire material, a flame strength grid,
 both), with and without a colour grid, side by side, maps built once beforehand.
 
@@ -102,7 +102,7 @@ EDITS = (("emission colour", lambda m, k: dict(emission_color=(1.0, 0.45 + 0.01 
 
 
 def edit_rows(size: Size, log=print) -> list[dict]:
-    """What an emission edit costs beside a camera move (issue 8: at most 1.05x), on the fire
+    """What an emission edit costs beside a camera move (the target: at most 1.05x), on the fire
     with both grids (its emission combined per voxel, so an edit recomputes that combination):
     frames after a small camera move and frames after each edit of ``EDITS``, interleaved on one
     renderer. The medium carries a ``source_key``, as the Blender side gives it, so an edit
@@ -154,7 +154,7 @@ def edit_report(rows: list[dict]) -> str:
              "The fire with a strength and a blackbody grid (combined per voxel: an edit recomputes "
              "the combination over the emission's box), frames after a camera move and after each "
              "edit interleaved on one renderer; ratio to the camera move, the median of the rounds' "
-             "ratios. Target (issue 8): at most 1.05.", "",
+             "ratios. Target: at most 1.05.", "",
              "| frame after | ms | ratio to a camera move |" + (" CPU ratio |" if cpu else ""),
              "|---|---:|---:|" + ("---:|" if cpu else "")]
     for r in rows:

@@ -1,4 +1,4 @@
-"""Frame time against the number of lights (spot, point, sun) and of volumes (issue 9).
+"""Frame time against the number of lights (spot, point, sun) and of volumes.
 
 Every frame is rendered from scratch (maps dropped first) so that its time holds the maps it
 builds; the counters say how many maps (shadow maps and TFMs, per light face) that was. Times are
@@ -87,7 +87,7 @@ def run(size: Size, log=print) -> list[dict]:
 
 def report(rows: list[dict]) -> str:
     """A markdown table: time and maps against the first row of each group."""
-    lines = ["## Frame time against lights and volumes (issue 9)", "",
+    lines = ["## Frame time against lights and volumes", "",
              "Each frame rebuilt from scratch (its maps included); ratios against the first row of "
              "its group, measured in one run.", "",
              "| case | kind | count | s/frame | time ratio | maps built | maps ratio | time / maps ratio |",

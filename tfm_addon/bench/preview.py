@@ -1,4 +1,4 @@
-"""Material previews and mesh media (issue 12), measured side by side in one Blender process.
+"""Material previews and mesh media, measured side by side in one Blender process.
 
     python -m tfm_addon.bench.preview [--repeats 5] [--size 160x90]
 

@@ -1,4 +1,4 @@
-"""The README's two pictures (issue 8), small PNGs under docs/:
+"""The README's two charts, small PNGs under docs/:
 
     python -m tfm_addon.bench.readme_figures side-by-side FOLDER [--out docs/tfm_cycles_eevee.png]
     python -m tfm_addon.bench.readme_figures chart ROWS.json [--out docs/speed_accuracy.png]

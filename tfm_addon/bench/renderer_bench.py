@@ -1,4 +1,5 @@
-"""The renderer against brute force and the numpy ground truth on the smoke scene (issue 2)."""
+"""The renderer against brute force and the numpy ground truth on the smoke scene: full frames and
+camera-only re-renders."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""The benchmark's scenes (issue 4), made by code: nothing is downloaded.
+"""The benchmark's scenes, made by code: nothing is downloaded.
 
 Suzanne's triangles come from ``data/suzanne.npz``, written once from Blender's
 ``bpy.ops.mesh.primitive_monkey_add(size=2)`` by ``python -m tfm_addon.bench.scene_set --suzanne``

@@ -1,4 +1,4 @@
-"""The light-side overhead (issue 8): every setting against the floor, measured side by side.
+"""The light-side overhead: every setting against the floor, measured side by side.
 
     python -m tfm_addon.bench.speed [--scenes demo smoke ...] [--repeats 3] [--reference]
     python tfm_addon/bench/speed.py --demo-only      # also runs on an older checkout (PYTHONPATH)
@@ -167,7 +167,7 @@ PIXEL_SIZES = ((160, 90), (320, 180), (640, 360), (1280, 720))
 
 
 def run_pixels(renderer, sizes=PIXEL_SIZES, repeats=3, clock="cpu", grid=128) -> list[dict]:
-    """How a frame's cost grows with its pixels (issue 8: linearly): AUTO on the paper smoke at
+    """How a frame's cost grows with its pixels (the target: linearly): AUTO on the paper smoke at
     each of ``sizes``, after a camera move (the maps kept) and after a light move (the maps
     rebuilt: their cost does not depend on the image), all interleaved; per size the ms and the
     ms per pixel relative to the first size's."""

@@ -1,4 +1,4 @@
-"""summary.md: the targets of issue 4, met or missed and by how much, with the figures behind them."""
+"""summary.md: the benchmark's targets, met or missed and by how much, with the figures behind them."""
 
 from __future__ import annotations
 
@@ -57,7 +57,7 @@ def auto_lines(rows: list[dict]) -> list[str]:
 
 
 def write(path, *, config, machine, seconds, rows, checks, table1, blender_res, blender_targets,
-          sweeps_done, issue2_text) -> str:
+          sweeps_done, renderer_text) -> str:
     lines = [f"# Benchmark summary ({config.name} run)", "",
              f"Machine: {machine}. Total time {seconds / 60:.1f} min. Every ratio below is measured "
              "in this one run (interleaved repetitions).", ""]
@@ -80,10 +80,10 @@ def write(path, *, config, machine, seconds, rows, checks, table1, blender_res, 
             fam.setdefault(r["scene"], []).append(r)
     lines += ["", "Files: `results.md`/`results.csv` (method table), `table1.md` (the paper's Table 1), "
               "`sweeps/sweeps.md` (stability), `blender/blender.md` (Cycles, EEVEE), `renderer.md` "
-              "(issue 2: camera-only re-render), `images/<scene>/` (EXR and PNG of every render and "
+              "(full frames and camera-only re-renders), `images/<scene>/` (EXR and PNG of every render and "
               "of its error).", ""]
-    if issue2_text:
-        lines += ["## Issue 2 table (renderer_bench)", "", issue2_text, ""]
+    if renderer_text:
+        lines += ["## The renderer table (renderer_bench)", "", renderer_text, ""]
     text = "\n".join(lines)
     path.write_text(text + "\n")
     return text

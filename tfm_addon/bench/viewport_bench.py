@@ -1,4 +1,4 @@
-"""The viewport benchmark (issue 7): per edit, the time to the first image, to full resolution and
+"""The viewport benchmark: per edit, the time to the first image, to full resolution and
 to 16 samples, the maps each edit rebuilt, and the longest time an add-on callback held
 Blender's thread; and final-render antialiasing against Cycles.
 
@@ -438,7 +438,7 @@ def run_aa(out: Path, width: int = 160, height: int = 90, n: int = 64, log=print
         rows.append([name, f"{m['ssim']:.5f}", f"{m['psnr']:.2f}", f"{m['brightness']:.4f}", "",
                      f"{1000 * sec:.0f}", ""])
     chosen = frame_settings(scene, settings, AA_SAMPLES[-1])
-    lines = [f"## Final-render antialiasing (issue 7): smoke {n}^3 with bar and ground, {width}x{height}",
+    lines = [f"## Final-render antialiasing: smoke {n}^3 with bar and ground, {width}x{height}",
              "", "TFM at each sample count (quality AUTO: here a "
              f"{chosen.coefficients}-coefficient TFM from {MANY_SAMPLES} samples on, "
              f"{chosen.view_steps} view steps a sample at {AA_SAMPLES[-1]}; adaptive sampling from "
@@ -496,7 +496,7 @@ def run(quick: bool, out: Path, log=print, blender: bool = True, aa: bool = True
 
 
 def report(rows: list[dict], cb: dict | None, size) -> str:
-    lines = [f"## Viewport (issue 7): {size[0]}x{size[1]}, quality AUTO, {SAMPLES} samples", "",
+    lines = [f"## Viewport: {size[0]}x{size[1]}, quality AUTO, {SAMPLES} samples", "",
              "Times from the request (what view_draw posts) to the first published frame (coarse, a "
              "quarter of the side, or full when the last full frame took < 50 ms), to the full-"
              "resolution frame, and to the converged mean of 16 samples; maps rebuilt by the edit.", ""]

@@ -50,7 +50,7 @@ from .scene import RenderSettings, Scene
 AUTO_COEFFICIENTS: tuple[tuple[float, int], ...] = ((2.0, 2), (8.0, 6), (16.0, 10), (math.inf, 16))
 # The same for a smooth density (sharpness g < SHARP_FOOTPRINT), whose transmittance has no steps
 # for the cosines to ring on, read at tau x max(g, SMOOTH_SHARPNESS_FLOOR): the depth per "feature"
-# of the density. Measured with sigma scaled (docs/benchmark.md, session 6), SSIM >= 0.995 against
+# of the density. Measured with sigma scaled (docs/benchmark.md), SSIM >= 0.995 against
 # the numpy ground truth: 2 coefficients on the smoke (g 0.125) to tau ~ 5 (0.9950 at 6, 0.9933
 # at 8); 6 on the dense smoke to 40 (0.9975), on the cloud (g 0.185) to ~28 (0.9958 at 24,
 # 0.9949 at 30).
@@ -450,7 +450,7 @@ def thick_steps_factor(optical_depth: float, sharpness: float) -> float:
     THICK_SHARP_DEPTH along the light rays gets: tau / THICK_SHARP_DEPTH, at most 2; 1 otherwise.
     A sharp edge's transmittance changes by a step's optical depth from one sample to the next:
     Suzanne's head with sigma scaled to tau 12 and 16 fell to SSIM 0.992 and 0.988 against the
-    numpy ground truth at the sharpness' half a step per voxel (docs/benchmark.md, session 6)."""
+    numpy ground truth at the sharpness' half a step per voxel (docs/benchmark.md)."""
     if sharpness < SHARP_FOOTPRINT or optical_depth <= THICK_SHARP_DEPTH:
         return 1.0
     return min(2.0, optical_depth / THICK_SHARP_DEPTH)

@@ -258,7 +258,7 @@ float solid_visibility(vec2 uv, float r) {
     if (u_has_shadow == 0) return 1.0;
 #if !MEDIUM_SHADOW
     // A point of the media, which no solid shadows. A define: the same test on a uniform saved
-    // nothing on llvmpipe (docs/benchmark.md, issue 8 session 5).
+    // nothing on llvmpipe (docs/benchmark.md).
     if (g_bias_texels == 0.0) return 1.0;
 #endif
     if (u_face_ortho == 1 && (any(lessThan(uv, vec2(0.0))) || any(greaterThan(uv, vec2(1.0))))) return 1.0;
