@@ -46,7 +46,6 @@ TFM_SAMPLES = 0
 # render-report line the user sees (``final_render.last_messages``).
 _NOT_READ = "is not read by the engine; using the TFM settings instead"
 EXPECT: dict[str, str] = {
-    "world_fog_beside_smoke": "Fog without bounds renders only alone; with other media it is skipped",
     "blackbody_node": "emits and scatters: its own emission is not scattered by it",
     "clamp": "gives a medium where the grids are empty, up to Cycles' volume bounds",
     "mix_float": "gives a medium where the grids are empty, up to Cycles' volume bounds",

@@ -18,6 +18,8 @@ def grey_extinction(medium: Medium | None, medium_gpu: MediaGPU, tfm_sigma_t=Non
     same in the three channels, so that every transmittance is grey (the shader's GREY_EXTINCTION:
     one exponential per sample instead of three)."""
     coefficients = [s.medium.sigma_t for s in medium_gpu.slots if s.medium is not None]
+    if medium_gpu.fog is not None:
+        coefficients.append(medium_gpu.fog.sigma_t)
     if medium is not None:
         coefficients.append(medium.sigma_t)
     if tfm_sigma_t is not None:
