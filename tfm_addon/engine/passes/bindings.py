@@ -412,7 +412,8 @@ def bind_light(prog, frame: LightFrame, intensity, map_res: int, shadow, gobo) -
                  u_shadow_rect=tuple(float(x) for x in rect),
                  u_cone_scale=tuple(float(s) for s in frame.cone_scale),
                  u_map_res=float(map_res), u_has_shadow=int(shadow is not None),
-                 u_has_gobo=int(gobo is not None))
+                 u_has_gobo=int(gobo is not None), u_world_spread=float(frame.world_spread),
+                 u_occluder_depth=float(frame.occluder_depth))
     if shadow is not None:
         shadow.texture.use(UNIT["u_shadow"])
         shadow.depth.use(UNIT["u_shadow_depth"])

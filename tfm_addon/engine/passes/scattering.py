@@ -32,7 +32,8 @@ def face_defines(frame, shadow, gobo) -> dict:
     profile, whether it has a shadow map and a gobo (each face kind compiles its own program; the
     other passes read the face from uniforms)."""
     return {"FACE_KIND": 1, "FACE_ORTHO": int(frame.ortho), "FACE_PROFILE": int(frame.profile),
-            "FACE_SHADOW": int(shadow is not None), "FACE_GOBO": int(gobo is not None)}
+            "FACE_SHADOW": int(shadow is not None), "FACE_GOBO": int(gobo is not None),
+            "FACE_WORLD_SOFT": int(frame.world_spread > 0.0)}
 
 
 class ScatteringTargets:

@@ -75,6 +75,7 @@ vec2 frustum_interval(vec3 o, vec3 d, vec2 range) {
     }
     return range;
 }
+#include "world_soft.glsl"
 #endif
 #include "homogeneous.glsl"
 
@@ -123,10 +124,18 @@ void main() {
 #if HAS_LIGHT
         vec3 qP = light_space(P);
         float ndl = dot(n, toward_light(P, qP, light_distance(qP)));
+#if FACE_WORLD_SOFT
+        ndl = 1.0;      // world_sun_arriving weighs each direction of its cone by its own cosine
+#endif
         if (ndl > 0.0) {
             float r;
             g_bias_texels = 3.0;    // the solid's own shadow-map texels must not shadow it
+#if FACE_WORLD_SOFT
+            surface += albedo / PI * world_sun_arriving(P, qP, mat3(u_world_to_light) * n, step_at)
+                       * u_light_targets.y;
+#else
             surface += albedo / PI * ndl * light_arriving(P, qP, r) * u_light_targets.y;
+#endif
             g_bias_texels = 0.0;
         }
 #endif
