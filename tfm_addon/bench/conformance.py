@@ -851,6 +851,20 @@ def _(tmpdir):
     volume_object(tmpdir, mat=mat)
 
 
+for _flag, _what in (("scatter", "Volume Scatter"), ("diffuse", "Diffuse")):
+    def _build(tmpdir, flag=_flag):
+        import bpy
+
+        mat, nt, out = material()
+        principled(nt, out)
+        base(lights=None, world=(0.3, 0.4, 0.6))
+        setattr(bpy.context.scene.world.cycles_visibility, flag, False)
+        volume_object(tmpdir, mat=mat)
+
+    ROWS.append(Row(id=f"world_{_flag}_off", title=f"World colour (0.3, 0.4, 0.6), World ▸ Settings ▸ Ray "
+                    f"Visibility ▸ {_what} off", build=_build, coloured=True))
+
+
 def _world_volume(node_type: str, density: float) -> None:
     import bpy
 

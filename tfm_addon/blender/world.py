@@ -111,6 +111,17 @@ def ambient_radiance(world) -> tuple[RGB, str | None]:
                                 f"using the world's viewport colour as ambient light")
 
 
+def world_visibility(world) -> tuple[bool, bool, bool]:
+    """The World's Ray Visibility as Cycles reads it for this engine's diffuse surfaces and media:
+    (Camera: the world seen behind everything, Volume Scatter: its light on the media, Diffuse: its
+    light on the surfaces). Glossy and Transmission light no diffuse surface; Shadow changes
+    nothing (measured against Cycles 5.0)."""
+    v = getattr(world, "cycles_visibility", None) if world is not None else None
+    if v is None:
+        return True, True, True
+    return bool(v.camera), bool(v.scatter), bool(v.diffuse)
+
+
 def world_fog(world) -> tuple[Medium | None, list[str]]:
     """The World's Volume output as fog filling the scene (Cycles renders it everywhere, the camera
     inside it), or None; and report lines. The shader is evaluated once (the world has no grids:

@@ -397,8 +397,11 @@ class Renderer:
             targets.begin(gl.ctx, clear=frame.plan.clear_targets, composing=lone)
         gbuffer.bind()
         ambient = scene.ambient if settings.ambient else (0.0, 0.0, 0.0)
+        dark = (0.0, 0.0, 0.0)          # the world's Ray Visibility
         common = dict(camera=scene.camera, plane=plane, medium=frame.medium,
-                      medium_gpu=frame.medium_gpu, settings=settings, ambient=ambient,
+                      medium_gpu=frame.medium_gpu, settings=settings,
+                      ambient=ambient if scene.world_lights_medium else dark,
+                      ambient_surface=ambient if scene.world_lights_surfaces else dark,
                       attributes=frame.attributes, active=self._active_rects(size, active),
                       compose=compose, sums=sums if lone else None)
         self.counters["pixels_shaded"] += (size[0] * size[1] if active is None

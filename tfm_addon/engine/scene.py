@@ -514,6 +514,9 @@ class Scene:
     ``ambient`` holds its mean.
     ``media``: every participating medium (None entries are dropped); where they overlap their
     coefficients add up.
+    ``world_lights_medium`` / ``world_lights_surfaces`` False: the world's light reaches no medium
+    / no surface (the World's Ray Visibility ▸ Volume Scatter / Diffuse off in Blender; Camera off
+    is a black ``world``).
     """
 
     camera: Camera
@@ -523,6 +526,8 @@ class Scene:
     media: tuple[Medium, ...] = ()
     world: RGB | None = None
     environment: np.ndarray | None = None
+    world_lights_medium: bool = True
+    world_lights_surfaces: bool = True
 
     def __post_init__(self):
         object.__setattr__(self, "lights", tuple(self.lights))

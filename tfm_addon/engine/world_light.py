@@ -110,5 +110,9 @@ def with_world_light(scene: Scene, n: int = DEFAULT_DIRECTIONS) -> Scene:
     if not any(c > 0.0 for c in scene.ambient):
         return scene
     env = scene.environment
-    suns = world_suns(scene.ambient, n) if env is None else environment_suns(env, n)
+    suns = ()
+    if scene.world_lights_medium or scene.world_lights_surfaces:
+        suns = world_suns(scene.ambient, n) if env is None else environment_suns(env, n)
+        suns = tuple(replace(s, lights_medium=scene.world_lights_medium,
+                             lights_surfaces=scene.world_lights_surfaces) for s in suns)
     return replace(scene, lights=(*scene.lights, *suns), ambient=(0.0, 0.0, 0.0), world=scene.background)

@@ -18,7 +18,8 @@ uniform int u_ortho;
 uniform vec2 u_clip;           // clip start, end: depths along the view axis, metres
 uniform vec3 u_sigma_s;        // 1/m per unit density
 uniform float u_g;
-uniform vec3 u_ambient;
+uniform vec3 u_ambient;         // the world radiance the media scatter (first pass)
+uniform vec3 u_ambient_surface; // ... and the surfaces reflect
 uniform int u_view_steps;
 uniform int u_light_in_medium;
 uniform float u_view_jitter;   // < 0: march at step midpoints; else this sample's start offset
@@ -119,7 +120,7 @@ void main() {
         if (dot(n, d) > 0.0) n = -n;
         vec3 P = o + d * g0.w;
 #if FIRST_PASS
-        surface += albedo * u_ambient;
+        surface += albedo * u_ambient_surface;
 #endif
 #if HAS_LIGHT
         vec3 qP = light_space(P);
