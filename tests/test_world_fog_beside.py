@@ -18,12 +18,15 @@ def test_fog_beside_a_smoke_matches_reference(renderer):
     them and the fog's extinction of the light reaching the smoke and the ground."""
     scene = smoke_scene(width=40, height=30, n=16)
     point = Light(matrix_world=look_at((-2.0, -2.0, 2.5), (0.0, 0.0, 0.0)), power_w=800.0, kind="POINT")
-    scene = dataclasses.replace(scene, media=(*scene.media, FOG), lights=(*scene.lights, point))
-    ref = render_reference(scene, view_steps=384, light_steps=24)  # rays up to 100 m of fog
+    camera = dataclasses.replace(scene.camera, clip_end=20.0)     # the fog's rays end there
+    scene = dataclasses.replace(scene, camera=camera, media=(*scene.media, FOG),
+                                lights=(*scene.lights, point))
+    ref = render_reference(scene, view_steps=160, light_steps=24)
     out = renderer.render(scene, RenderSettings(view_steps=64, light_steps=64, coefficients=8,
                                                 map_resolution=128))
     assert not out.warnings
     s, b = ssim(out.rgb, ref.rgb), brightness_ratio(out.rgb, ref.rgb)
+    print(f"fog beside a smoke against the reference: SSIM {s:.4f}, brightness {b:.4f}")
     assert s >= 0.98 and abs(b - 1.0) <= 0.03, (s, b)
     np.testing.assert_allclose(out.passes["transmittance"], ref.passes["transmittance"], atol=2e-3)
     # the fog is there: without it the image differs
