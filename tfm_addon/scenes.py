@@ -495,3 +495,30 @@ def uv_sphere(radius: float = 1.0, segments: int = 32, rings: int = 16, center=(
             a, b, c2, d = idx(i, j), idx(i, j + 1), idx(i + 1, j), idx(i + 1, j + 1)
             tris += [(a, c2, b), (b, c2, d)]
     return np.array(verts), np.array(tris, dtype=np.int64)
+
+
+def sky_environment(width: int = 64, height: int = 32) -> np.ndarray:
+    """An equirectangular environment (Scene.environment's convention, top row first): a blue sky
+    over a dark ground and a warm patch of high radiance 16 degrees wide, 30 degrees up."""
+    theta = math.pi * (np.arange(height) + 0.5) / height                 # from +Z, top row first
+    phi = math.pi - 2.0 * math.pi * (np.arange(width) + 0.5) / width
+    t, p = np.meshgrid(theta, phi, indexing="ij")
+    d = np.stack([np.sin(t) * np.cos(p), np.sin(t) * np.sin(p), np.cos(t)], axis=-1)
+    rgb = np.where((d[..., 2] > 0)[..., None], [0.25, 0.45, 0.9], [0.05, 0.04, 0.03]).astype(np.float32)
+    sun = np.array([0.6, -0.6, 0.5]) / np.linalg.norm([0.6, -0.6, 0.5])
+    rgb[(d @ sun) > 0.96] = (40.0, 30.0, 20.0)
+    return rgb
+
+
+def world_lit_box_scene(width: int = 40, height: int = 30, environment: np.ndarray | None = None) -> Scene:
+    """A box of smoke (homogeneous, 1.2 m) over a ground, lit only by the world: white, or
+    ``environment`` (an equirectangular image, Scene's convention)."""
+    from .engine.world_light import mean_radiance
+
+    medium = Medium(sigma_a=(0.2, 0.2, 0.2), sigma_s=(2.4, 2.4, 2.4), name="Box",
+                    box_to_world=translate_scale((0.0, 0.0, 1.0), 0.6))
+    camera = Camera(matrix_world=look_at((0.0, -4.5, 1.8), (0.0, 0.0, 0.6)), width_px=width, height_px=height,
+                    lens_mm=35.0)
+    ambient = (1.0, 1.0, 1.0) if environment is None else mean_radiance(environment)
+    return Scene(camera=camera, media=(medium,), meshes=(plane_mesh((0, 0, 0), 8.0),), ambient=ambient,
+                 environment=environment)

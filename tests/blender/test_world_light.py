@@ -8,6 +8,7 @@ import importlib
 import os
 
 import bpy
+import numpy as np
 import pytest
 from blender_helpers import MODULE, render_passes, smoke
 
@@ -93,3 +94,36 @@ def test_viewport_keeps_the_world_light_unshadowed_by_default(blank):
     assert extract.render_settings(blank, viewport=True).world_light == 'UNSHADOWED'
     blank.tfm.world_light_viewport = 'SHADOWED'
     assert extract.render_settings(blank, viewport=True).world_light == 'SHADOWED'
+
+
+def test_world_ray_visibility_as_cycles_reads_it(blank, tmp_path):
+    """World ▸ Settings ▸ Ray Visibility: Camera off hides the world behind everything, Volume
+    Scatter off keeps its light from the media, Diffuse off from the surfaces; Glossy,
+    Transmission and Shadow change nothing for diffuse surfaces and media (measured in Cycles 5.0;
+    the conformance rows world_scatter_off and world_diffuse_off compare the images). A toggle is
+    a change of the world."""
+    from tfm_addon.bench import conformance
+
+    extract = importlib.import_module(MODULE + ".tfm_addon.blender.extract")
+    conformance.ROW_BY_ID["world_color"].build(str(tmp_path))
+    visibility = bpy.context.scene.world.cycles_visibility
+
+    def read():
+        depsgraph = bpy.context.evaluated_depsgraph_get()
+        scene = extract.extract(depsgraph).scene()
+        return (scene.background, scene.world_lights_medium, scene.world_lights_surfaces), \
+            extract.scene_state(depsgraph)
+
+    everything, state = read()
+    assert np.allclose(everything[0], (0.3, 0.4, 0.6)) and everything[1:] == (True, True)
+    lit = everything[0]
+    expected = {"camera": ((0.0, 0.0, 0.0), True, True), "scatter": (lit, False, True),
+                "diffuse": (lit, True, False), "glossy": everything,
+                "transmission": everything, "shadow": everything}
+    for flag, seen in expected.items():
+        setattr(visibility, flag, False)
+        got, after = read()
+        assert np.allclose(got[0], seen[0]) and got[1:] == seen[1:], flag
+        changed = extract.scene_changes(state, after) & extract.Change.WORLD
+        assert bool(changed) == (seen != everything), flag
+        setattr(visibility, flag, True)

@@ -46,12 +46,10 @@ TFM_SAMPLES = 0
 # render-report line the user sees (``final_render.last_messages``).
 _NOT_READ = "is not read by the engine; using the TFM settings instead"
 EXPECT: dict[str, str] = {
-    "world_fog_beside_smoke": "Fog without bounds renders only alone; with other media it is skipped",
     "blackbody_node": "emits and scatters: its own emission is not scattered by it",
+    "world_sky": "node 'Sky Texture' (Sky Texture) is not read by the engine",
     "clamp": "gives a medium where the grids are empty, up to Cycles' volume bounds",
     "mix_float": "gives a medium where the grids are empty, up to Cycles' volume bounds",
-    "world_color": "the world lights it alone, from 16 directions",
-    "world_hdri": "the world lights it alone, from 16 directions",
 }
 # 'wrong': TFM renders the row, wrongly, and says nothing: a defect this suite found. The value
 # says what differs from Cycles.
@@ -852,6 +850,60 @@ def _(tmpdir):
     principled(nt, out)
     base(lights=None, world=(0.3, 0.4, 0.6))
     volume_object(tmpdir, mat=mat)
+
+
+@row("world_gradient", "World ▸ Background Color from nodes: Texture Coordinate Generated → Separate XYZ Z → "
+     "Map Range (−0.2–1 → 0–1) → Mix (Color) ground → sky, Strength 1.5", coloured=True)
+def _(tmpdir):
+    import bpy
+
+    mat, nt, out = material()
+    principled(nt, out)
+    base(lights=None)
+    wt = bpy.context.scene.world.node_tree
+    bg = next(n for n in wt.nodes if n.bl_idname == 'ShaderNodeBackground')
+    bg.inputs["Strength"].default_value = 1.5
+    coords, xyz = wt.nodes.new('ShaderNodeTexCoord'), wt.nodes.new('ShaderNodeSeparateXYZ')
+    ramp, mix = wt.nodes.new('ShaderNodeMapRange'), wt.nodes.new('ShaderNodeMix')
+    ramp.inputs["From Min"].default_value = -0.2
+    mix.data_type = 'RGBA'
+    socket(mix.inputs, "A_Color").default_value = (0.05, 0.04, 0.03, 1.0)
+    socket(mix.inputs, "B_Color").default_value = (0.3, 0.5, 1.0, 1.0)
+    wt.links.new(coords.outputs["Generated"], xyz.inputs[0])
+    wt.links.new(xyz.outputs["Z"], ramp.inputs["Value"])
+    wt.links.new(ramp.outputs["Result"], socket(mix.inputs, "Factor_Float"))
+    wt.links.new(socket(mix.outputs, "Result_Color"), bg.inputs["Color"])
+    volume_object(tmpdir, mat=mat)
+
+
+@row("world_sky", "World ▸ Background Color from a Sky Texture (Multiple Scattering, Blender's default)",
+     coloured=True)
+def _(tmpdir):
+    import bpy
+
+    mat, nt, out = material()
+    principled(nt, out)
+    base(lights=None)
+    wt = bpy.context.scene.world.node_tree
+    bg = next(n for n in wt.nodes if n.bl_idname == 'ShaderNodeBackground')
+    sky = wt.nodes.new('ShaderNodeTexSky')
+    bg.inputs["Strength"].default_value = 0.1
+    wt.links.new(sky.outputs["Color"], bg.inputs["Color"])
+    volume_object(tmpdir, mat=mat)
+
+
+for _flag, _what in (("scatter", "Volume Scatter"), ("diffuse", "Diffuse")):
+    def _build(tmpdir, flag=_flag):
+        import bpy
+
+        mat, nt, out = material()
+        principled(nt, out)
+        base(lights=None, world=(0.3, 0.4, 0.6))
+        setattr(bpy.context.scene.world.cycles_visibility, flag, False)
+        volume_object(tmpdir, mat=mat)
+
+    ROWS.append(Row(id=f"world_{_flag}_off", title=f"World colour (0.3, 0.4, 0.6), World ▸ Settings ▸ Ray "
+                    f"Visibility ▸ {_what} off", build=_build, coloured=True))
 
 
 def _world_volume(node_type: str, density: float) -> None:

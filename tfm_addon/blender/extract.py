@@ -22,7 +22,7 @@ from . import lights as lights_module
 from .camera import camera_from_object
 from .changes import Change
 from .volumes import GridCache, NoGridThisFrame, VolumeReadError, grid_cache
-from .world import ambient_radiance, environment, world_fog
+from .world import ambient_radiance, environment, world_fog, world_visibility
 
 RGB = tuple[float, float, float]
 
@@ -41,15 +41,18 @@ class Extraction:
     medium_sources: tuple[str, ...] = ()   # the objects they come from
     world_fog: Medium | None = None   # the World's Volume output, fog filling the scene
     environment: np.ndarray | None = None   # the world's radiance by direction (an HDRI), or None
+    world_visibility: tuple[bool, bool, bool] = (True, True, True)   # camera, volume scatter, diffuse
 
     def scene(self, camera: Camera | None = None) -> Scene:
         cam = camera if camera is not None else self.camera
         if cam is None:
             raise ValueError("no camera")
         media = self.media if self.world_fog is None else (*self.media, self.world_fog)
+        seen, medium, surfaces = self.world_visibility
         return Scene(camera=cam, lights=self.lights, media=media, meshes=self.meshes,
                      ambient=self.ambient if self.settings.ambient else (0.0, 0.0, 0.0),
-                     world=self.ambient, environment=self.environment)
+                     world=self.ambient if seen else (0.0, 0.0, 0.0), environment=self.environment,
+                     world_lights_medium=medium, world_lights_surfaces=surfaces)
 
     @property
     def all_warnings(self) -> list[str]:
@@ -244,6 +247,7 @@ def extract(depsgraph, *, parts: Change = Change.ALL, previous: Extraction | Non
         fog, fog_notes = world_fog(scene.world)
         changes["world_fog"] = fog
         changes["environment"] = environment(scene.world)[0] if scene.world is not None else None
+        changes["world_visibility"] = world_visibility(scene.world)
         warnings[Change.WORLD] = ((note,) if note else ()) + tuple(fog_notes)
 
     geometry = parts & Change.GEOMETRY
@@ -278,7 +282,7 @@ def scene_state(depsgraph) -> dict:
         census.append(entry)
     return {"settings": (render_settings(scene, viewport=depsgraph.mode != 'RENDER'),
                          tuple(_settings_warnings(scene))),
-            "world": ambient_radiance(scene.world),
+            "world": (ambient_radiance(scene.world), world_visibility(scene.world)),
             "frame": (scene.frame_current, float(scene.frame_subframe)),
             "size": render_size(scene),
             "simplify": volume_simplify_level(depsgraph),

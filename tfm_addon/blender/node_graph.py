@@ -84,6 +84,7 @@ KINDS = {
     'ShaderNodeVolumeAbsorption': ("VOLUME_ABSORPTION", None),
     'ShaderNodeVolumeCoefficients': ("VOLUME_COEFFICIENTS", None),
     'ShaderNodeEmission': ("EMISSION", None),
+    'ShaderNodeBackground': ("BACKGROUND", None),    # the world's: radiance Color x Strength
     'ShaderNodeAddShader': ("ADD_SHADER", None),
     'ShaderNodeMixShader': ("MIX_SHADER", None),
 }
@@ -222,14 +223,15 @@ class _Compiler:
         return self.index[key]
 
 
-def compile_volume(material, texspace=None) -> ShaderGraph | None:
+def compile_volume(material, texspace=None, output: str = "Volume") -> ShaderGraph | None:
     """The material's volume shader as a ShaderGraph, or None when its output has no volume
-    shader. ``texspace``: (location, size) of the object's texture space (Generated coordinates)."""
+    shader. ``texspace``: (location, size) of the object's texture space (Generated coordinates).
+    ``output``: the output socket read ('Surface': a world's Background, as emission)."""
     out = output_node(material)
     if out is None:
         return None
     c = _Compiler()
-    node, socket = c.source(out.inputs["Volume"])
+    node, socket = c.source(out.inputs[output])
     if node is None:
         return None
     index = c.node(node)

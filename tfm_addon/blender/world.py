@@ -42,9 +42,9 @@ def environment(world) -> tuple[np.ndarray | None, str | None]:
         tex = _linked_node(node.inputs["Color"])
         strength = float(_constant(node.inputs["Strength"]))
     except Unreadable:
-        return None, None
+        return graph_environment(world)
     if tex is None or tex.bl_idname != 'ShaderNodeTexEnvironment' or tex.image is None:
-        return None, None
+        return graph_environment(world)
     note = None
     if tex.projection != 'EQUIRECTANGULAR':
         return None, f"World '{world.name}': a {tex.projection.lower()} environment is not read"
@@ -56,6 +56,29 @@ def environment(world) -> tuple[np.ndarray | None, str | None]:
     if w < 1 or h < 1:
         return None, f"World '{world.name}': image '{image.name}' could not be loaded"
     return _image_radiance(image) * np.float32(strength), note
+
+
+GRAPH_SIZE = (32, 64)       # (rows, columns) of the image a world's node graph is evaluated into
+
+
+def graph_environment(world) -> tuple[np.ndarray | None, str | None]:
+    """The world's radiance by direction when its Background's Color is made by nodes (a Gradient
+    Texture, a Mix by direction...): the Surface graph compiled by the volumes' node mechanism
+    (node_graph.py; the Background as an emission) and evaluated over the directions of a
+    GRAPH_SIZE equirectangular image, its Generated and Object coordinates the direction as in
+    Cycles; and a note naming the nodes not read."""
+    from ..engine.world_light import environment_directions
+    from .node_graph import compile_volume
+
+    h, w = GRAPH_SIZE
+    graph = compile_volume(world, texspace=((0.5, 0.5, 0.5), (0.5, 0.5, 0.5)), output="Surface")
+    if graph is None or graph.output is None:
+        return None, None
+    dirs, _ = environment_directions(np.zeros((h, w, 3)))
+    fields = shading.evaluate(graph, {}, h * w, dirs)
+    rgb = np.ascontiguousarray(np.maximum(np.broadcast_to(fields.emission, (h * w, 3)), 0.0), np.float32)
+    note = "; ".join(f"World '{world.name}': {n}" for n in graph.notes) or None
+    return rgb.reshape(h, w, 3), note
 
 
 _images: dict = {}      # image signature -> its radiance averaged down (the last ones read)
@@ -109,6 +132,17 @@ def ambient_radiance(world) -> tuple[RGB, str | None]:
         return (0.0, 0.0, 0.0), None
     return tuple(world.color), (f"World '{world.name}' is not a plain Background node; "
                                 f"using the world's viewport colour as ambient light")
+
+
+def world_visibility(world) -> tuple[bool, bool, bool]:
+    """The World's Ray Visibility as Cycles reads it for this engine's diffuse surfaces and media:
+    (Camera: the world seen behind everything, Volume Scatter: its light on the media, Diffuse: its
+    light on the surfaces). Glossy and Transmission light no diffuse surface; Shadow changes
+    nothing (measured against Cycles 5.0)."""
+    v = getattr(world, "cycles_visibility", None) if world is not None else None
+    if v is None:
+        return True, True, True
+    return bool(v.camera), bool(v.scatter), bool(v.diffuse)
 
 
 def world_fog(world) -> tuple[Medium | None, list[str]]:

@@ -65,11 +65,17 @@ def plan_faces(scene: Scene, settings: RenderSettings, light: Light, media: Medi
     camera sees (None: no culling by them); ``map_res``: the shadow maps' side, which caps the
     TFMs'; ``image_side``: the image side a FOOTPRINT TFM is capped by (default: the camera's)."""
     boxes = media.boxes
-    everywhere = media.kind == MEDIUM_EVERYWHERE
+    fog = media.fog is not None                 # fog without bounds, alone or beside other media
+    everywhere = media.kind == MEDIUM_EVERYWHERE or fog
+    # Fog that absorbs takes all the light coming from infinitely far (a sun's), as in Cycles.
+    sunless = fog and max(media.fog.sigma_t) > 0.0
     unit = settings.method == "UNSHADOWED" or not light.cast_shadow
     side_cap = image_side or max(scene.camera.width_px, scene.camera.height_px)
     faces, culled = [], 0
     for frame in light_faces(light, boxes, casters_bounds):
+        if sunless and frame.ortho:
+            culled += 1
+            continue
         reached = tuple(i for i, box in enumerate(boxes) if _reaches(light, frame, box))
         if (light.kind in ("POINT", "AREA") and not reached and not everywhere
                 and (seen_bounds is None or not face_meets_box(frame, np.eye(4), *seen_bounds))):
@@ -85,6 +91,8 @@ def plan_faces(scene: Scene, settings: RenderSettings, light: Light, media: Medi
                 else:
                     light_t = LIGHT_T_TFM
                     side = _face_side(settings, frame, media.slots, reached, map_res, side_cap)
+            elif fog:
+                light_t = LIGHT_T_UNIT          # the fog alone: its closed form (shaders/world_fog.glsl)
         elif media.kind in (MEDIUM_BOX, MEDIUM_EVERYWHERE):
             if everywhere or reached:
                 light_t = LIGHT_T_UNIT if unit else LIGHT_T_ANALYTIC

@@ -60,7 +60,10 @@ class LightFrame:
     the origin is the centre of the map's near plane, light travelling along -Z, ``tan_xy`` the
     half extents in metres; ``shadow_rect`` (cx, cy, hx, hy) the face-space rectangle the shadow
     map covers; ``far`` the depth of the box, metres. ``profile`` and ``emit_axis`` (face
-    space) give the emission's dependence on direction.
+    space) give the emission's dependence on direction. ``world_spread``: for a sun standing in
+    for part of the world's light, the tangent of the half angle of its cone of directions (its
+    shadows on surfaces are that soft), else 0; ``occluder_depth`` the depth of what shadows
+    (the media's centre, or the casters') below the near plane, metres.
     """
 
     world_to_light: np.ndarray
@@ -75,6 +78,8 @@ class LightFrame:
     far: float = 0.0
     index: int = 0
     cone_scale: tuple[float, float] = (1.0, 1.0)
+    world_spread: float = 0.0
+    occluder_depth: float = 0.0
 
     @property
     def tan_half(self) -> float:
@@ -195,7 +200,11 @@ def sun_face(light: Light, medium_boxes, caster_bounds) -> LightFrame:
     to_world = np.eye(4)
     to_world[:3, :3] = rot
     to_world[:3, 3] = origin
-    return LightFrame(world_to_light=np.linalg.inv(to_world), position=origin, cos_half=0.0,
+    spread = math.tan(0.5 * min(max(float(light.angle_rad), 0.0), math.radians(170.0))) if light.from_world \
+        else 0.0
+    occluders = pts_media if len(pts_media) else pts_all
+    return LightFrame(world_spread=spread, occluder_depth=float(z_top - occluders[:, 2].mean()),
+                      world_to_light=np.linalg.inv(to_world), position=origin, cos_half=0.0,
                       spot_smooth=0.0, tan_xy=(float(half[0]), float(half[1])), ortho=True,
                       profile=PROFILE_UNIFORM,
                       shadow_rect=(float(s_centre[0] - centre[0]), float(s_centre[1] - centre[1]),

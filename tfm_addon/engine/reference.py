@@ -10,12 +10,20 @@ The model (units: metres, watts, radians; colours are scene-linear RGB):
   a camera object's scale).
 - Solids: two-sided triangles, Lambert with the normal turned to the camera, lit by the spots
   (shadowed by any triangle strictly between the point and the light, attenuated by the medium
-  along the light ray) plus the unattenuated ambient ``albedo * ambient``.
+  along the light ray) plus, with ``world_light='UNSHADOWED'``, the unattenuated ambient
+  ``albedo * ambient``.
 - Lights: spots of intensity ``color * power / (4 pi)`` W/sr with Blender's smoothstep cone
   falloff and an optional gobo; point lights of the same intensity in every direction; area
   lights as a point at their centre of intensity ``color * power / pi * cos(theta)`` W/sr about
   their -Z; all with inverse-square falloff. Suns: parallel light along their -Z, irradiance
-  ``color * strength`` W/m^2, shadowed along the whole ray toward the sun.
+  ``color * strength`` W/m^2, shadowed along the whole ray toward the sun. A light whose
+  ``lights_medium`` / ``lights_surfaces`` is False lights no medium / no surface.
+- The world (``world_light='SHADOWED'``): as Cycles gathers it with no bounces, its radiance from
+  every direction attenuated by the media and the solids that way, estimated by ``world_directions``
+  suns drawn at random (a fixed seed), with probability proportional to the environment's radiance
+  times solid angle (uniform for a constant world), each carrying L dOmega / (K p), the Monte Carlo
+  estimate of the integral; the scene's ``world_lights_medium`` / ``world_lights_surfaces`` say what
+  it lights. With 'UNSHADOWED' (the engine's fast mode, not Cycles') the ambient term is added as is.
 - Media: each ``sigma = D(p) * sigma_per_density``; D trilinear in a grid that fades to zero one
   voxel beyond the outermost centres, or 1 inside a box (or everywhere) for a homogeneous
   medium. Several media add their coefficients; the phase is their sigma_s-weighted mixture.
@@ -455,6 +463,7 @@ class _Light:
         self.blend = float(light.spot_blend)
         self.tan_half = math.tan(min(light.spot_size_rad / 2.0, math.radians(85.0)))
         self.gobo = None if light.gobo is None or self.kind != "SPOT" else np.asarray(light.gobo, np.float64)
+        self.lights_medium, self.lights_surfaces = bool(light.lights_medium), bool(light.lights_surfaces)
 
     @staticmethod
     def usable(light: Light) -> bool:
@@ -674,13 +683,53 @@ def _march_view(o: np.ndarray, d: np.ndarray, t0: np.ndarray, t1: np.ndarray, me
     return scattering, t_end
 
 
+def _world_suns(scene: Scene, count: int, seed: int = 0) -> list[Light]:
+    """``count`` suns drawn at random over the world's directions (see the module docstring)."""
+    rng = np.random.default_rng(seed)
+    env = scene.environment
+    if env is None:
+        # stratified in z, the azimuths turned by the golden angle from a random start
+        z = 1.0 - 2.0 * (np.arange(count) + rng.random(count)) / count
+        phi = rng.random() * 2.0 * math.pi + math.pi * (3.0 - math.sqrt(5.0)) * np.arange(count)
+        r = np.sqrt(np.maximum(0.0, 1.0 - z * z))
+        toward = np.stack([r * np.cos(phi), r * np.sin(phi), z], axis=-1)
+        weight = np.broadcast_to(np.asarray(scene.ambient, np.float64) * 4.0 * math.pi / count, (count, 3))
+    else:
+        env = np.asarray(env, np.float64)
+        h, w = env.shape[:2]
+        omega = (2.0 * math.pi / w) * (math.pi / h) * np.sin(math.pi * (np.arange(h) + 0.5) / h)
+        power = (env * omega[:, None, None]).reshape(-1, 3)            # radiance x solid angle
+        p = power.mean(axis=1) + 1e-12 * power.mean()
+        p /= p.sum()
+        # systematic draws through the cumulative distribution, jittered inside each pixel
+        pick = np.minimum(np.searchsorted(np.cumsum(p), (np.arange(count) + rng.random()) / count), h * w - 1)
+        row, col = np.divmod(pick, w)
+        theta = math.pi * (row + rng.random(count)) / h
+        phi = math.pi - 2.0 * math.pi * (col + rng.random(count)) / w
+        toward = np.stack([np.sin(theta) * np.cos(phi), np.sin(theta) * np.sin(phi), np.cos(theta)], -1)
+        weight = power[pick] / (count * p[pick, None])
+    suns = []
+    for k in range(count):
+        z_axis = toward[k]                     # local +Z toward the sky: the light travels along -Z
+        helper = np.array([1.0, 0.0, 0.0]) if abs(z_axis[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+        x_axis = _normalise(np.cross(helper, z_axis)[None])[0]
+        m = np.eye(4)
+        m[:3, 0], m[:3, 1], m[:3, 2] = x_axis, np.cross(z_axis, x_axis), z_axis
+        suns.append(Light(matrix_world=m, color=tuple(float(c) for c in weight[k]), power_w=1.0, kind="SUN",
+                          name="World", from_world=True, lights_medium=scene.world_lights_medium,
+                          lights_surfaces=scene.world_lights_surfaces))
+    return suns
+
+
 def render_reference(scene: Scene, settings: RenderSettings | None = None, *,
-                     view_steps: int = 128, light_steps: int = 128) -> RenderOutput:
+                     view_steps: int = 128, light_steps: int = 128,
+                     world_directions: int = 256) -> RenderOutput:
     """Render ``scene`` by brute force on the CPU (the ground truth for the GPU renderer).
 
     ``view_steps`` midpoint samples per view ray through the medium and ``light_steps`` per light
-    ray from each of them. Only ``settings.ambient`` and ``settings.film_transparent`` are read
-    (None: ambient on, transparent film). Returns
+    ray from each of them. Only ``settings.ambient``, ``settings.film_transparent`` and
+    ``settings.world_light`` are read (None: ambient on and added unshadowed, transparent film);
+    a shadowed world is ``world_directions`` suns. Returns
     scene-linear radiance (W/(sr m^2)) passes of camera.width_px x height_px pixels, top row
     first: 'scattering', 'surfaces' (already attenuated by the medium), 'transmittance'
     (dimensionless), composed by :meth:`RenderOutput.compose`.
@@ -688,13 +737,21 @@ def render_reference(scene: Scene, settings: RenderSettings | None = None, *,
     start_time = time.perf_counter()
     ambient_on = True if settings is None else bool(settings.ambient)
     ambient = np.asarray(scene.ambient, np.float64) if ambient_on else np.zeros(3)
+    world_suns = []
+    if settings is not None and settings.world_light == "SHADOWED" and ambient.any():
+        world_suns = [_Light(s) for s in _world_suns(scene, world_directions)]
+        ambient = np.zeros(3)
+    ambient_medium = ambient if scene.world_lights_medium else np.zeros(3)
+    ambient_surface = ambient if scene.world_lights_surfaces else np.zeros(3)
     cam = scene.camera
     w, h = int(cam.width_px), int(cam.height_px)
     origins, dirs, t_near, t_far = _camera_rays(cam)
     n_pix = len(origins)
     solids = _Solids(scene.camera_meshes)        # what the camera sees (holdouts included)
     casters = _Solids(scene.shadow_casters)      # what shadows the lights
-    lights = [_Light(light) for light in scene.lights if _Light.usable(light)]
+    lights = [_Light(light) for light in scene.lights if _Light.usable(light)] + world_suns
+    lights_medium = [light for light in lights if light.lights_medium]
+    lights_surfaces = [light for light in lights if light.lights_surfaces]
 
     scattering = np.zeros((n_pix, 3))
     surfaces = np.zeros((n_pix, 3))
@@ -719,7 +776,7 @@ def render_reference(scene: Scene, settings: RenderSettings | None = None, *,
                 seg = np.flatnonzero(t1 > t0)
                 if len(seg):
                     scat, trans_seg = _march_view(o[seg], d[seg], t0[seg], t1[seg], field,
-                                                  casters, lights, ambient, view_steps)
+                                                  casters, lights_medium, ambient_medium, view_steps)
                     trans[seg] = trans_seg
                     scattering[k + seg] = scat
             transmittance[sl] = trans
@@ -727,8 +784,8 @@ def render_reference(scene: Scene, settings: RenderSettings | None = None, *,
             hit = hit[~solids.holdout[tri[hit]]]   # a holdout: no radiance, alpha left open
             if len(hit):
                 p = o[hit] + t_hit[hit, None] * d[hit]
-                radiance = _shade_surfaces(p, d[hit], tri[hit], solids, lights, field,
-                                           ambient, casters)
+                radiance = _shade_surfaces(p, d[hit], tri[hit], solids, lights_surfaces, field,
+                                           ambient_surface, casters)
                 surfaces[k + hit] = trans[hit] * radiance
                 mask[k + hit] = True
 

@@ -397,8 +397,11 @@ class Renderer:
             targets.begin(gl.ctx, clear=frame.plan.clear_targets, composing=lone)
         gbuffer.bind()
         ambient = scene.ambient if settings.ambient else (0.0, 0.0, 0.0)
+        dark = (0.0, 0.0, 0.0)          # the world's Ray Visibility
         common = dict(camera=scene.camera, plane=plane, medium=frame.medium,
-                      medium_gpu=frame.medium_gpu, settings=settings, ambient=ambient,
+                      medium_gpu=frame.medium_gpu, settings=settings,
+                      ambient=ambient if scene.world_lights_medium else dark,
+                      ambient_surface=ambient if scene.world_lights_surfaces else dark,
                       attributes=frame.attributes, active=self._active_rects(size, active),
                       compose=compose, sums=sums if lone else None)
         self.counters["pixels_shaded"] += (size[0] * size[1] if active is None
@@ -485,13 +488,14 @@ class Renderer:
             medium = media[0]
             kind_gpu = MediumGPU(self.gl, medium, None)
             gpu = MediaGPU(kind_gpu.kind, kind_gpu, [], [])
+            gpu.fog = medium if medium.box_to_world is None else None
             gpu.key = ("homogeneous", medium.density_key)
             return gpu, warnings
+        # Fog without bounds (the World's Volume) beside other media: added in closed form to
+        # their march and to every light's transmittance (MediaGPU.fog); a second one is added to it.
         everywhere = [m for m in media if m.is_homogeneous and m.box_to_world is None]
-        if everywhere:
-            warnings.append("Fog without bounds renders only alone; with other media it is skipped: "
-                            + ", ".join(f"'{m.name}'" for m in everywhere) + ".")
-            media = [m for m in media if not (m.is_homogeneous and m.box_to_world is None)]
+        media = [m for m in media if not (m.is_homogeneous and m.box_to_world is None)]
+        fog = merged_fog(everywhere)
         if len(media) > MAX_MEDIA:
             warnings.append(f"At most {MAX_MEDIA} media are rendered; skipped "
                             + ", ".join(f"'{m.name}'" for m in media[MAX_MEDIA:]) + ".")
@@ -538,6 +542,11 @@ class Renderer:
                 continue                       # an empty grid
             slots.append(MediumSlot(m, textures.get(m.grid_key) if m.density is not None else None))
         if not slots:
+            if fog is not None:             # the other media are empty: the fog alone, analytically
+                gpu = MediaGPU(MEDIUM_EVERYWHERE, MediumGPU(self.gl, fog, None), [], [])
+                gpu.fog = fog
+                gpu.key = ("homogeneous", fog.density_key)
+                return gpu, warnings
             gpu = MediaGPU(MEDIUM_NONE, None, [], [])
             gpu.key = ("none",)
             return gpu, warnings
@@ -548,7 +557,8 @@ class Renderer:
                             + ", ".join(f"'{n}'" for n in others) + ".")
         used = [t for t in textures.values() if any(s.grid is t for s in slots)]
         gpu = MediaGPU(MEDIUM_GRID, None, slots, used)
-        gpu.key = tuple(_slot_key(s) for s in slots)
+        gpu.fog = fog
+        gpu.key = tuple(_slot_key(s) for s in slots) + ((("fog", fog.key),) if fog is not None else ())
         return gpu, warnings
 
     def _medium_attributes(self, medium, medium_gpu: MediaGPU) -> AttributesGPU | None:
@@ -893,8 +903,8 @@ def _frame_notes(scene: Scene, lights, warnings: list[str]) -> list[str]:
     world = [light for light in scene.lights if light.from_world]
     if world and len(world) == len(scene.lights):
         warnings.append(f"The scene has no light of its own: the world lights it alone, from {len(world)} "
-                        f"directions (World Light: Shadowed), so the ground's shadow under a medium is "
-                        f"drawn as that many overlapping shadows")
+                        f"directions (World Light: Shadowed), each casting the soft shadow of its "
+                        f"share of the sky on surfaces")
     elif not scene.lights:
         warnings.append("The scene has no spot light (nor any other light): only surfaces and "
                         "ambient light are rendered, and the medium scatters no light beam.")
@@ -909,3 +919,16 @@ def _frame_notes(scene: Scene, lights, warnings: list[str]) -> list[str]:
 def _light_notes(lights) -> list[str]:
     """One line per light kind the renderer approximates."""
     return [AREA_NOTE.format(name=light.name) for light in lights if light.kind == "AREA"]
+
+
+def merged_fog(fogs) -> Medium | None:
+    """Fogs without bounds as one (their coefficients add up, the phase is the sigma_s mixture of
+    their lobes, as where media overlap), or None."""
+    if len(fogs) <= 1:
+        return fogs[0] if fogs else None
+    sigma_s = np.sum([f.sigma_s for f in fogs], axis=0)
+    weights = [float(np.mean(f.sigma_s)) for f in fogs]
+    g = sum(w * f.anisotropy for w, f in zip(weights, fogs, strict=True)) / max(sum(weights), 1e-30)
+    return Medium(sigma_a=tuple(float(x) for x in np.sum([f.sigma_a for f in fogs], axis=0)),
+                  sigma_s=tuple(float(x) for x in sigma_s), anisotropy=float(g),
+                  name=" + ".join(f.name for f in fogs))

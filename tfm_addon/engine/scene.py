@@ -118,7 +118,9 @@ class Light:
     renders it), for every kind. ``lights_medium`` / ``lights_surfaces`` False: the light lights no
     medium / no surface (the light object's Ray Visibility ▸ Volume Scatter / Diffuse off in
     Blender), though it is still seen and still shadowed. ``from_world``: a sun standing in for
-    part of the world's light (engine/world_light.py), not a light of the scene.
+    part of the world's light (engine/world_light.py), not a light of the scene; its
+    ``angle_rad``, the angular diameter of the cone of directions it stands for, softens the
+    shadows it casts on surfaces (shaders/world_soft.glsl).
     """
 
     matrix_world: np.ndarray
@@ -136,6 +138,7 @@ class Light:
     from_world: bool = False
     lights_medium: bool = True
     lights_surfaces: bool = True
+    angle_rad: float = 0.0
 
     def __post_init__(self):
         if self.kind not in LIGHT_KINDS:
@@ -511,6 +514,9 @@ class Scene:
     ``ambient`` holds its mean.
     ``media``: every participating medium (None entries are dropped); where they overlap their
     coefficients add up.
+    ``world_lights_medium`` / ``world_lights_surfaces`` False: the world's light reaches no medium
+    / no surface (the World's Ray Visibility ▸ Volume Scatter / Diffuse off in Blender; Camera off
+    is a black ``world``).
     """
 
     camera: Camera
@@ -520,6 +526,8 @@ class Scene:
     media: tuple[Medium, ...] = ()
     world: RGB | None = None
     environment: np.ndarray | None = None
+    world_lights_medium: bool = True
+    world_lights_surfaces: bool = True
 
     def __post_init__(self):
         object.__setattr__(self, "lights", tuple(self.lights))

@@ -723,6 +723,11 @@ def _emission(node, ins, ev):
     return {"Emission": Closure(emission=ins["Color"] * strength)}
 
 
+def _background(node, ins, ev):
+    """A world's Background: its radiance, as an emission."""
+    return {"Background": _emission(node, ins, ev)["Emission"]}
+
+
 def _add_shader(node, ins, ev):
     a, b = ins.get("Shader"), ins.get("Shader_001")
     parts = [c for c in (a, b) if c is not None]
@@ -746,7 +751,8 @@ NODES: dict[str, Callable] = {
     "TEX_GRADIENT": _tex_gradient, "TEX_WHITE_NOISE": _tex_white_noise, "TEX_VORONOI": _tex_voronoi,
     "TEX_WAVE": _tex_wave, "TEX_CHECKER": _tex_checker,
     "PRINCIPLED_VOLUME": _principled, "VOLUME_SCATTER": _scatter, "VOLUME_ABSORPTION": _absorption,
-    "VOLUME_COEFFICIENTS": _coefficients, "EMISSION": _emission, "ADD_SHADER": _add_shader,
+    "VOLUME_COEFFICIENTS": _coefficients, "EMISSION": _emission, "BACKGROUND": _background,
+    "ADD_SHADER": _add_shader,
     "MIX_SHADER": _mix_shader,
 }
 

@@ -52,8 +52,9 @@ def world_suns(radiance, n: int = DEFAULT_DIRECTIONS) -> tuple[Light, ...]:
     if n <= 0 or not np.any(rgb > 0.0):
         return ()
     share = 4.0 * math.pi / n
+    angle = 2.0 * math.acos(1.0 - 2.0 / n) if n > 1 else math.pi    # a cap of the share's solid angle
     return tuple(Light(matrix_world=_sun_matrix(w), color=tuple(float(c) for c in rgb), power_w=share,
-                       kind="SUN", name=f"World {k + 1}/{n}", from_world=True)
+                       kind="SUN", name=f"World {k + 1}/{n}", from_world=True, angle_rad=angle)
                  for k, w in enumerate(directions(n)))
 
 
@@ -83,10 +84,16 @@ def environment_suns(env: np.ndarray, n: int = DEFAULT_DIRECTIONS) -> tuple[Ligh
     # image lights from where it is, not from the lattice point nearest to it)
     toward = np.zeros((n, 3))
     np.add.at(toward, nearest, dirs * weight.mean(axis=1)[:, None])
+    total = np.zeros(n)
+    np.add.at(total, nearest, weight.mean(axis=1))
     length = np.linalg.norm(toward, axis=1, keepdims=True)
+    # The spread of its part about that direction: the weighted mean cosine m of a uniform cap of
+    # half angle h is (1 + cos h) / 2 (a small bright patch gives a sharp sun, an even sky a wide one).
+    mean_cos = length[:, 0] / np.maximum(total, 1e-300)
+    angle = 2.0 * np.arccos(np.clip(2.0 * mean_cos - 1.0, -1.0, 1.0))
     toward = np.where(length > 1e-12, toward / np.maximum(length, 1e-300), centres)
     return tuple(Light(matrix_world=_sun_matrix(w), color=tuple(float(c) for c in power[k]), power_w=1.0,
-                       kind="SUN", name=f"World {k + 1}/{n}", from_world=True)
+                       kind="SUN", name=f"World {k + 1}/{n}", from_world=True, angle_rad=float(angle[k]))
                  for k, w in enumerate(toward) if np.any(power[k] > 0.0))
 
 
@@ -103,5 +110,9 @@ def with_world_light(scene: Scene, n: int = DEFAULT_DIRECTIONS) -> Scene:
     if not any(c > 0.0 for c in scene.ambient):
         return scene
     env = scene.environment
-    suns = world_suns(scene.ambient, n) if env is None else environment_suns(env, n)
+    suns = ()
+    if scene.world_lights_medium or scene.world_lights_surfaces:
+        suns = world_suns(scene.ambient, n) if env is None else environment_suns(env, n)
+        suns = tuple(replace(s, lights_medium=scene.world_lights_medium,
+                             lights_surfaces=scene.world_lights_surfaces) for s in suns)
     return replace(scene, lights=(*scene.lights, *suns), ambient=(0.0, 0.0, 0.0), world=scene.background)

@@ -262,7 +262,12 @@ def smallest_stretch(a: np.ndarray) -> float:
 class MediaGPU:
     """The media of a frame. ``kind``: MEDIUM_NONE, the analytic MEDIUM_BOX or
     MEDIUM_EVERYWHERE for a single homogeneous medium (``first``), or MEDIUM_GRID: every medium
-    in ``slots`` marched, their distinct grids in ``grids`` (at most MAX_GRIDS)."""
+    in ``slots`` marched, their distinct grids in ``grids`` (at most MAX_GRIDS). ``fog``: the
+    homogeneous fog without bounds (the World's Volume), or None: MEDIUM_EVERYWHERE's medium, or
+    with MEDIUM_GRID the fog overlapping the slots' media, which the shaders add in closed form
+    (WORLD_FOG, shaders/homogeneous.glsl)."""
+
+    fog: Medium | None = None
 
     def __init__(self, kind: int, first: MediumGPU | None, slots: list[MediumSlot],
                  grids: list[MediumGPU]):
@@ -331,11 +336,12 @@ class MediaGPU:
         (the shaders' loops over media unroll to fixed texture reads)."""
         if self.kind != MEDIUM_GRID:
             return {}
+        fog = {"WORLD_FOG": 1} if self.fog is not None else {}
         index = {id(g): i for i, g in enumerate(self.grids)}
         slots = [index[id(s.grid)] if s.grid is not None else -1 for s in self.slots]
         slots += [-1] * (MAX_MEDIA - len(slots))
         return {"N_MEDIA": len(self.slots), "N_GRIDS": max(len(self.grids), 1),
-                "MEDIA_SLOTS": "int[{}]({})".format(MAX_MEDIA, ", ".join(str(s) for s in slots))}
+                "MEDIA_SLOTS": "int[{}]({})".format(MAX_MEDIA, ", ".join(str(s) for s in slots)), **fog}
 
     def bind(self, prog, weights=None) -> None:
         """Bind the textures and the per-medium uniforms; ``weights``: the TFM weight of each
@@ -344,6 +350,10 @@ class MediaGPU:
         set_uniforms(prog, u_box_lo=tuple(self.lo), u_box_hi=tuple(self.hi))
         if self.kind != MEDIUM_GRID:
             return
+        if self.fog is not None:
+            set_uniforms(prog, u_fog_sigma_t=tuple(float(x) for x in self.fog.sigma_t),
+                         u_fog_sigma_s=tuple(float(x) for x in self.fog.sigma_s),
+                         u_fog_g=float(self.fog.anisotropy))
         n = MAX_MEDIA
         slots = self.slots
         pad = n - len(slots)
@@ -402,7 +412,8 @@ def bind_light(prog, frame: LightFrame, intensity, map_res: int, shadow, gobo) -
                  u_shadow_rect=tuple(float(x) for x in rect),
                  u_cone_scale=tuple(float(s) for s in frame.cone_scale),
                  u_map_res=float(map_res), u_has_shadow=int(shadow is not None),
-                 u_has_gobo=int(gobo is not None))
+                 u_has_gobo=int(gobo is not None), u_world_spread=float(frame.world_spread),
+                 u_occluder_depth=float(frame.occluder_depth))
     if shadow is not None:
         shadow.texture.use(UNIT["u_shadow"])
         shadow.depth.use(UNIT["u_shadow_depth"])

@@ -18,6 +18,8 @@ def grey_extinction(medium: Medium | None, medium_gpu: MediaGPU, tfm_sigma_t=Non
     same in the three channels, so that every transmittance is grey (the shader's GREY_EXTINCTION:
     one exponential per sample instead of three)."""
     coefficients = [s.medium.sigma_t for s in medium_gpu.slots if s.medium is not None]
+    if medium_gpu.fog is not None:
+        coefficients.append(medium_gpu.fog.sigma_t)
     if medium is not None:
         coefficients.append(medium.sigma_t)
     if tfm_sigma_t is not None:
@@ -30,7 +32,8 @@ def face_defines(frame, shadow, gobo) -> dict:
     profile, whether it has a shadow map and a gobo (each face kind compiles its own program; the
     other passes read the face from uniforms)."""
     return {"FACE_KIND": 1, "FACE_ORTHO": int(frame.ortho), "FACE_PROFILE": int(frame.profile),
-            "FACE_SHADOW": int(shadow is not None), "FACE_GOBO": int(gobo is not None)}
+            "FACE_SHADOW": int(shadow is not None), "FACE_GOBO": int(gobo is not None),
+            "FACE_WORLD_SOFT": int(frame.world_spread > 0.0)}
 
 
 class ScatteringTargets:
@@ -115,10 +118,11 @@ def run_light_pass(gl: GLContext, *, camera: Camera, plane: ViewPlane, medium: M
                    medium_gpu: MediaGPU, settings: RenderSettings, ambient, first: bool,
                    light=None, light_t: int = LIGHT_T_NONE, tfm=None, tfm_sigma_t=None,
                    attributes=None, active=None, compose=None, sums=None,
-                   medium_shadow: bool = True) -> None:
+                   medium_shadow: bool = True, ambient_surface=None) -> None:
     """Add one pass into the bound ScatteringTargets. ``light`` is (face, intensity, ShadowMap
     or None, gobo texture or None[, (weight on the media, weight on the surfaces)]) or None for the
-    ambient-only first pass; ``tfm_sigma_t`` the
+    ambient-only first pass (``ambient``: the world radiance the media scatter on the first pass,
+    ``ambient_surface`` the one the surfaces reflect, default ``ambient``); ``tfm_sigma_t`` the
     extinction per unit of the TFM's weighted density (default: ``medium``'s). ``attributes``
     (emission.AttributesGPU or None): the first medium's emission, added by the first pass, and
     colour grid. ``active``: None (every pixel), or (vertex buffer, count) of rectangles in window
@@ -166,7 +170,9 @@ def run_light_pass(gl: GLContext, *, camera: Camera, plane: ViewPlane, medium: M
     if medium is not None:
         set_uniforms(prog, u_sigma_s=tuple(float(x) for x in medium.sigma_s),
                      u_sigma_t=tuple(float(x) for x in medium.sigma_t), u_g=float(medium.anisotropy))
+    surface_ambient = ambient if ambient_surface is None else ambient_surface
     set_uniforms(prog, u_ambient=tuple(float(x) for x in ambient),
+                 u_ambient_surface=tuple(float(x) for x in surface_ambient),
                  u_view_steps=int(settings.view_steps), u_light_steps=int(settings.light_steps),
                  u_view_jitter=-1.0 if settings.view_jitter is None else float(settings.view_jitter))
     if light is not None:

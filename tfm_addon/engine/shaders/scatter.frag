@@ -18,7 +18,8 @@ uniform int u_ortho;
 uniform vec2 u_clip;           // clip start, end: depths along the view axis, metres
 uniform vec3 u_sigma_s;        // 1/m per unit density
 uniform float u_g;
-uniform vec3 u_ambient;
+uniform vec3 u_ambient;         // the world radiance the media scatter (first pass)
+uniform vec3 u_ambient_surface; // ... and the surfaces reflect
 uniform int u_view_steps;
 uniform int u_light_in_medium;
 uniform float u_view_jitter;   // < 0: march at step midpoints; else this sample's start offset
@@ -75,7 +76,9 @@ vec2 frustum_interval(vec3 o, vec3 d, vec2 range) {
     }
     return range;
 }
+#include "world_soft.glsl"
 #endif
+#include "homogeneous.glsl"
 
 void main() {
     vec2 pc = u_plane0 + gl_FragCoord.xy * u_pixel_size;
@@ -117,15 +120,23 @@ void main() {
         if (dot(n, d) > 0.0) n = -n;
         vec3 P = o + d * g0.w;
 #if FIRST_PASS
-        surface += albedo * u_ambient;
+        surface += albedo * u_ambient_surface;
 #endif
 #if HAS_LIGHT
         vec3 qP = light_space(P);
         float ndl = dot(n, toward_light(P, qP, light_distance(qP)));
+#if FACE_WORLD_SOFT
+        ndl = 1.0;      // world_sun_arriving weighs each direction of its cone by its own cosine
+#endif
         if (ndl > 0.0) {
             float r;
             g_bias_texels = 3.0;    // the solid's own shadow-map texels must not shadow it
+#if FACE_WORLD_SOFT
+            surface += albedo / PI * world_sun_arriving(P, qP, mat3(u_world_to_light) * n, step_at)
+                       * u_light_targets.y;
+#else
             surface += albedo / PI * ndl * light_arriving(P, qP, r) * u_light_targets.y;
+#endif
             g_bias_texels = 0.0;
         }
 #endif
@@ -156,6 +167,9 @@ void main() {
         // light; overlapping media add their coefficients, the phase is their sigma_s mixture.
         float dt = (seg.y - seg.x) / float(u_view_steps);
         vec3 tau = vec3(0.0);
+#if WORLD_FOG
+        tau = u_fog_sigma_t * (seg.x - t_near);     // the fog before the media
+#endif
         // The first medium's index space: its emission and colour grid (fire's attributes).
         vec3 ob = (u_world_to_box * vec4(o, 1.0)).xyz;
         vec3 db = (u_world_to_box * vec4(d, 0.0)).xyz;
@@ -205,6 +219,10 @@ void main() {
                 any_d = any_d || D[m] > 0.0;
                 st += u_med_sigma_t[m] * D[m];
             }
+#if WORLD_FOG
+            st += u_fog_sigma_t;
+            any_d = true;           // the fog fills the empty cells: no skipping
+#endif
 #if EMISSION
             vec3 tv_e = EXP_RGB(-(tau + 0.5 * st * dt));     // for this sample and those it skips
 #if PACKED_DENSITY == 1 && EMISSION == 2
@@ -251,6 +269,9 @@ void main() {
 #endif
                 vec3 ss = vec3(0.0);
                 for (int m = 0; m < N_MEDIA; ++m) ss += u_med_sigma_s[m] * (m == 0 ? tint0 : vec3(1.0)) * D[m];
+#if WORLD_FOG
+                ss += u_fog_sigma_s;
+#endif
 #if EMISSION
                 vec3 tv = tv_e;             // the same value: tau and st have not changed since
 #else
@@ -269,6 +290,9 @@ void main() {
                     vec3 ssp = vec3(0.0);
                     for (int m = 0; m < N_MEDIA; ++m)
                         ssp += u_med_sigma_s[m] * (m == 0 ? tint0 : vec3(1.0)) * (D[m] * hg_phase(c, u_med_g[m]));
+#if WORLD_FOG
+                    ssp += u_fog_sigma_s * hg_phase(c, u_fog_g);
+#endif
                     src += li * ssp * u_light_targets.x;
                 }
 #endif
@@ -299,49 +323,14 @@ void main() {
                                                       vec3(len), lessThan(u_sigma_t, vec3(1e-12)));
 #endif
 #if HAS_LIGHT
-        vec2 cs = frustum_interval(o, d, seg);
-        vec3 oq = light_space(o);
-        vec3 dq = mat3(u_world_to_light) * d;
-        if (cs.y > cs.x) {
-            int n = u_view_steps;
-            bool projective = false;
-            float w_in = 0.0;
-            float w_out = 0.0;
-#if PROJECTIVE
-            vec3 qa = light_space(o + d * cs.x);
-            vec3 qb = light_space(o + d * cs.y);
-            w_in = -qa.z;
-            w_out = -qb.z;
-            projective = u_face_ortho == 0 && min(w_in, w_out) > 1e-6 * max(w_in, w_out)
-                      && length(light_uv(qb) - light_uv(qa)) * u_map_res > 1.0;   // ortho: affine
-#endif
-            float span = cs.y - cs.x;
-            float s_prev = 0.0;
-            for (int i = 0; i < n; ++i) {
-                float s_mid = (float(i) + step_at) / float(n);
-                float s_next = float(i + 1) / float(n);
-                float u_mid = s_mid;
-                float u_next = s_next;
-                if (projective) {
-                    u_mid = s_mid * w_in / ((1.0 - s_mid) * w_out + s_mid * w_in);
-                    u_next = s_next * w_in / ((1.0 - s_next) * w_out + s_next * w_in);
-                }
-                float dt = (u_next - s_prev) * span;
-                s_prev = u_next;
-                float t = cs.x + u_mid * span;
-                vec3 q = oq + dq * t;
-                float r;
-                vec3 li = light_arriving(o + d * t, q, r);
-                if (any(greaterThan(li, vec3(0.0)))) {
-                    vec3 tv = exp(-u_sigma_t * (t - seg.x));
-                    scatter += tv * u_sigma_s * dt * li * hg_phase(-dot(light_travel(q, r), dq), phase_g)
-                               * u_light_targets.x;
-                }
-            }
-        }
+        scatter += homogeneous_light(o, d, frustum_interval(o, d, seg), seg.x, u_sigma_t, u_sigma_s, phase_g,
+                                     step_at, PROJECTIVE == 1);
 #endif
 #endif
     }
+#if WORLD_FOG
+    world_fog_outside(o, d, vec2(t_near, t_end), seg, step_at, scatter, transmittance);
+#endif
 #endif
 
 #if SUMS

@@ -132,8 +132,9 @@ vec3 toward_light(vec3 p, vec3 q, float r) {
     return (u_light_pos - p) / max(r, 1e-30);
 }
 
-// Transmittance from the light to p (q: p in light space, r: its light_distance).
-vec3 light_transmittance(vec3 p, vec3 q, float r) {
+// Transmittance from the light to p through the bounded media (q: p in light space, r: its
+// light_distance).
+vec3 media_light_transmittance(vec3 p, vec3 q, float r) {
 #if LIGHT_T == 0
     vec2 uv = light_uv(q);
     if (u_face_ortho == 1 && (any(lessThan(uv, vec2(0.0))) || any(greaterThan(uv, vec2(1.0))))) return vec3(1.0);
@@ -167,5 +168,23 @@ vec3 light_transmittance(vec3 p, vec3 q, float r) {
 #endif
 #else
     return vec3(1.0);
+#endif
+}
+
+#if WORLD_FOG
+// Fog without bounds beside the media (passes/bindings.MediaGPU.fog): homogeneous, everywhere.
+uniform vec3 u_fog_sigma_t;    // 1/m
+uniform vec3 u_fog_sigma_s;    // 1/m
+uniform float u_fog_g;
+#endif
+
+// Transmittance from the light to p (q: p in light space, r: its light_distance): the media's,
+// times the world fog's closed form along the r metres from the light (frame_plan drops the
+// faces of a sun, whose light the fog absorbs altogether).
+vec3 light_transmittance(vec3 p, vec3 q, float r) {
+#if WORLD_FOG
+    return media_light_transmittance(p, q, r) * exp(-u_fog_sigma_t * r);
+#else
+    return media_light_transmittance(p, q, r);
 #endif
 }

@@ -1,0 +1,39 @@
+// A sun standing in for part of the world's light (engine/world_light.py) lights a surface
+// from its whole cone of directions, not from its axis alone: its shadows on surfaces are soft, so
+// that the suns' overlapping shadows blend into the world's one. Included by scatter.frag after
+// light_arriving (FACE_WORLD_SOFT faces).
+uniform float u_world_spread;     // tangent of the half angle of the sun's cone of directions
+uniform float u_occluder_depth;   // depth of what shadows (the media's centre) below the near plane, m
+
+const int WORLD_TAPS = 12;
+
+// The irradiance at the surface point P (qP in face space, nq its normal in face space) from
+// the sun's cone: WORLD_TAPS directions spread evenly over the cone's solid angle, turned per
+// pixel and per sample by ``jitter``, each weighted by its own cosine on the surface (their mean
+// is the cone's mean direction, shorter than its axis: the axis's cosine alone overstates a wide
+// cone's light). A ray leaving P at an angle a off the axis crosses what shadows, at depth
+// u_occluder_depth, (r - u_occluder_depth) tan(a) beside the axis ray: it is read from the maps
+// at the point of P's plane under that crossing (no shadow-map acne on P's own surface).
+vec3 world_sun_arriving(vec3 P, vec3 qP, vec3 nq, float jitter) {
+    float r0 = light_distance(qP);
+    float depth = max(r0 - u_occluder_depth, 0.0);
+    float cos_h = inversesqrt(1.0 + u_world_spread * u_world_spread);
+    float spin = 6.2831853 * fract(jitter + fract(52.9829189 * fract(dot(gl_FragCoord.xy,
+                                                                        vec2(0.06711056, 0.00583715)))));
+    mat3 to_world = transpose(mat3(u_world_to_light));
+    vec3 sum = vec3(0.0);
+    for (int k = 0; k < WORLD_TAPS; ++k) {
+        float a = spin + 2.39996323 * float(k);
+        float c = 1.0 - (float(k) + 0.5) / float(WORLD_TAPS) * (1.0 - cos_h);   // uniform over the cap
+        float s = sqrt(max(1.0 - c * c, 0.0));
+        vec3 w = vec3(s * cos(a), s * sin(a), c);          // toward the sky, face space
+        float cosine = dot(nq, w);
+        if (cosine <= 0.0) continue;
+        vec2 off = depth * (s / c) * vec2(cos(a), sin(a));
+        float dz = -dot(nq.xy, off) / max(nq.z, 0.2);     // along P's plane (a grazing one: at most 5x)
+        vec3 q = qP + vec3(off, dz);
+        float r;
+        sum += cosine * light_arriving(P + to_world * vec3(off, dz), q, r);
+    }
+    return sum / float(WORLD_TAPS);
+}
