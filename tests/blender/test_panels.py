@@ -76,9 +76,10 @@ def test_light_and_world_panels(context):
     assert "default_value" in _draw("TFM_PT_world", context)
     context.light.type = 'POINT'
     context.light.shadow_soft_size = 0.2
-    assert _draw("TFM_PT_light", context) == ["use_tfm", "label:The radius is treated as zero"]
+    assert _draw("TFM_PT_light", context) == ["use_tfm"]        # a radius renders: nothing to say
     context.light.type = 'AREA'
-    assert _draw("TFM_PT_light", context) == ["use_tfm", "label:Rendered as a point with a cosine profile"]
+    assert _draw("TFM_PT_light", context) == ["use_tfm", "label:Emits from its centre with a cosine profile "
+                                                         "(soft shadows)"]
 
 
 def test_visibility_and_passes_panels(context):

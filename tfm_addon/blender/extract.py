@@ -400,7 +400,6 @@ def _walk_instances(depsgraph, parts: Change, cache: GridCache,
     simplify = volume_simplify_level(depsgraph) if Change.MEDIUM in parts else 0
     unrendered: dict[str, list[str]] = {}   # kind of object TFM does not render -> names
     colour_notes: list[str] = []
-    light_sizes: list[str] = []       # lights whose size is rendered as a point
     degenerate_notes: dict[Change, list[str]] = {}
 
     for instance in depsgraph.object_instances:
@@ -430,8 +429,7 @@ def _walk_instances(depsgraph, parts: Change, cache: GridCache,
                 continue
         if kind == 'LIGHT' and Change.LIGHTS in parts:
             if ob.data.type in ('SPOT', 'POINT', 'SUN', 'AREA'):
-                spots.append(lights_module.light(ob, np.array(instance.matrix_world),
-                                                 notes[Change.LIGHTS], light_sizes))
+                spots.append(lights_module.light(ob, np.array(instance.matrix_world), notes[Change.LIGHTS]))
             else:
                 skipped_lights.append(f"{ob.name} ({ob.data.type.lower()})")
         elif kind == 'VOLUME' and Change.MEDIUM in parts:
@@ -488,9 +486,6 @@ def _walk_instances(depsgraph, parts: Change, cache: GridCache,
     for part, lines in degenerate_notes.items():
         notes[part].extend(dict.fromkeys(lines))
     if Change.LIGHTS in parts:
-        note = lights_module.sizes_note(light_sizes)
-        if note:
-            notes[Change.LIGHTS].append(note)
         if skipped_lights:
             notes[Change.LIGHTS].append(
                 "Lights of unknown type are not rendered: " + ", ".join(skipped_lights))

@@ -69,33 +69,25 @@ def spot_light(light_object, matrix_world, warnings: list[str]) -> Light:
         name=light_object.name,
         cone_scale=cone_scale(matrix_world, light_object.name, warnings),
         cast_shadow=bool(getattr(light, "use_shadow", True)),
+        radius_m=float(getattr(light, "shadow_soft_size", 0.0)),
         **ray_visibility(light_object),
     )
 
 
 def ray_visibility(light_object) -> dict:
     """What the light object's Ray Visibility lets it light, as Cycles reads it: Volume Scatter
-    the media, Diffuse the (diffuse) surfaces."""
+    the media, Diffuse the (diffuse) surfaces; and the light's Volume factor (its weight on the
+    media)."""
     return dict(lights_medium=bool(getattr(light_object, "visible_volume_scatter", True)),
-                lights_surfaces=bool(getattr(light_object, "visible_diffuse", True)))
+                lights_surfaces=bool(getattr(light_object, "visible_diffuse", True)),
+                volume_factor=float(getattr(light_object.data, "volume_factor", 1.0)))
 
 
-def sizes_note(sizes: list[str]) -> str | None:
-    """One report line for every light whose size the engine renders as a point (sharp shadows)."""
-    if not sizes:
-        return None
-    return ("Light sizes are rendered as points, with sharp shadows (Cycles softens them): "
-            + ", ".join(dict.fromkeys(sizes)))
-
-
-def light(light_object, matrix_world, warnings: list[str], sizes: list[str] | None = None) -> Light:
+def light(light_object, matrix_world, warnings: list[str]) -> Light:
     """The renderer's Light for any evaluated light object placed at ``matrix_world``; what it
-    renders differently from Cycles goes into ``warnings`` (one line per light), a size rendered
-    as a point into ``sizes`` (``sizes_note`` makes one line of them; None: into ``warnings``)."""
+    renders differently from Cycles goes into ``warnings`` (one line per light)."""
     data = light_object.data
     name = light_object.name
-    if sizes is None:
-        sizes = warnings
     if getattr(data, "use_nodes", False):
         warnings.append(f"Light '{name}': light nodes are not rendered (its colour and power are used)")
     linking = getattr(light_object, "light_linking", None)
@@ -105,21 +97,14 @@ def light(light_object, matrix_world, warnings: list[str], sizes: list[str] | No
                         f"shadowed by, everything)")
     kind = data.type
     if kind == 'SPOT':
-        if float(getattr(data, "shadow_soft_size", 0.0)) > 0.0:
-            sizes.append(f"spot '{name}' radius {float(data.shadow_soft_size):.2g} m")
         return spot_light(light_object, matrix_world, warnings)
     common = dict(matrix_world=without_scale(matrix_world), color=light_color(data),
                   power_w=light_power_w(data), name=name,
                   cast_shadow=bool(getattr(data, "use_shadow", True)), **ray_visibility(light_object))
     if kind == 'POINT':
-        if float(getattr(data, "shadow_soft_size", 0.0)) > 0.0:
-            sizes.append(f"point '{name}' radius {float(data.shadow_soft_size):.2g} m")
-        return Light(kind="POINT", **common)
+        return Light(kind="POINT", radius_m=float(getattr(data, "shadow_soft_size", 0.0)), **common)
     if kind == 'SUN':
-        angle = float(getattr(data, "angle", 0.0))
-        if angle > 0.0:
-            sizes.append(f"sun '{name}' angle {math.degrees(angle):.2g} degrees (a sharp sun)")
-        return Light(kind="SUN", **common)
+        return Light(kind="SUN", angle_rad=float(getattr(data, "angle", 0.0)), **common)
     if kind == 'AREA':
         scale = np.linalg.norm(np.array(matrix_world, dtype=np.float64).reshape(4, 4)[:3, :3], axis=0)
         size = float(data.size) * float(scale[0])
@@ -131,5 +116,6 @@ def light(light_object, matrix_world, warnings: list[str], sizes: list[str] | No
             # Normalize off: Cycles keeps the radiance of a 1 m² light, so the power grows with the area
             area = size * size_y * (math.pi / 4.0 if data.shape in ('DISK', 'ELLIPSE') else 1.0)
             common["power_w"] *= area
-        return Light(kind="AREA", size_m=(size, size_y), **common)
+        return Light(kind="AREA", size_m=(size, size_y), round_shape=data.shape in ('DISK', 'ELLIPSE'),
+                     **common)
     raise ValueError(f"light type {kind!r} is not known")

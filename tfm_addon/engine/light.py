@@ -375,3 +375,23 @@ def cone_meets_box(frame: LightFrame, box_to_world: np.ndarray, lo, hi) -> bool:
     t_in = np.max(np.minimum(t0, t1))
     t_out = np.min(np.maximum(t0, t1))
     return bool(t_out >= max(t_in, 0.0))
+
+
+def soft_extent(light: Light, frame: LightFrame) -> tuple[float, float, bool] | None:
+    """The light's size as its face sees it (soft shadows; shaders/soft_shadow.glsl), or None for a
+    point (sharp shadows): half-widths across the face (metres; a sun: the tangent of half its
+    angle) and whether the shape is round (a sphere, a sun's disk, a Disk or Ellipse area light)
+    rather than a rectangle. An area light's rectangle is projected on the face's plane (its side
+    faces see it edge on)."""
+    if light.kind in ("SPOT", "POINT"):
+        r = max(float(light.radius_m), 0.0)
+        return (r, r, True) if r > 0.0 else None
+    if light.kind == "SUN":
+        t = math.tan(0.5 * min(max(float(light.angle_rad), 0.0), math.radians(179.0)))
+        return (t, t, True) if t > 0.0 else None
+    sx, sy = (0.5 * max(float(s), 0.0) for s in light.size_m)
+    if sx <= 0.0 and sy <= 0.0:
+        return None
+    axes = frame.world_to_light[:3, :3] @ _rigid(np.array(light.matrix_world, dtype=np.float64))[:3, :2]
+    ex, ey = np.abs(axes[:2]) @ np.array([sx, sy])
+    return float(ex), float(ey), bool(light.round_shape)

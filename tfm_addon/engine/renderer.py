@@ -20,6 +20,7 @@ from .light import (
     LightFrame,
     cone_warning,
     is_dark,
+    soft_extent,
     solids_may_shadow,
 )
 from .medium_grid import grid_allowances, prepare_grid
@@ -412,8 +413,10 @@ class Renderer:
             t0 = time.perf_counter()
             run_light_pass(gl, first=(i == 0), light_t=plan.light_t, tfm=plan.tfm,
                            light=(plan.frame, plan.light.intensity_w_per_sr, plan.shadow, plan.gobo,
-                                  (float(plan.light.lights_medium), float(plan.light.lights_surfaces))),
-                           tfm_sigma_t=plan.tfm_sigma_t, medium_shadow=plan.medium_shadow, **common)
+                                  (float(plan.light.lights_medium) * max(plan.light.volume_factor, 0.0),
+                                   float(plan.light.lights_surfaces))),
+                           tfm_sigma_t=plan.tfm_sigma_t, medium_shadow=plan.medium_shadow,
+                           soft=soft_extent(plan.light, plan.frame), **common)
             self.counters["light_passes"] += 1
             steps.step("scattering", t0)
         t0 = time.perf_counter()
@@ -608,9 +611,10 @@ class Renderer:
                                               lambda: ShadowMap(gl, frame, casters, res))
             self.counters["shadow_maps"] += built
         boxes = medium_gpu.boxes
-        medium_shadow = self._medium_shadow(light, frame, scene, shadow, casters, res,
-                                            [boxes[i] for i in face.reached] or boxes,
-                                            medium_gpu.kind == MEDIUM_EVERYWHERE)
+        # A light with a size: solids beside the rays from its centre may shadow the media too.
+        medium_shadow = soft_extent(light, frame) is not None or self._medium_shadow(
+            light, frame, scene, shadow, casters, res, [boxes[i] for i in face.reached] or boxes,
+            medium_gpu.kind == MEDIUM_EVERYWHERE)
         light_t, tfm, tfm_sigma = face.light_t, None, None
         if light_t == LIGHT_T_MARCH:
             self.counters["grid_levels"] += medium_gpu.ensure_level1(frame, settings.light_steps)
@@ -881,9 +885,9 @@ def _slot_key(slot: MediumSlot) -> tuple:
     return (grid, tuple(np.round(slot.world_to_box, 12).ravel()))
 
 
-AREA_NOTE = ("Area light '{name}' is rendered as a point at its centre with a cosine profile, "
-             "without soft shadows (measured within 4 % of Cycles' brightness for a light no larger "
-             "than its distance to the medium; docs/architecture.md).")
+AREA_NOTE = ("Area light '{name}' emits from a point at its centre with a cosine profile (its shadows "
+             "are soft; measured within 4 % of Cycles' brightness for a light no larger than its "
+             "distance to the medium; docs/architecture.md).")
 
 
 def _frame_notes(scene: Scene, lights, warnings: list[str]) -> list[str]:

@@ -130,12 +130,8 @@ class TFM_PT_light(_TFMPanel, bpy.types.Panel):
         layout.prop(light.tfm, "use_tfm")
         if light.type == 'SPOT':
             layout.template_ID(light.tfm, "gobo", open="image.open")
-        if light.type in ('SPOT', 'POINT') and light.shadow_soft_size > 0.0:
-            layout.label(text="The radius is treated as zero", icon='INFO')
-        elif light.type == 'SUN' and light.angle > 0.0:
-            layout.label(text="The angle is treated as zero (a sharp sun)", icon='INFO')
-        elif light.type == 'AREA':
-            layout.label(text="Rendered as a point with a cosine profile", icon='INFO')
+        if light.type == 'AREA':
+            layout.label(text="Emits from its centre with a cosine profile (soft shadows)", icon='INFO')
 
 
 class TFM_PT_world(_TFMPanel, bpy.types.Panel):

@@ -50,7 +50,7 @@ vec3 light_arriving(vec3 p, vec3 q, out float r) {
     float emit = emission_profile(q, r);
     if (emit <= 0.0) return vec3(0.0);
     vec2 uv = light_uv(q);
-    float vis = solid_visibility(shadow_uv(q), r);
+    float vis = solid_visibility(q, r);
     if (vis <= 0.0) return vec3(0.0);
     return u_intensity * (emit * vis) * gobo(uv) * light_transmittance(p, q, r);
 }
@@ -125,8 +125,14 @@ void main() {
         if (ndl > 0.0) {
             float r;
             g_bias_texels = 3.0;    // the solid's own shadow-map texels must not shadow it
+#if SOFT_SHADOW
+            g_soft_normal = mat3(u_world_to_light) * n;     // its plane, for the soft shadow's taps
+#endif
             surface += albedo / PI * ndl * light_arriving(P, qP, r) * u_light_targets.y;
             g_bias_texels = 0.0;
+#if SOFT_SHADOW
+            g_soft_normal = vec3(0.0);
+#endif
         }
 #endif
     }

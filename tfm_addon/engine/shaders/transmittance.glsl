@@ -124,6 +124,22 @@ float tfm_lookup(vec2 uv, float r) {
     return v;
 #endif
 }
+
+#if SOFT_SHADOW
+// F averaged over the light's shape (soft_shadow.glsl): the map read through points of the shape,
+// each offset by the spread of the middle of the medium along the centre ray (between its entry
+// and the sample, or its exit): one tap for a point of the medium, eight for a surface.
+float soft_tfm_lookup(vec3 q, vec2 uv, float r) {
+    vec2 k = texture(u_krange, uv).xy;
+    float s = k.y > k.x ? max(soft_spread(max(0.5 * (k.x + min(k.y, r)), 1e-3 * r), r), 0.0) : 0.0;
+    vec2 scale = soft_uv_scale(q, r, vec4(0.0, 0.0, u_tan_half)) * s;
+    vec2 rnd = soft_random();
+    int n = soft_taps(1) > 1 ? 8 : 1;
+    float f = 0.0;
+    for (int i = 0; i < n; ++i) f += tfm_lookup(uv + light_point(i, n, rnd) * scale, r);
+    return f / float(n);
+}
+#endif
 #endif
 
 // Unit direction from p toward the light, world (q: p in face space, r: light_distance).
@@ -137,6 +153,9 @@ vec3 light_transmittance(vec3 p, vec3 q, float r) {
 #if LIGHT_T == 0
     vec2 uv = light_uv(q);
     if (u_face_ortho == 1 && (any(lessThan(uv, vec2(0.0))) || any(greaterThan(uv, vec2(1.0))))) return vec3(1.0);
+#if SOFT_SHADOW
+    return EXP2_RGB(u_tfm_exponent * log2(max(soft_tfm_lookup(q, uv, r), 1e-30)));
+#endif
     return EXP2_RGB(u_tfm_exponent * log2(max(tfm_lookup(uv, r), 1e-30)));   // F^exponent, one log
 #elif LIGHT_T == 1
     vec3 dir = toward_light(p, q, r);

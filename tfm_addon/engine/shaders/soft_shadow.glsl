@@ -1,0 +1,127 @@
+// Soft shadows from a light's size (SOFT_SHADOW 1; light.soft_extent): the light seen as a shape
+// across its face, u_soft_extent half-widths (perspective faces: metres in the face's plane; a sun:
+// the tangent of half its angle), a rectangle or (u_soft_round) an ellipse. Included by common.glsl.
+//
+// A light point e and a receiver at distance r: the ray between them crosses the face's centre ray
+// through map coordinates uv + e * spread * uv_per_unit, where spread = 1/z - 1/r (perspective,
+// z the distance of what it crosses there; divided by the receiver's cos to the face axis) or
+// r - z (a sun). The solids' shadow is percentage-closer soft shadowing: a blocker search over the
+// footprint of the nearest caster (u_soft_near), then a filter over the light's shape scaled by the
+// blockers' mean spread. The medium's transmittance is the map read through points of the light's
+// shape scaled by the spread of the medium's middle along the ray (transmittance.glsl): one point
+// per sample of the medium, whose view march and antialiasing samples average the shape, so that a
+// frame costs what a sharp one does plus a few taps. Taps turn per pixel, sample and call (a hash).
+// A spot's cone is read from one point of the light's shape per call too, as Cycles reads it from
+// the light point it samples: its edge is soft.
+#ifndef SOFT_SHADOW
+#define SOFT_SHADOW 0
+#endif
+#if !SOFT_SHADOW
+float soft_spot_falloff(vec3 q) { return spot_falloff(q); }
+#else
+uniform vec2 u_soft_extent;
+uniform int u_soft_round;
+uniform float u_soft_near;     // the nearest shadow caster's distance from the face's origin, metres
+uniform float u_soft_seed;     // differs per antialiasing sample
+vec3 g_soft_normal = vec3(0.0);    // face space: a lit surface's normal (its receiver plane), else 0
+float g_soft_calls = 0.0;
+
+// Taps per call: n for a point of the medium (its view march and the samples average them), 4 n
+// for a surface (one call per pixel and sample).
+int soft_taps(int n) { return dot(g_soft_normal, g_soft_normal) > 0.0 ? 4 * n : n; }
+
+// Two numbers in [0, 1), different for every pixel, sample and call.
+vec2 soft_random() {
+    g_soft_calls += 1.0;
+    uvec3 v = uvec3(uvec2(gl_FragCoord.xy), uint(g_soft_calls) + uint(u_soft_seed * 65536.0) * 977u);
+    v = v * 1664525u + 1013904223u;
+    v.x += v.y * v.z; v.y += v.z * v.x; v.z += v.x * v.y;
+    v ^= v >> 16u;
+    v.x += v.y * v.z; v.y += v.z * v.x;
+    return vec2(v.xy & 0xffffffu) / 16777216.0;
+}
+
+// Tap k of n over the light's shape (unit square or disk), a stratified set turned by ``rnd``.
+vec2 light_point(int k, int n, vec2 rnd) {
+    float u = fract((float(k) + rnd.x) / float(n));
+    float v = fract(float(k) * 0.618034 + rnd.y);
+    if (u_soft_round == 1) {
+        float a = 2.0 * PI * v;
+        return sqrt(u) * vec2(cos(a), sin(a));
+    }
+    return 2.0 * vec2(u, v) - 1.0;
+}
+
+// Map coordinates per unit of (light point in units of the extent) x spread, at q.
+vec2 soft_uv_scale(vec3 q, float r, vec4 rect_half) {
+    if (u_face_ortho == 1) return u_soft_extent * 0.5 / rect_half.zw;
+    return u_soft_extent * 0.5 / (u_tan_half * max(-q.z / max(r, 1e-30), 1e-3));
+}
+
+// The spread of a point at distance z seen past toward a receiver at r (see the top).
+float soft_spread(float z, float r) {
+    return u_face_ortho == 1 ? r - z : 1.0 / max(z, 1e-6) - 1.0 / r;
+}
+
+// The depth (distance / far) the receiver has along the face's ray through ``uv``: r, or where a
+// lit surface's plane (g_soft_normal through q) meets that ray, so that a tilted surface does not
+// shadow itself.
+float receiver_depth(vec3 q, float r, vec2 uv) {
+    if (dot(g_soft_normal, g_soft_normal) == 0.0) return r;
+    vec2 xy = (2.0 * uv - 1.0);
+    if (u_face_ortho == 1) {
+        vec3 o = vec3(u_shadow_rect.xy + xy * u_shadow_rect.zw, 0.0);
+        float c = -g_soft_normal.z;
+        return abs(c) < 1e-4 ? r : dot(g_soft_normal, q - o) / c;
+    }
+    vec3 dir = normalize(vec3(xy * u_tan_half, -1.0));
+    float c = dot(g_soft_normal, dir);
+    float t = abs(c) < 1e-4 ? r : dot(g_soft_normal, q) / c;
+    return t > 0.0 ? t : r;
+}
+
+// Fraction of the light's shape the solids leave visible from q (distance r), the shadow map read
+// at ``uv``; ``bias`` metres.
+float soft_visibility(vec3 q, vec2 uv, float r, float bias) {
+    vec4 rect = u_face_ortho == 1 ? u_shadow_rect : vec4(0.0, 0.0, u_tan_half);
+    vec2 scale = soft_uv_scale(q, r, rect);
+    float reach = soft_spread(u_face_ortho == 1 ? 0.0 : u_soft_near, r);
+    vec2 rnd = soft_random();
+    float spread = 0.0;
+    float blockers = 0.0;
+    int n = soft_taps(4);          // blocker-search taps, then as many percentage-closer taps
+    for (int k = 0; k < n; ++k) {
+        vec2 e = light_point(k, n, rnd);
+        vec2 at = uv + e * scale * reach;
+        float z = texture(u_shadow, at).r;
+        float s = soft_spread(z, receiver_depth(q, r, at) - bias);
+        // A solid closer than the receiver whose shadow ray comes from a point of the light.
+        if (s > 0.0 && s < 1e29) {
+            vec2 from = e * reach / s;
+            bool inside = u_soft_round == 1 ? dot(from, from) <= 1.0 : all(lessThanEqual(abs(from), vec2(1.0)));
+            if (inside) {
+                spread += s;
+                blockers += 1.0;
+            }
+        }
+    }
+    if (blockers == 0.0) return texture(u_shadow_depth, vec3(uv, (receiver_depth(q, r, uv) - bias) / u_shadow_far));
+    spread /= blockers;
+    rnd = soft_random();
+    float v = 0.0;
+    for (int k = 0; k < n; ++k) {
+        vec2 at = uv + light_point(k, n, rnd) * scale * spread;
+        v += texture(u_shadow_depth, vec3(at, (receiver_depth(q, r, at) - bias) / u_shadow_far));
+    }
+    return v / float(n);
+}
+
+// The spot cone's falloff at q seen from points of the light's shape (their mean).
+float soft_spot_falloff(vec3 q) {
+    vec2 rnd = soft_random();
+    int n = soft_taps(1) * 2;
+    float f = 0.0;
+    for (int k = 0; k < n; ++k) f += spot_falloff(q - vec3(light_point(k, n, rnd) * u_soft_extent, 0.0));
+    return f / float(n);
+}
+#endif
