@@ -28,7 +28,8 @@ def _sun_scene(angle: float) -> Scene:
                               visible_camera=False)      # the camera looks at the ground through it
     sun = Light(matrix_world=look_at((0.0, 0.0, 10.0), (0.0, 0.0, 0.0), up=(0.0, 1.0, 0.0)), kind="SUN",
                 power_w=np.pi, angle_rad=angle, name="Sun")
-    return Scene(camera=camera, lights=(sun,), meshes=(bar, plane_mesh((0.0, 0.0, 0.0), 4.0, color=(1, 1, 1))))
+    ground = plane_mesh((0.0, 0.0, 0.0), 4.0, color=(1, 1, 1))
+    return Scene(camera=camera, lights=(sun,), meshes=(bar, ground))
 
 
 def test_sun_penumbra_follows_its_disk(renderer):
@@ -80,7 +81,8 @@ def test_size_edit_rebuilds_no_map(fresh):
     n = 16
     smoke = Medium(sigma_a=(0.2,) * 3, sigma_s=(2.0,) * 3, density=smoke_density(n, seed=1),
                    index_to_world=grid_to_world((n, n, n), 2.0, (0.0, 0.0, 1.0)), name="Smoke")
-    camera = Camera(matrix_world=look_at((0.0, -6.5, 1.6), (0, 0, 1.0)), width_px=48, height_px=27, lens_mm=40.0)
+    camera = Camera(matrix_world=look_at((0.0, -6.5, 1.6), (0, 0, 1.0)), width_px=48, height_px=27,
+                    lens_mm=40.0)
     meshes = (box_mesh((0.0, 0.0, 2.6), (3.0, 0.06, 0.06), name="Bar"), plane_mesh((0, 0, 0), 8.0))
     settings = RenderSettings(view_steps=32, light_steps=32, map_resolution=128, coefficients=4)
     edits = (("AREA", "size_m", (0.6, 0.3), (1.2, 0.8)), ("SPOT", "radius_m", 0.0, 0.25),
