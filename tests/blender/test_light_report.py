@@ -54,9 +54,27 @@ def test_light_ray_visibility_matches_cycles(blank, tmp_path, flag):
     assert ssim >= 0.98 and abs(ratio - 1.0) <= 0.03
 
 
-def test_light_linking_is_said(blank):
+def test_light_linking_is_read_or_said(blank):
+    """A receiver collection that excludes every solid darkens the surfaces for that light; one that
+    lights one solid and not another is said, as is a blocker collection (shadow linking)."""
     bpy.ops.object.light_add(type='SPOT')
     spot = bpy.context.object
-    spot.light_linking.receiver_collection = bpy.data.collections.new("Lit")
+    solids = []
+    for x in (-2.0, 2.0):
+        bpy.ops.mesh.primitive_cube_add(location=(x, 0.0, 0.0))
+        solids.append(bpy.context.object)
+    receivers = bpy.data.collections.new("Lit")
+    for ob in solids:
+        receivers.objects.link(ob)
+    spot.light_linking.receiver_collection = receivers
+    for entry in receivers.collection_objects:
+        entry.light_linking.link_state = 'EXCLUDE'
     ex = _mod("extract").extract(bpy.context.evaluated_depsgraph_get())
-    assert len([w for w in ex.all_warnings if "'Spot'" in w and "linking" in w]) == 1, ex.all_warnings
+    assert ex.lights[0].lights_surfaces is False and ex.lights[0].lights_medium is True
+    assert not any("linking" in w for w in ex.all_warnings), ex.all_warnings
+    receivers.collection_objects[0].light_linking.link_state = 'INCLUDE'
+    spot.light_linking.blocker_collection = bpy.data.collections.new("Blockers")
+    ex = _mod("extract").extract(bpy.context.evaluated_depsgraph_get())
+    assert ex.lights[0].lights_surfaces is True
+    assert len([w for w in ex.all_warnings if "'Spot'" in w and "light linking" in w]) == 1, ex.all_warnings
+    assert len([w for w in ex.all_warnings if "'Spot'" in w and "shadow linking" in w]) == 1, ex.all_warnings

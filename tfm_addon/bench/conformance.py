@@ -799,6 +799,32 @@ def _(tmpdir):
     volume_object(tmpdir, mat=mat)
 
 
+@row("light_volume_factor", "Spot light, Light ▸ Influence ▸ Volume factor 0.3 (Cycles' direct light in "
+     "the medium is unchanged by it)")
+def _(tmpdir):
+    mat, nt, out = material()
+    principled(nt, out)
+    base(lights=None)
+    light('SPOT').data.volume_factor = 0.3
+    volume_object(tmpdir, mat=mat)
+
+
+@row("light_linking_excludes_smoke", "Spot light whose Light Linking receiver collection excludes the smoke "
+     "(the smoke dark, the ground lit)")
+def _(tmpdir):
+    import bpy
+
+    mat, nt, out = material()
+    principled(nt, out)
+    base(lights=None)
+    spot = light('SPOT')
+    smoke = volume_object(tmpdir, mat=mat)
+    receivers = bpy.data.collections.new("Receivers")
+    receivers.objects.link(smoke)
+    spot.light_linking.receiver_collection = receivers
+    receivers.collection_objects[0].light_linking.link_state = 'EXCLUDE'
+
+
 def _bar(z: float = 1.8) -> None:
     """A thin bar (6 cm square, 3 m long, along x) above the smoke: the shadow the rows soften."""
     import bpy

@@ -384,11 +384,30 @@ def degenerate(matrix_world, placed: bool = True) -> str | None:
     return None
 
 
+def _light_linking(depsgraph, light_objects: list, lights: list[Light], warnings: list[str]) -> list[Light]:
+    """The lights as their receiver collections let them light the media and the solids
+    (lights.linked), the objects classified as the walk does."""
+    if not any(getattr(getattr(o, "light_linking", None), "receiver_collection", None) is not None
+               for o in light_objects):
+        return lights
+    media, solids = [], []
+    for ob in depsgraph.objects:
+        if ob.type == 'VOLUME':
+            media.append(ob.name)
+        elif ob.type in meshes.MESH_TYPES:
+            medium = (fluid.domain_modifier(ob, depsgraph.mode == 'RENDER') is not None
+                      or materials.has_volume_only(meshes.first_material(ob)))
+            (media if medium else solids).append(ob.name)
+    return [lights_module.linked(o, light, media, solids, warnings)
+            for o, light in zip(light_objects, lights, strict=True)]
+
+
 def _walk_instances(depsgraph, parts: Change, cache: GridCache,
                     volume_resolution: int = mesh_volume.DEFAULT_RESOLUTION,
                     kept: WalkCache | None = None) -> dict:
     """Lights, meshes and the medium among the depsgraph's object instances."""
     spots: list[Light] = []
+    light_objects: list = []          # the object of each of ``spots``
     solids: list[Mesh] = []
     skipped_lights: list[str] = []
     media: list[str] = []
@@ -430,6 +449,7 @@ def _walk_instances(depsgraph, parts: Change, cache: GridCache,
         if kind == 'LIGHT' and Change.LIGHTS in parts:
             if ob.data.type in ('SPOT', 'POINT', 'SUN', 'AREA'):
                 spots.append(lights_module.light(ob, np.array(instance.matrix_world), notes[Change.LIGHTS]))
+                light_objects.append(ob)
             else:
                 skipped_lights.append(f"{ob.name} ({ob.data.type.lower()})")
         elif kind == 'VOLUME' and Change.MEDIUM in parts:
@@ -486,6 +506,7 @@ def _walk_instances(depsgraph, parts: Change, cache: GridCache,
     for part, lines in degenerate_notes.items():
         notes[part].extend(dict.fromkeys(lines))
     if Change.LIGHTS in parts:
+        spots = _light_linking(depsgraph, light_objects, spots, notes[Change.LIGHTS])
         if skipped_lights:
             notes[Change.LIGHTS].append(
                 "Lights of unknown type are not rendered: " + ", ".join(skipped_lights))

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 
@@ -76,11 +77,10 @@ def spot_light(light_object, matrix_world, warnings: list[str]) -> Light:
 
 def ray_visibility(light_object) -> dict:
     """What the light object's Ray Visibility lets it light, as Cycles reads it: Volume Scatter
-    the media, Diffuse the (diffuse) surfaces; and the light's Volume factor (its weight on the
-    media)."""
+    the media, Diffuse the (diffuse) surfaces. (The light's Volume factor changes nothing in
+    Cycles' single scattering: its conformance row.)"""
     return dict(lights_medium=bool(getattr(light_object, "visible_volume_scatter", True)),
-                lights_surfaces=bool(getattr(light_object, "visible_diffuse", True)),
-                volume_factor=float(getattr(light_object.data, "volume_factor", 1.0)))
+                lights_surfaces=bool(getattr(light_object, "visible_diffuse", True)))
 
 
 def light(light_object, matrix_world, warnings: list[str]) -> Light:
@@ -91,10 +91,8 @@ def light(light_object, matrix_world, warnings: list[str]) -> Light:
     if getattr(data, "use_nodes", False):
         warnings.append(f"Light '{name}': light nodes are not rendered (its colour and power are used)")
     linking = getattr(light_object, "light_linking", None)
-    if linking is not None and (getattr(linking, "receiver_collection", None) is not None
-                                or getattr(linking, "blocker_collection", None) is not None):
-        warnings.append(f"Light '{name}': light and shadow linking are not rendered (it lights, and is "
-                        f"shadowed by, everything)")
+    if linking is not None and getattr(linking, "blocker_collection", None) is not None:
+        warnings.append(f"Light '{name}': shadow linking is not rendered (everything shadows it)")
     kind = data.type
     if kind == 'SPOT':
         return spot_light(light_object, matrix_world, warnings)
@@ -119,3 +117,43 @@ def light(light_object, matrix_world, warnings: list[str]) -> Light:
         return Light(kind="AREA", size_m=(size, size_y), round_shape=data.shape in ('DISK', 'ELLIPSE'),
                      **common)
     raise ValueError(f"light type {kind!r} is not known")
+
+
+def link_states(collection, state: str = 'INCLUDE', states: dict | None = None) -> dict:
+    """Object name -> 'INCLUDE' or 'EXCLUDE' in a light-linking collection (an object in a linked
+    child collection takes that collection's state)."""
+    states = {} if states is None else states
+    for ob, entry in zip(collection.objects, collection.collection_objects, strict=False):
+        states.setdefault(ob.name, entry.light_linking.link_state if state == 'INCLUDE' else state)
+    for child, entry in zip(collection.children, collection.collection_children, strict=False):
+        link_states(child, entry.light_linking.link_state if state == 'INCLUDE' else state, states)
+    return states
+
+
+def receives(states: dict, name: str) -> bool:
+    """Whether the object ``name`` receives a light whose receiver collection has ``states``
+    (Cycles: an included object does, an excluded one does not, any other one only where the
+    collection includes none)."""
+    if name in states:
+        return states[name] == 'INCLUDE'
+    return 'INCLUDE' not in states.values()
+
+
+def linked(light_object, light: Light, media: list[str], solids: list[str], warnings: list[str]) -> Light:
+    """``light`` as its Object ▸ Shading ▸ Light Linking receiver collection lets it light the media
+    and the solids (object names): the media or the surfaces it lights none of go dark; a light that
+    lights some of either and not the others is said in ``warnings`` (it lights all of them)."""
+    linking = getattr(light_object, "light_linking", None)
+    collection = None if linking is None else getattr(linking, "receiver_collection", None)
+    if collection is None:
+        return light
+    states = link_states(collection)
+    flags = {}
+    for what, names, field in (("media", media, "lights_medium"), ("solids", solids, "lights_surfaces")):
+        lit = [receives(states, n) for n in names]
+        if lit and not any(lit):
+            flags[field] = False
+        elif not all(lit):
+            warnings.append(f"Light '{light_object.name}': light linking that lights some {what} and not "
+                            f"others is not rendered (it lights all of them)")
+    return replace(light, **flags) if flags else light

@@ -245,7 +245,8 @@ SHADOW_TEST_TRIANGLES = 20_000
 it cannot separate from the media); beyond, it answers that they may shadow."""
 
 
-def solids_may_shadow(frame: LightFrame, parts, boxes, map_res: int, shadow_far: float) -> bool:
+def solids_may_shadow(frame: LightFrame, parts, boxes, map_res: int, shadow_far: float,
+                      extent: tuple[float, float, bool] | None = None) -> bool:
     """Whether a solid may shadow a point of the media's ``boxes`` ((box_to_world, lo, hi) each)
     from the face ``frame``, as the light passes' filtered shadow-map lookup sees it. ``parts``:
     (lo, hi, triangles) per caster mesh, world bounds and (k, 3, 3) world triangles (None: not kept,
@@ -255,8 +256,9 @@ def solids_may_shadow(frame: LightFrame, parts, boxes, map_res: int, shadow_far:
     three shadow-map texels at the boxes' farthest corner plus twice the lookup's depth bias; then
     no light ray to a point of a box, nor its neighbours the 2x2 filter reads, meets a solid before
     the point, and the lookup there is exactly 1 (the light passes skip it). True when the
-    triangles to test are too many (SHADOW_TEST_TRIANGLES). Numpy only (the render path in Blender
-    has no scipy)."""
+    triangles to test are too many (SHADOW_TEST_TRIANGLES). A light with a size (``extent``,
+    soft_extent) adds the corners of its shape to the hull (a sun: its angle's reach over the
+    depth to the margin). Numpy only (the render path in Blender has no scipy)."""
     corners = [_corners(*b) for b in boxes if all(h > lo for lo, h in zip(b[1], b[2], strict=True))]
     if not corners:
         return True
@@ -270,10 +272,16 @@ def solids_may_shadow(frame: LightFrame, parts, boxes, map_res: int, shadow_far:
         points = np.concatenate([corners, q @ inv[:3, :3].T + inv[:3, 3]])
         footprint = 2.0 * max(frame.shadow_rect[2:]) / max(int(map_res), 1)
     else:
-        points = np.concatenate([corners, np.asarray(frame.position, float)[None]])
+        shape = [(0.0, 0.0)] if extent is None else [(x * extent[0], y * extent[1])
+                                                     for x in (-1.0, 1.0) for y in (-1.0, 1.0)]
+        to_world = np.linalg.inv(frame.world_to_light)
+        points = np.concatenate([corners, np.array([to_world[:3, :3] @ (x, y, 0.0) + to_world[:3, 3]
+                                                    for x, y in shape])])
         reach = float(np.linalg.norm(corners - frame.position, axis=1).max())
         footprint = 2.0 * frame.tan_half * reach / max(int(map_res), 1)
     margin = 3.0 * footprint + 4e-4 * float(shadow_far)
+    if frame.ortho and extent is not None:      # a sun's rays tilt by up to its half angle
+        margin += max(extent[:2]) * float(shadow_far)
     facets = _hull_planes(points)                        # n . x + d <= 0 inside, |n| = 1
     tested = []
     for lo, hi, triangles in parts:

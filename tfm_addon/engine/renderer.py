@@ -413,8 +413,7 @@ class Renderer:
             t0 = time.perf_counter()
             run_light_pass(gl, first=(i == 0), light_t=plan.light_t, tfm=plan.tfm,
                            light=(plan.frame, plan.light.intensity_w_per_sr, plan.shadow, plan.gobo,
-                                  (float(plan.light.lights_medium) * max(plan.light.volume_factor, 0.0),
-                                   float(plan.light.lights_surfaces))),
+                                  (float(plan.light.lights_medium), float(plan.light.lights_surfaces))),
                            tfm_sigma_t=plan.tfm_sigma_t, medium_shadow=plan.medium_shadow,
                            soft=soft_extent(plan.light, plan.frame), **common)
             self.counters["light_passes"] += 1
@@ -611,10 +610,9 @@ class Renderer:
                                               lambda: ShadowMap(gl, frame, casters, res))
             self.counters["shadow_maps"] += built
         boxes = medium_gpu.boxes
-        # A light with a size: solids beside the rays from its centre may shadow the media too.
-        medium_shadow = soft_extent(light, frame) is not None or self._medium_shadow(
-            light, frame, scene, shadow, casters, res, [boxes[i] for i in face.reached] or boxes,
-            medium_gpu.kind == MEDIUM_EVERYWHERE)
+        medium_shadow = self._medium_shadow(light, frame, scene, shadow, casters, res,
+                                            [boxes[i] for i in face.reached] or boxes,
+                                            medium_gpu.kind == MEDIUM_EVERYWHERE)
         light_t, tfm, tfm_sigma = face.light_t, None, None
         if light_t == LIGHT_T_MARCH:
             self.counters["grid_levels"] += medium_gpu.ensure_level1(frame, settings.light_steps)
@@ -631,11 +629,12 @@ class Renderer:
         passes skip the lookup for the media's samples (it would be exactly 1)."""
         if shadow is None or everywhere or not boxes:
             return True
-        key = (light.key, frame.key, scene.solids_key, res, "medium shadow",
+        extent = soft_extent(light, frame)      # a light's size: solids beside its centre's rays too
+        key = (light.key, frame.key, scene.solids_key, res, "medium shadow", extent,
                tuple((tuple(np.round(np.asarray(b, float), 12).ravel()), tuple(lo), tuple(hi))
                      for b, lo, hi in boxes))
         flag, built = self._medium_shadows.get(key, lambda: _Value(float(
-            solids_may_shadow(frame, solids.parts, boxes, res, shadow.far))))
+            solids_may_shadow(frame, solids.parts, boxes, res, shadow.far, extent))))
         self.counters["medium_shadow_tests"] += built
         return bool(flag.value)
 

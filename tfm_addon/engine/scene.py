@@ -117,12 +117,13 @@ class Light:
     ``use_shadow``): nothing shadows the light, neither the solids nor the media (as Cycles
     renders it), for every kind. ``lights_medium`` / ``lights_surfaces`` False: the light lights no
     medium / no surface (the light object's Ray Visibility ▸ Volume Scatter / Diffuse off in
-    Blender), though it is still seen and still shadowed. ``from_world``: a sun standing in for
+    Blender, or its Light Linking receiver collection excluding every medium / every solid), though
+    it is still seen and still shadowed. ``from_world``: a sun standing in for
     part of the world's light (engine/world_light.py), not a light of the scene.
     Size (soft shadows, light.soft_extent; none of it enters ``key``, so a size edit rebuilds no
     map): ``radius_m`` a spot's or point light's radius, metres; ``angle_rad`` a sun's angular
     diameter; an area light's ``size_m``, an ellipse (Blender's Disk and Ellipse) where
-    ``round_shape``. ``volume_factor``: Blender's Volume factor, the light's weight on the media.
+    ``round_shape``.
     """
 
     matrix_world: np.ndarray
@@ -143,7 +144,6 @@ class Light:
     radius_m: float = 0.0
     angle_rad: float = 0.0
     round_shape: bool = False
-    volume_factor: float = 1.0
 
     def __post_init__(self):
         if self.kind not in LIGHT_KINDS:

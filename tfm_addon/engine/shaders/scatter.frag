@@ -97,6 +97,9 @@ void main() {
         t_far = u_clip.y * len;
     }
     ivec2 px = ivec2(gl_FragCoord.xy);
+#if SOFT_SHADOW
+    soft_start();
+#endif
     // Where in each step the march samples: the midpoint, or (antialiasing samples) the sample's
     // offset plus a per-pixel hash, so that neighbouring pixels and successive samples differ.
     float step_at = u_view_jitter < 0.0 ? 0.5

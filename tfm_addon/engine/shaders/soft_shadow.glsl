@@ -24,32 +24,48 @@ uniform int u_soft_round;
 uniform float u_soft_near;     // the nearest shadow caster's distance from the face's origin, metres
 uniform float u_soft_seed;     // differs per antialiasing sample
 vec3 g_soft_normal = vec3(0.0);    // face space: a lit surface's normal (its receiver plane), else 0
-float g_soft_calls = 0.0;
+vec2 g_soft_rnd;                   // the pixel's last pair of numbers (soft_start, soft_random)
+vec2 g_soft_turn;                  // cos, sin of 2 pi g_soft_rnd.y, kept by rotation (no trig a call)
+vec2 g_tap_turn;                   // cos, sin of the next tap's angle (light_point)
+const vec2 SOFT_STEP = vec2(0.7548777, 0.5698403);     // the R2 sequence's step
 
-// Taps per call: n for a point of the medium (its view march and the samples average them), 4 n
-// for a surface (one call per pixel and sample).
-int soft_taps(int n) { return dot(g_soft_normal, g_soft_normal) > 0.0 ? 4 * n : n; }
+// Taps per call: one for a point of the medium (its view march and the antialiasing samples
+// average them), ``surface`` for a surface (one call per pixel and sample).
+int soft_taps(int surface) { return dot(g_soft_normal, g_soft_normal) > 0.0 ? surface : 1; }
 
-// Two numbers in [0, 1), different for every pixel, sample and call.
-vec2 soft_random() {
-    g_soft_calls += 1.0;
-    uvec3 v = uvec3(uvec2(gl_FragCoord.xy), uint(g_soft_calls) + uint(u_soft_seed * 65536.0) * 977u);
+// The pixel's first numbers: a hash of the pixel and the sample (called once, first thing).
+void soft_start() {
+    uvec3 v = uvec3(uvec2(gl_FragCoord.xy), uint(u_soft_seed * 65536.0) * 977u);
     v = v * 1664525u + 1013904223u;
     v.x += v.y * v.z; v.y += v.z * v.x; v.z += v.x * v.y;
     v ^= v >> 16u;
     v.x += v.y * v.z; v.y += v.z * v.x;
-    return vec2(v.xy & 0xffffffu) / 16777216.0;
+    g_soft_rnd = vec2(v.xy & 0xffffffu) / 16777216.0;
+    g_soft_turn = vec2(cos(2.0 * PI * g_soft_rnd.y), sin(2.0 * PI * g_soft_rnd.y));
 }
 
-// Tap k of n over the light's shape (unit square or disk), a stratified set turned by ``rnd``.
+// Two numbers in [0, 1), the next of the R2 sequence from the pixel's start, so that successive
+// calls along a view ray are well spread.
+vec2 soft_random() {
+    g_soft_rnd = fract(g_soft_rnd + SOFT_STEP);
+    const vec2 turn = vec2(cos(2.0 * PI * SOFT_STEP.y), sin(2.0 * PI * SOFT_STEP.y));
+    g_soft_turn = vec2(g_soft_turn.x * turn.x - g_soft_turn.y * turn.y,
+                       g_soft_turn.y * turn.x + g_soft_turn.x * turn.y);
+    g_tap_turn = g_soft_turn;
+    return g_soft_rnd;
+}
+
+// Tap k of n over the light's shape (unit square or disk), a stratified set turned by ``rnd``, the
+// last numbers soft_random gave; a call's taps are taken in order, k = 0, 1, ... (their angle's
+// cos, sin kept by rotation: no trig a tap).
+const float TAP_STEP = 0.618034;
 vec2 light_point(int k, int n, vec2 rnd) {
     float u = fract((float(k) + rnd.x) / float(n));
-    float v = fract(float(k) * 0.618034 + rnd.y);
-    if (u_soft_round == 1) {
-        float a = 2.0 * PI * v;
-        return sqrt(u) * vec2(cos(a), sin(a));
-    }
-    return 2.0 * vec2(u, v) - 1.0;
+    float v = fract(float(k) * TAP_STEP + rnd.y);
+    vec2 cs = g_tap_turn;
+    const vec2 turn = vec2(cos(2.0 * PI * TAP_STEP), sin(2.0 * PI * TAP_STEP));
+    g_tap_turn = vec2(cs.x * turn.x - cs.y * turn.y, cs.y * turn.x + cs.x * turn.y);
+    return u_soft_round == 1 ? sqrt(u) * cs : 2.0 * vec2(u, v) - 1.0;
 }
 
 // Map coordinates per unit of (light point in units of the extent) x spread, at q.
@@ -89,7 +105,7 @@ float soft_visibility(vec3 q, vec2 uv, float r, float bias) {
     vec2 rnd = soft_random();
     float spread = 0.0;
     float blockers = 0.0;
-    int n = soft_taps(4);          // blocker-search taps, then as many percentage-closer taps
+    int n = soft_taps(8);          // blocker-search taps, then as many percentage-closer taps
     for (int k = 0; k < n; ++k) {
         vec2 e = light_point(k, n, rnd);
         vec2 at = uv + e * scale * reach;
@@ -98,15 +114,17 @@ float soft_visibility(vec3 q, vec2 uv, float r, float bias) {
         // A solid closer than the receiver whose shadow ray comes from a point of the light.
         if (s > 0.0 && s < 1e29) {
             vec2 from = e * reach / s;
-            bool inside = u_soft_round == 1 ? dot(from, from) <= 1.0 : all(lessThanEqual(abs(from), vec2(1.0)));
+            bool inside = u_soft_round == 1 ? dot(from, from) <= 1.0
+                                            : all(lessThanEqual(abs(from), vec2(1.0)));
             if (inside) {
                 spread += s;
                 blockers += 1.0;
             }
         }
     }
-    if (blockers == 0.0) return texture(u_shadow_depth, vec3(uv, (receiver_depth(q, r, uv) - bias) / u_shadow_far));
-    spread /= blockers;
+    // No blocker found: the filter's taps all fall on uv (the sharp test). One path either way
+    // (llvmpipe runs both sides of a branch).
+    spread = blockers > 0.0 ? spread / blockers : 0.0;
     rnd = soft_random();
     float v = 0.0;
     for (int k = 0; k < n; ++k) {
@@ -119,7 +137,7 @@ float soft_visibility(vec3 q, vec2 uv, float r, float bias) {
 // The spot cone's falloff at q seen from points of the light's shape (their mean).
 float soft_spot_falloff(vec3 q) {
     vec2 rnd = soft_random();
-    int n = soft_taps(1) * 2;
+    int n = soft_taps(4);
     float f = 0.0;
     for (int k = 0; k < n; ++k) f += spot_falloff(q - vec3(light_point(k, n, rnd) * u_soft_extent, 0.0));
     return f / float(n);
