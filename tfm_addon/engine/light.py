@@ -11,6 +11,7 @@ from __future__ import annotations
 import itertools
 import math
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -246,7 +247,7 @@ it cannot separate from the media); beyond, it answers that they may shadow."""
 
 
 def solids_may_shadow(frame: LightFrame, parts, boxes, map_res: int, shadow_far: float,
-                      extent: tuple[float, float, bool] | None = None) -> bool:
+                      extent: Softness | None = None) -> bool:
     """Whether a solid may shadow a point of the media's ``boxes`` ((box_to_world, lo, hi) each)
     from the face ``frame``, as the light passes' filtered shadow-map lookup sees it. ``parts``:
     (lo, hi, triangles) per caster mesh, world bounds and (k, 3, 3) world triangles (None: not kept,
@@ -272,7 +273,7 @@ def solids_may_shadow(frame: LightFrame, parts, boxes, map_res: int, shadow_far:
         points = np.concatenate([corners, q @ inv[:3, :3].T + inv[:3, 3]])
         footprint = 2.0 * max(frame.shadow_rect[2:]) / max(int(map_res), 1)
     else:
-        shape = [(0.0, 0.0)] if extent is None else [(x * extent[0], y * extent[1])
+        shape = [(0.0, 0.0)] if extent is None else [(x * extent.extent[0], y * extent.extent[1])
                                                      for x in (-1.0, 1.0) for y in (-1.0, 1.0)]
         to_world = np.linalg.inv(frame.world_to_light)
         points = np.concatenate([corners, np.array([to_world[:3, :3] @ (x, y, 0.0) + to_world[:3, 3]
@@ -281,7 +282,7 @@ def solids_may_shadow(frame: LightFrame, parts, boxes, map_res: int, shadow_far:
         footprint = 2.0 * frame.tan_half * reach / max(int(map_res), 1)
     margin = 3.0 * footprint + 4e-4 * float(shadow_far)
     if frame.ortho and extent is not None:      # a sun's rays tilt by up to its half angle
-        margin += max(extent[:2]) * float(shadow_far)
+        margin += max(extent.extent) * float(shadow_far)
     facets = _hull_planes(points)                        # n . x + d <= 0 inside, |n| = 1
     tested = []
     for lo, hi, triangles in parts:
@@ -385,21 +386,35 @@ def cone_meets_box(frame: LightFrame, box_to_world: np.ndarray, lo, hi) -> bool:
     return bool(t_out >= max(t_in, 0.0))
 
 
-def soft_extent(light: Light, frame: LightFrame) -> tuple[float, float, bool] | None:
-    """The light's size as its face sees it (soft shadows; shaders/soft_shadow.glsl), or None for a
-    point (sharp shadows): half-widths across the face (metres; a sun: the tangent of half its
-    angle) and whether the shape is round (a sphere, a sun's disk, a Disk or Ellipse area light)
-    rather than a rectangle. An area light's rectangle is projected on the face's plane (its side
-    faces see it edge on)."""
+class Softness(NamedTuple):
+    """A light's size as one of its faces sees it (soft_extent): ``extent`` the half-widths of its
+    shape across the face (metres; a sun: the tangent of half its angle), ``round`` an ellipse
+    rather than a rectangle; an area light's half sides as face-space vectors (``area_u``,
+    ``area_v``; an ellipse's scaled to the rectangle of its area), its emission's shape."""
+
+    extent: tuple[float, float]
+    round: bool
+    area_u: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    area_v: tuple[float, float, float] = (0.0, 0.0, 0.0)
+
+
+def soft_extent(light: Light, frame: LightFrame) -> Softness | None:
+    """The light's size as its face sees it (soft shadows and an area light's emission;
+    shaders/soft_shadow.glsl), or None for a point (sharp shadows): a sphere's radius, a sun's
+    disk, an area light's rectangle or ellipse projected on the face's plane (its side faces see it
+    edge on)."""
     if light.kind in ("SPOT", "POINT"):
         r = max(float(light.radius_m), 0.0)
-        return (r, r, True) if r > 0.0 else None
+        return Softness((r, r), True) if r > 0.0 else None
     if light.kind == "SUN":
         t = math.tan(0.5 * min(max(float(light.angle_rad), 0.0), math.radians(179.0)))
-        return (t, t, True) if t > 0.0 else None
+        return Softness((t, t), True) if t > 0.0 else None
     sx, sy = (0.5 * max(float(s), 0.0) for s in light.size_m)
-    if sx <= 0.0 and sy <= 0.0:
+    if sx <= 0.0 or sy <= 0.0:
         return None
     axes = frame.world_to_light[:3, :3] @ _rigid(np.array(light.matrix_world, dtype=np.float64))[:3, :2]
     ex, ey = np.abs(axes[:2]) @ np.array([sx, sy])
-    return float(ex), float(ey), bool(light.round_shape)
+    equal_area = math.sqrt(math.pi) / 2.0 if light.round_shape else 1.0
+    return Softness((float(ex), float(ey)), bool(light.round_shape),
+                    tuple(float(a) for a in axes[:, 0] * sx * equal_area),
+                    tuple(float(a) for a in axes[:, 1] * sy * equal_area))

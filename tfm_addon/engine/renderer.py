@@ -884,14 +884,9 @@ def _slot_key(slot: MediumSlot) -> tuple:
     return (grid, tuple(np.round(slot.world_to_box, 12).ravel()))
 
 
-AREA_NOTE = ("Area light '{name}' emits from a point at its centre with a cosine profile (its shadows "
-             "are soft; measured within 4 % of Cycles' brightness for a light no larger than its "
-             "distance to the medium; docs/architecture.md).")
-
-
 def _frame_notes(scene: Scene, lights, warnings: list[str]) -> list[str]:
     """The render report: the frame's ``warnings`` once each, then what the lights say (none
-    lit, approximations, cones past the maps' reach)."""
+    lit, cones past the maps' reach)."""
     warnings = list(warnings)
     world = [light for light in scene.lights if light.from_world]
     if world and len(world) == len(scene.lights):
@@ -904,11 +899,5 @@ def _frame_notes(scene: Scene, lights, warnings: list[str]) -> list[str]:
     elif not [light for light in lights if not light.from_world]:
         warnings.append("Every light has zero power or colour (or a spot no cone angle): no "
                         "light beam.")
-    warnings += _light_notes(lights)
     warnings = list(dict.fromkeys(warnings))       # once each, however many faces said it
     return warnings + [w for w in map(cone_warning, lights) if w]
-
-
-def _light_notes(lights) -> list[str]:
-    """One line per light kind the renderer approximates."""
-    return [AREA_NOTE.format(name=light.name) for light in lights if light.kind == "AREA"]

@@ -130,8 +130,6 @@ class TFM_PT_light(_TFMPanel, bpy.types.Panel):
         layout.prop(light.tfm, "use_tfm")
         if light.type == 'SPOT':
             layout.template_ID(light.tfm, "gobo", open="image.open")
-        if light.type == 'AREA':
-            layout.label(text="Emits from its centre with a cosine profile (soft shadows)", icon='INFO')
 
 
 class TFM_PT_world(_TFMPanel, bpy.types.Panel):

@@ -177,7 +177,8 @@ def run_light_pass(gl: GLContext, *, camera: Camera, plane: ViewPlane, medium: M
         bind_light(prog, frame, intensity, settings.map_resolution, shadow, gobo)
         set_uniforms(prog, u_light_targets=tuple(light[4]) if len(light) > 4 else (1.0, 1.0))
         if defines.get("SOFT_SHADOW"):
-            set_uniforms(prog, u_soft_extent=soft[:2], u_soft_round=int(soft[2]),
+            set_uniforms(prog, u_soft_extent=soft.extent, u_soft_round=int(soft.round),
+                         u_area_u=soft.area_u, u_area_v=soft.area_v,
                          u_soft_near=0.0 if shadow is None else shadow.near,
                          u_soft_seed=0.0 if settings.view_jitter is None else float(settings.view_jitter))
     if tfm is not None:

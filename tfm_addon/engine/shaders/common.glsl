@@ -229,6 +229,7 @@ bool in_face(vec3 q) {
 
 float spot_falloff(vec3 q);
 float soft_spot_falloff(vec3 q);
+float area_emission(vec3 q, float r);
 
 // Intensity factor at q by direction (the spot cone, none, or the area light's cosine) times
 // the distance falloff.
@@ -236,7 +237,7 @@ float emission_profile(vec3 q, float r) {
     if (u_face_ortho == 1) return 1.0;
     float f = 1.0 / (r * r);
     if (u_profile == 1) return f;
-    if (u_profile == 2) return f * max(dot(q / max(r, 1e-30), u_emit_axis), 0.0);
+    if (u_profile == 2) return area_emission(q, r);
     return q.z < 0.0 ? f * soft_spot_falloff(q) : 0.0;
 }
 

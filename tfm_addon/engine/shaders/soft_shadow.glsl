@@ -18,7 +18,28 @@
 #endif
 #if !SOFT_SHADOW
 float soft_spot_falloff(vec3 q) { return spot_falloff(q); }
+float area_emission(vec3 q, float r) { return max(dot(q / max(r, 1e-30), u_emit_axis), 0.0) / (r * r); }
 #else
+uniform vec3 u_area_u;         // face space: an area light's half sides (an ellipse: the rectangle
+uniform vec3 u_area_v;         // of its area), as vectors
+
+// Solid angle of the triangle (a, b, c) seen from the origin (Van Oosterom and Strackee).
+float triangle_solid_angle(vec3 a, vec3 b, vec3 c) {
+    float la = length(a), lb = length(b), lc = length(c);
+    float den = la * lb * lc + dot(a, b) * lc + dot(a, c) * lb + dot(b, c) * la;
+    return 2.0 * atan(abs(dot(a, cross(b, c))), den);
+}
+
+// An area light's emission profile at q: its radiance P / (pi A) over the solid angle it fills
+// (seen from q, in front of it), per unit of the face's intensity P / pi: the solid angle over the
+// area. Far from the light it is the point's cos(theta) / r^2.
+float area_emission(vec3 q, float r) {
+    if (dot(q, u_emit_axis) <= 0.0) return 0.0;
+    vec3 c0 = -q - u_area_u - u_area_v, c1 = -q + u_area_u - u_area_v;
+    vec3 c2 = -q + u_area_u + u_area_v, c3 = -q - u_area_u + u_area_v;
+    float area = 4.0 * length(cross(u_area_u, u_area_v));
+    return (triangle_solid_angle(c0, c1, c2) + triangle_solid_angle(c0, c2, c3)) / max(area, 1e-30);
+}
 uniform vec2 u_soft_extent;
 uniform int u_soft_round;
 uniform float u_soft_near;     // the nearest shadow caster's distance from the face's origin, metres
