@@ -89,7 +89,8 @@ def light(light_object, matrix_world, warnings: list[str]) -> Light:
     data = light_object.data
     name = light_object.name
     if getattr(data, "use_nodes", False):
-        warnings.append(f"Light '{name}': light nodes are not rendered (its colour and power are used)")
+        warnings.append(f"Light '{name}': light nodes (an IES profile among them) are not rendered (its "
+                        f"colour and power are used)")
     linking = getattr(light_object, "light_linking", None)
     if linking is not None and getattr(linking, "blocker_collection", None) is not None:
         warnings.append(f"Light '{name}': shadow linking is not rendered (everything shadows it)")

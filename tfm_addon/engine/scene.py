@@ -103,10 +103,9 @@ class Light:
       ``gobo`` is an optional projected texture, an (h, w, 3) float32 array (top row first)
       stretched over the square that bounds the cone. One perspective map face.
     - 'POINT': I = power_w / (4 pi) W/sr in every direction. Six cube faces.
-    - 'AREA': approximated by a point at its centre with a cosine emission profile about its
-      normal (local -Z): I(theta) = power_w / pi * cos(theta) W/sr, so that it emits power_w
-      watts (measured against Cycles: its brightness matches this normalisation, not P / 4).
-      ``size_m`` = (size, size_y) in metres: its soft shadows.
+    - 'AREA': a rectangle (or ellipse) of ``size_m`` = (size, size_y) metres in its local XY plane,
+      emitting along local -Z with the radiance power_w / (pi A): P / pi W/sr on its axis far
+      away (measured against Cycles), the solid angle it fills near it; its soft shadows.
       Five cube faces (the back one emits nothing).
     - 'SUN': parallel light travelling along local -Z; ``power_w`` is Blender's strength, the
       irradiance in W/m^2 on a surface facing it. One orthographic face fitted to the media.
