@@ -52,6 +52,7 @@ EXPECT: dict[str, str] = {
     "mix_float": "gives a medium where the grids are empty, up to Cycles' volume bounds",
     "world_color": "the world lights it alone, from 16 directions",
     "world_hdri": "the world lights it alone, from 16 directions",
+    "area_spread": "its spread is rendered approximately",
 }
 # 'wrong': TFM renders the row, wrongly, and says nothing: a defect this suite found. The value
 # says what differs from Cycles.
@@ -823,6 +824,16 @@ def _(tmpdir):
     receivers.objects.link(smoke)
     spot.light_linking.receiver_collection = receivers
     receivers.collection_objects[0].light_linking.link_state = 'EXCLUDE'
+
+
+@row("area_spread", "Area light 1 m, Spread 60° (Cycles' soft-box grid)")
+def _(tmpdir):
+    mat, nt, out = material()
+    principled(nt, out)
+    base(lights=None)
+    area = light('AREA', (1.4, -1.4, 2.0))
+    area.data.spread = np.radians(60.0)
+    volume_object(tmpdir, mat=mat)
 
 
 def _bar(z: float = 1.8) -> None:

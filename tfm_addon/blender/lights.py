@@ -110,13 +110,14 @@ def light(light_object, matrix_world, warnings: list[str]) -> Light:
         size_y = (float(data.size_y) if data.shape in ('RECTANGLE', 'ELLIPSE') else float(data.size))
         size_y *= float(scale[1])
         if float(getattr(data, "spread", math.pi)) < math.pi - 1e-6:
-            warnings.append(f"Area light '{name}': its spread is not rendered (180 degrees)")
+            warnings.append(f"Area light '{name}': its spread is rendered approximately (Cycles' soft-box "
+                            f"grid read from points of the light: 6 % darker than Cycles at 60 degrees)")
         if not getattr(data, "normalize", True):
             # Normalize off: Cycles keeps the radiance of a 1 m² light, so the power grows with the area
             area = size * size_y * (math.pi / 4.0 if data.shape in ('DISK', 'ELLIPSE') else 1.0)
             common["power_w"] *= area
         return Light(kind="AREA", size_m=(size, size_y), round_shape=data.shape in ('DISK', 'ELLIPSE'),
-                     **common)
+                     spread_rad=float(getattr(data, "spread", math.pi)), **common)
     raise ValueError(f"light type {kind!r} is not known")
 
 

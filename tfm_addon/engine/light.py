@@ -390,12 +390,15 @@ class Softness(NamedTuple):
     """A light's size as one of its faces sees it (soft_extent): ``extent`` the half-widths of its
     shape across the face (metres; a sun: the tangent of half its angle), ``round`` an ellipse
     rather than a rectangle; an area light's half sides as face-space vectors (``area_u``,
-    ``area_v``; an ellipse's scaled to the rectangle of its area), its emission's shape."""
+    ``area_v``; an ellipse's scaled to the rectangle of its area), its emission's shape, and its
+    spread as (tan h, 1 / (tan h - h)) for the half spread h, Cycles' soft-box grid ((0, 0): 180
+    degrees)."""
 
     extent: tuple[float, float]
     round: bool
     area_u: tuple[float, float, float] = (0.0, 0.0, 0.0)
     area_v: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    area_spread: tuple[float, float] = (0.0, 0.0)
 
 
 def soft_extent(light: Light, frame: LightFrame) -> Softness | None:
@@ -415,6 +418,9 @@ def soft_extent(light: Light, frame: LightFrame) -> Softness | None:
     axes = frame.world_to_light[:3, :3] @ _rigid(np.array(light.matrix_world, dtype=np.float64))[:3, :2]
     ex, ey = np.abs(axes[:2]) @ np.array([sx, sy])
     equal_area = math.sqrt(math.pi) / 2.0 if light.round_shape else 1.0
+    half = 0.5 * min(max(float(light.spread_rad), 1e-3), math.pi)
+    spread = (0.0, 0.0) if half >= 0.5 * math.pi - 1e-6 else (
+        math.tan(half), 1.0 / (math.tan(half) - half) if half > 0.05 else 3.0 / half**3)
     return Softness((float(ex), float(ey)), bool(light.round_shape),
                     tuple(float(a) for a in axes[:, 0] * sx * equal_area),
-                    tuple(float(a) for a in axes[:, 1] * sy * equal_area))
+                    tuple(float(a) for a in axes[:, 1] * sy * equal_area), spread)

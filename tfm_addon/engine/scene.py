@@ -122,7 +122,7 @@ class Light:
     Size (soft shadows, light.soft_extent; none of it enters ``key``, so a size edit rebuilds no
     map): ``radius_m`` a spot's or point light's radius, metres; ``angle_rad`` a sun's angular
     diameter; an area light's ``size_m``, an ellipse (Blender's Disk and Ellipse) where
-    ``round_shape``.
+    ``round_shape``, and its ``spread_rad`` (Blender's Spread: below pi, Cycles' soft-box grid).
     """
 
     matrix_world: np.ndarray
@@ -143,6 +143,7 @@ class Light:
     radius_m: float = 0.0
     angle_rad: float = 0.0
     round_shape: bool = False
+    spread_rad: float = float(np.pi)
 
     def __post_init__(self):
         if self.kind not in LIGHT_KINDS:

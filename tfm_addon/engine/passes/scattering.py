@@ -178,7 +178,7 @@ def run_light_pass(gl: GLContext, *, camera: Camera, plane: ViewPlane, medium: M
         set_uniforms(prog, u_light_targets=tuple(light[4]) if len(light) > 4 else (1.0, 1.0))
         if defines.get("SOFT_SHADOW"):
             set_uniforms(prog, u_soft_extent=soft.extent, u_soft_round=int(soft.round),
-                         u_area_u=soft.area_u, u_area_v=soft.area_v,
+                         u_area_u=soft.area_u, u_area_v=soft.area_v, u_area_spread=soft.area_spread,
                          u_soft_near=0.0 if shadow is None else shadow.near,
                          u_soft_seed=0.0 if settings.view_jitter is None else float(settings.view_jitter))
     if tfm is not None:

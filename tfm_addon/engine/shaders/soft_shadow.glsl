@@ -22,6 +22,8 @@ float area_emission(vec3 q, float r) { return max(dot(q / max(r, 1e-30), u_emit_
 #else
 uniform vec3 u_area_u;         // face space: an area light's half sides (an ellipse: the rectangle
 uniform vec3 u_area_v;         // of its area), as vectors
+uniform vec2 u_area_spread;    // tan of half its spread and Cycles' normalisation 1 / (tan h - h);
+                               // (0, 0): a spread of 180 degrees
 
 // Solid angle of the triangle (a, b, c) seen from the origin (Van Oosterom and Strackee).
 float triangle_solid_angle(vec3 a, vec3 b, vec3 c) {
@@ -30,16 +32,7 @@ float triangle_solid_angle(vec3 a, vec3 b, vec3 c) {
     return 2.0 * atan(abs(dot(a, cross(b, c))), den);
 }
 
-// An area light's emission profile at q: its radiance P / (pi A) over the solid angle it fills
-// (seen from q, in front of it), per unit of the face's intensity P / pi: the solid angle over the
-// area. Far from the light it is the point's cos(theta) / r^2.
-float area_emission(vec3 q, float r) {
-    if (dot(q, u_emit_axis) <= 0.0) return 0.0;
-    vec3 c0 = -q - u_area_u - u_area_v, c1 = -q + u_area_u - u_area_v;
-    vec3 c2 = -q + u_area_u + u_area_v, c3 = -q - u_area_u + u_area_v;
-    float area = 4.0 * length(cross(u_area_u, u_area_v));
-    return (triangle_solid_angle(c0, c1, c2) + triangle_solid_angle(c0, c2, c3)) / max(area, 1e-30);
-}
+
 uniform vec2 u_soft_extent;
 uniform int u_soft_round;
 uniform float u_soft_near;     // the nearest shadow caster's distance from the face's origin, metres
@@ -162,5 +155,28 @@ float soft_spot_falloff(vec3 q) {
     float f = 0.0;
     for (int k = 0; k < n; ++k) f += spot_falloff(q - vec3(light_point(k, n, rnd) * u_soft_extent, 0.0));
     return f / float(n);
+}
+
+// An area light's emission profile at q: its radiance P / (pi A) over the solid angle it fills
+// (seen from q, in front of it), per unit of the face's intensity P / pi: the solid angle over the
+// area. Far from the light it is the point's cos(theta) / r^2. A spread below 180 degrees: Cycles'
+// soft-box grid, max(tan h - tan a, 0) / (tan h - h) at the angle a from the axis, read from points
+// of the light (its cone's edge is soft, as each point of the light has its own).
+float area_emission(vec3 q, float r) {
+    if (dot(q, u_emit_axis) <= 0.0) return 0.0;
+    vec3 c0 = -q - u_area_u - u_area_v, c1 = -q + u_area_u - u_area_v;
+    vec3 c2 = -q + u_area_u + u_area_v, c3 = -q - u_area_u + u_area_v;
+    float area = 4.0 * length(cross(u_area_u, u_area_v));
+    float e = (triangle_solid_angle(c0, c1, c2) + triangle_solid_angle(c0, c2, c3)) / max(area, 1e-30);
+    vec2 rnd = soft_random();
+    int n = soft_taps(8);
+    float grid = 0.0;
+    for (int k = 0; k < n; ++k) {
+        vec2 at = light_point(k, n, rnd);
+        vec3 d = q - at.x * u_area_u - at.y * u_area_v;
+        float c = dot(d, u_emit_axis) / max(length(d), 1e-30);
+        grid += max((u_area_spread.x - sqrt(max(1.0 - c * c, 0.0)) / max(c, 1e-6)) * u_area_spread.y, 0.0);
+    }
+    return u_area_spread.y > 0.0 ? e * grid / float(n) : e;
 }
 #endif
