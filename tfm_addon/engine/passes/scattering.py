@@ -152,6 +152,7 @@ def run_light_pass(gl: GLContext, *, camera: Camera, plane: ViewPlane, medium: M
             defines["MEDIUM_SHADOW"] = 0
         if soft is not None:
             defines["SOFT_SHADOW"] = 1
+            defines["AREA_SPREAD"] = int(soft.area_spread[1] > 0.0)
     if compose is not None and sums is not None:
         defines.update(SUMS=1, PASSES=int(sums.passes))
     elif compose is not None:

@@ -16,14 +16,17 @@
 #ifndef SOFT_SHADOW
 #define SOFT_SHADOW 0
 #endif
+#ifndef AREA_SPREAD
+#define AREA_SPREAD 0          // 1: an area light's spread below 180 degrees
+#endif
 #if !SOFT_SHADOW
 float soft_spot_falloff(vec3 q) { return spot_falloff(q); }
 float area_emission(vec3 q, float r) { return max(dot(q / max(r, 1e-30), u_emit_axis), 0.0) / (r * r); }
 #else
 uniform vec3 u_area_u;         // face space: an area light's half sides (an ellipse: the rectangle
 uniform vec3 u_area_v;         // of its area), as vectors
-uniform vec2 u_area_spread;    // tan of half its spread and Cycles' normalisation 1 / (tan h - h);
-                               // (0, 0): a spread of 180 degrees
+uniform vec2 u_area_spread;    // AREA_SPREAD 1: tan of half its spread and Cycles' normalisation
+                               // 1 / (tan h - h)
 
 // Solid angle of the triangle (a, b, c) seen from the origin (Van Oosterom and Strackee).
 float triangle_solid_angle(vec3 a, vec3 b, vec3 c) {
@@ -168,6 +171,7 @@ float area_emission(vec3 q, float r) {
     vec3 c2 = -q + u_area_u + u_area_v, c3 = -q - u_area_u + u_area_v;
     float area = 4.0 * length(cross(u_area_u, u_area_v));
     float e = (triangle_solid_angle(c0, c1, c2) + triangle_solid_angle(c0, c2, c3)) / max(area, 1e-30);
+#if AREA_SPREAD
     vec2 rnd = soft_random();
     int n = soft_taps(8);
     float grid = 0.0;
@@ -177,6 +181,8 @@ float area_emission(vec3 q, float r) {
         float c = dot(d, u_emit_axis) / max(length(d), 1e-30);
         grid += max((u_area_spread.x - sqrt(max(1.0 - c * c, 0.0)) / max(c, 1e-6)) * u_area_spread.y, 0.0);
     }
-    return u_area_spread.y > 0.0 ? e * grid / float(n) : e;
+    e *= grid / float(n);
+#endif
+    return e;
 }
 #endif
