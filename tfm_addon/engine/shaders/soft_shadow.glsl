@@ -9,10 +9,11 @@
 // footprint of the nearest caster (u_soft_near), then a filter over the light's shape scaled by the
 // blockers' mean spread. The medium's transmittance is the map read through points of the light's
 // shape scaled by the spread of the medium's middle along the ray (transmittance.glsl): one point
-// per sample of the medium, whose view march and antialiasing samples average the shape, so that a
-// frame costs what a sharp one does plus a few taps. Taps turn per pixel, sample and call (a hash).
-// A spot's cone is read from one point of the light's shape per call too, as Cycles reads it from
-// the light point it samples: its edge is soft.
+// per sample of the medium, whose view march and antialiasing samples average the shape (a frame
+// costs 1.3-1.5 times a sharp one on llvmpipe, docs/benchmark.md). The points come from the R2
+// sequence, started per pixel and sample by a hash. A spot's cone is read from a point of the
+// light's shape per call too, as Cycles reads it from the light point it samples: its edge is soft.
+// An area light's emission: the solid angle its rectangle fills (area_emission), with its spread.
 #ifndef SOFT_SHADOW
 #define SOFT_SHADOW 0
 #endif
@@ -34,7 +35,6 @@ float triangle_solid_angle(vec3 a, vec3 b, vec3 c) {
     float den = la * lb * lc + dot(a, b) * lc + dot(a, c) * lb + dot(b, c) * la;
     return 2.0 * atan(abs(dot(a, cross(b, c))), den);
 }
-
 
 uniform vec2 u_soft_extent;
 uniform int u_soft_round;
