@@ -28,7 +28,7 @@ def test_area_light_without_normalize_matches_cycles(blank, tmp_path):
     made["lights"][0].data.normalize = False
     ssim, ratio, cycles = against_cycles(tmp_path)
     print(f"area 1.5 x 1.5 m, Normalize off: SSIM {ssim:.4f}, brightness {ratio:.4f}")
-    assert ssim >= 0.98 and abs(ratio - 1.0) <= 0.10     # the point approximation's stated tolerance
+    assert ssim >= 0.98 and abs(ratio - 1.0) <= 0.03     # its shape's emission (measured 0.9993, 1.005)
 
 
 def test_default_lights_say_nothing(blank):
