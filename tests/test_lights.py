@@ -93,8 +93,8 @@ def test_area_light_matches_reference(renderer):
     light = Light(matrix_world=look_at((-1.5, -1.5, 3.5), (0, 0, 1.0)), power_w=1500.0, kind="AREA",
                   size_m=(0.5, 0.5), name="Area")
     scene = Scene(camera=_camera(), lights=(light,), media=(_smoke(),), meshes=(plane_mesh((0, 0, 0), 8.0),))
-    out, _ = _compare(renderer, scene)
-    assert any("Area light 'Area'" in w for w in out.warnings)
+    out, _ = _compare(renderer, scene)       # the reference's point: close for a light this small and far
+    assert not any("Area light 'Area'" in w for w in out.warnings)     # its shape renders: nothing to say
 
 
 def test_two_overlapping_media_with_different_materials(renderer):

@@ -90,9 +90,9 @@ def test_light_settings_sit_under_the_light_panel(context):
     context.light.type = 'POINT'
     context.light.shadow_soft_size = 0.2
     assert not _panel("TFM_PT_light_texture").poll(context)     # a spot's only
-    assert _draw("TFM_PT_light", context) == ["use_tfm", "label:The radius is treated as zero"]
+    assert _draw("TFM_PT_light", context) == ["use_tfm"]        # a radius renders: nothing to say
     context.light.type = 'AREA'
-    assert _draw("TFM_PT_light", context) == ["use_tfm", "label:Rendered as a point with a cosine profile"]
+    assert _draw("TFM_PT_light", context) == ["use_tfm"]        # its shape and size render
 
 
 def test_world_light_has_one_place_the_world_tab(context):

@@ -50,6 +50,7 @@ EXPECT: dict[str, str] = {
     "world_sky": "node 'Sky Texture' (Sky Texture) is not read by the engine",
     "clamp": "gives a medium where the grids are empty, up to Cycles' volume bounds",
     "mix_float": "gives a medium where the grids are empty, up to Cycles' volume bounds",
+    "area_spread": "its spread is rendered approximately",
 }
 # 'wrong': TFM renders the row, wrongly, and says nothing: a defect this suite found. The value
 # says what differs from Cycles.
@@ -795,6 +796,70 @@ def _(tmpdir):
     area.data.size = 1.5
     area.data.normalize = False
     volume_object(tmpdir, mat=mat)
+
+
+@row("light_volume_factor", "Spot light, Light ▸ Influence ▸ Volume factor 0.3 (Cycles' direct light in "
+     "the medium is unchanged by it)")
+def _(tmpdir):
+    mat, nt, out = material()
+    principled(nt, out)
+    base(lights=None)
+    light('SPOT').data.volume_factor = 0.3
+    volume_object(tmpdir, mat=mat)
+
+
+@row("light_linking_excludes_smoke", "Spot light whose Light Linking receiver collection excludes the smoke "
+     "(the smoke dark, the ground lit)")
+def _(tmpdir):
+    import bpy
+
+    mat, nt, out = material()
+    principled(nt, out)
+    base(lights=None)
+    spot = light('SPOT')
+    smoke = volume_object(tmpdir, mat=mat)
+    receivers = bpy.data.collections.new("Receivers")
+    receivers.objects.link(smoke)
+    spot.light_linking.receiver_collection = receivers
+    receivers.collection_objects[0].light_linking.link_state = 'EXCLUDE'
+
+
+@row("area_spread", "Area light 1 m, Spread 60° (Cycles' soft-box grid)")
+def _(tmpdir):
+    mat, nt, out = material()
+    principled(nt, out)
+    base(lights=None)
+    area = light('AREA', (1.4, -1.4, 2.0))
+    area.data.spread = np.radians(60.0)
+    volume_object(tmpdir, mat=mat)
+
+
+def _bar(z: float = 1.8) -> None:
+    """A thin bar (6 cm square, 3 m long, along x) above the smoke: the shadow the rows soften."""
+    import bpy
+
+    bpy.ops.mesh.primitive_cube_add(size=1.0, location=(0.0, 0.0, z), scale=(3.0, 0.06, 0.06))
+    bpy.context.object.data.materials.append(_diffuse("Bar", (0.5, 0.5, 0.5)))
+
+
+for _id, _kind, _title, _size, _z in (
+        ("soft_area", 'AREA', "Area light 0.6 × 0.3 m past a 6 cm bar into the smoke (soft shadow)",
+         dict(size=0.6, size_y=0.3, shape='RECTANGLE'), 1.8),
+        ("soft_spot", 'SPOT', "Spot light of radius 0.25 m past a 6 cm bar into the smoke (soft shadow)",
+         dict(shadow_soft_size=0.25), 1.8),
+        ("soft_sun", 'SUN', "Sun of angle 3° past a 6 cm bar 3 m above the smoke (soft shadow)",
+         dict(angle=np.radians(3.0)), 4.0)):
+    def _build(tmpdir, kind=_kind, size=_size, z=_z):
+        mat, nt, out = material()
+        principled(nt, out)
+        base(lights=None)
+        lamp = light(kind, (0.0, -0.4, 3.2) if kind != 'SUN' else (0.0, -0.4, 5.0))
+        for k, v in size.items():
+            setattr(lamp.data, k, v)
+        _bar(z)
+        volume_object(tmpdir, mat=mat)
+
+    ROWS.append(Row(id=_id, title=_title, build=_build))
 
 
 @row("world_hdri", "World ▸ Environment Texture (an equirectangular image made by code) lighting the "

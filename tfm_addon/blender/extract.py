@@ -388,11 +388,30 @@ def degenerate(matrix_world, placed: bool = True) -> str | None:
     return None
 
 
+def _light_linking(depsgraph, light_objects: list, lights: list[Light], warnings: list[str]) -> list[Light]:
+    """The lights as their receiver collections let them light the media and the solids
+    (lights.linked), the objects classified as the walk does."""
+    if not any(getattr(getattr(o, "light_linking", None), "receiver_collection", None) is not None
+               for o in light_objects):
+        return lights
+    media, solids = [], []
+    for ob in depsgraph.objects:
+        if ob.type == 'VOLUME':
+            media.append(ob.name)
+        elif ob.type in meshes.MESH_TYPES:
+            medium = (fluid.domain_modifier(ob, depsgraph.mode == 'RENDER') is not None
+                      or materials.has_volume_only(meshes.first_material(ob)))
+            (media if medium else solids).append(ob.name)
+    return [lights_module.linked(o, light, media, solids, warnings)
+            for o, light in zip(light_objects, lights, strict=True)]
+
+
 def _walk_instances(depsgraph, parts: Change, cache: GridCache,
                     volume_resolution: int = mesh_volume.DEFAULT_RESOLUTION,
                     kept: WalkCache | None = None) -> dict:
     """Lights, meshes and the medium among the depsgraph's object instances."""
     spots: list[Light] = []
+    light_objects: list = []          # the object of each of ``spots``
     solids: list[Mesh] = []
     skipped_lights: list[str] = []
     media: list[str] = []
@@ -404,7 +423,6 @@ def _walk_instances(depsgraph, parts: Change, cache: GridCache,
     simplify = volume_simplify_level(depsgraph) if Change.MEDIUM in parts else 0
     unrendered: dict[str, list[str]] = {}   # kind of object TFM does not render -> names
     colour_notes: list[str] = []
-    light_sizes: list[str] = []       # lights whose size is rendered as a point
     degenerate_notes: dict[Change, list[str]] = {}
 
     for instance in depsgraph.object_instances:
@@ -434,8 +452,8 @@ def _walk_instances(depsgraph, parts: Change, cache: GridCache,
                 continue
         if kind == 'LIGHT' and Change.LIGHTS in parts:
             if ob.data.type in ('SPOT', 'POINT', 'SUN', 'AREA'):
-                spots.append(lights_module.light(ob, np.array(instance.matrix_world),
-                                                 notes[Change.LIGHTS], light_sizes))
+                spots.append(lights_module.light(ob, np.array(instance.matrix_world), notes[Change.LIGHTS]))
+                light_objects.append(ob)
             else:
                 skipped_lights.append(f"{ob.name} ({ob.data.type.lower()})")
         elif kind == 'VOLUME' and Change.MEDIUM in parts:
@@ -492,9 +510,7 @@ def _walk_instances(depsgraph, parts: Change, cache: GridCache,
     for part, lines in degenerate_notes.items():
         notes[part].extend(dict.fromkeys(lines))
     if Change.LIGHTS in parts:
-        note = lights_module.sizes_note(light_sizes)
-        if note:
-            notes[Change.LIGHTS].append(note)
+        spots = _light_linking(depsgraph, light_objects, spots, notes[Change.LIGHTS])
         if skipped_lights:
             notes[Change.LIGHTS].append(
                 "Lights of unknown type are not rendered: " + ", ".join(skipped_lights))

@@ -26,7 +26,6 @@ EXCLUDED: dict[str, str] = {
                           "replaces it",
     "OBJECT_PT_visibility": "shows ray visibility to EEVEE only; TFM_PT_object_visibility shows "
                             "what TFM honours (renders, camera and shadow rays, holdout)",
-    "OBJECT_PT_shading": "holds Light Linking only; TFM lights every object with every light",
     "DATA_PT_context_lightprobe": "light probes capture EEVEE's indirect light; TFM renders "
                                   "single scattering and reads no probe",
     "DATA_PT_lightprobe": "light probe settings (EEVEE's indirect light)",
@@ -40,7 +39,8 @@ EXCLUDED: dict[str, str] = {
 
 # EEVEE-only panels whose settings TFM reads: name -> what it reads there.
 EEVEE_PANELS: dict[str, str] = {
-    "DATA_PT_EEVEE_light": "light type, colour, temperature, power, exposure",
+    "DATA_PT_EEVEE_light": "light type, colour, temperature, power, exposure, Normalize, the size "
+                           "(radius, angle, shape and size: soft shadows)",
     "NODE_DATA_PT_EEVEE_light": "the same in the Shader Editor",
     "MATERIAL_PT_preview": "material previews (the engine renders them)",
     "EEVEE_MATERIAL_PT_context_material": "material slots",

@@ -198,13 +198,14 @@ def build(scene: Scene, directory: str, *, bl_scene=None, settings: RenderSettin
             data.spot_size = light.spot_size_rad
             data.spot_blend = light.spot_blend
         if kind in ('SPOT', 'POINT'):
-            data.shadow_soft_size = 0.0
+            data.shadow_soft_size = light.radius_m
         elif kind == 'SUN':
-            data.angle = 0.0
+            data.angle = light.angle_rad
         elif kind == 'AREA':
             sx, sy = (float(v) if v > 0 else 0.1 for v in light.size_m)
-            data.shape = 'RECTANGLE'
+            data.shape = 'ELLIPSE' if light.round_shape else 'RECTANGLE'
             data.size, data.size_y = sx, sy
+            data.spread = light.spread_rad
         if light.gobo is not None:
             img = bpy.data.images.new(f"{data.name} Gobo", light.gobo.shape[1], light.gobo.shape[0],
                                       float_buffer=True)

@@ -11,6 +11,7 @@ from __future__ import annotations
 import itertools
 import math
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -254,7 +255,8 @@ SHADOW_TEST_TRIANGLES = 20_000
 it cannot separate from the media); beyond, it answers that they may shadow."""
 
 
-def solids_may_shadow(frame: LightFrame, parts, boxes, map_res: int, shadow_far: float) -> bool:
+def solids_may_shadow(frame: LightFrame, parts, boxes, map_res: int, shadow_far: float,
+                      extent: Softness | None = None) -> bool:
     """Whether a solid may shadow a point of the media's ``boxes`` ((box_to_world, lo, hi) each)
     from the face ``frame``, as the light passes' filtered shadow-map lookup sees it. ``parts``:
     (lo, hi, triangles) per caster mesh, world bounds and (k, 3, 3) world triangles (None: not kept,
@@ -264,8 +266,9 @@ def solids_may_shadow(frame: LightFrame, parts, boxes, map_res: int, shadow_far:
     three shadow-map texels at the boxes' farthest corner plus twice the lookup's depth bias; then
     no light ray to a point of a box, nor its neighbours the 2x2 filter reads, meets a solid before
     the point, and the lookup there is exactly 1 (the light passes skip it). True when the
-    triangles to test are too many (SHADOW_TEST_TRIANGLES). Numpy only (the render path in Blender
-    has no scipy)."""
+    triangles to test are too many (SHADOW_TEST_TRIANGLES). A light with a size (``extent``,
+    soft_extent) adds the corners of its shape to the hull (a sun: its angle's reach over the
+    depth to the margin). Numpy only (the render path in Blender has no scipy)."""
     corners = [_corners(*b) for b in boxes if all(h > lo for lo, h in zip(b[1], b[2], strict=True))]
     if not corners:
         return True
@@ -279,10 +282,16 @@ def solids_may_shadow(frame: LightFrame, parts, boxes, map_res: int, shadow_far:
         points = np.concatenate([corners, q @ inv[:3, :3].T + inv[:3, 3]])
         footprint = 2.0 * max(frame.shadow_rect[2:]) / max(int(map_res), 1)
     else:
-        points = np.concatenate([corners, np.asarray(frame.position, float)[None]])
+        shape = [(0.0, 0.0)] if extent is None else [(x * extent.extent[0], y * extent.extent[1])
+                                                     for x in (-1.0, 1.0) for y in (-1.0, 1.0)]
+        to_world = np.linalg.inv(frame.world_to_light)
+        points = np.concatenate([corners, np.array([to_world[:3, :3] @ (x, y, 0.0) + to_world[:3, 3]
+                                                    for x, y in shape])])
         reach = float(np.linalg.norm(corners - frame.position, axis=1).max())
         footprint = 2.0 * frame.tan_half * reach / max(int(map_res), 1)
     margin = 3.0 * footprint + 4e-4 * float(shadow_far)
+    if frame.ortho and extent is not None:      # a sun's rays tilt by up to its half angle
+        margin += max(extent.extent) * float(shadow_far)
     facets = _hull_planes(points)                        # n . x + d <= 0 inside, |n| = 1
     tested = []
     for lo, hi, triangles in parts:
@@ -384,3 +393,46 @@ def cone_meets_box(frame: LightFrame, box_to_world: np.ndarray, lo, hi) -> bool:
     t_in = np.max(np.minimum(t0, t1))
     t_out = np.min(np.maximum(t0, t1))
     return bool(t_out >= max(t_in, 0.0))
+
+
+class Softness(NamedTuple):
+    """A light's size as one of its faces sees it (soft_extent): ``extent`` the half-widths of its
+    shape across the face (metres; a sun: the tangent of half its angle), ``round`` an ellipse
+    rather than a rectangle; an area light's half sides as face-space vectors (``area_u``,
+    ``area_v``; an ellipse's scaled to the rectangle of its area), its emission's shape, and its
+    spread as (tan h, 1 / (tan h - h)) for the half spread h, Cycles' soft-box grid ((0, 0): 180
+    degrees)."""
+
+    extent: tuple[float, float]
+    round: bool
+    area_u: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    area_v: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    area_spread: tuple[float, float] = (0.0, 0.0)
+
+
+def soft_extent(light: Light, frame: LightFrame) -> Softness | None:
+    """The light's size as its face sees it (soft shadows and an area light's emission;
+    shaders/soft_shadow.glsl), or None for a point (sharp shadows): a sphere's radius, a sun's
+    disk, an area light's rectangle or ellipse projected on the face's plane (its side faces see it
+    edge on). A sun standing in for part of the world softens its shadows on surfaces by its own
+    cone (shaders/world_soft.glsl): None here."""
+    if light.from_world:
+        return None
+    if light.kind in ("SPOT", "POINT"):
+        r = max(float(light.radius_m), 0.0)
+        return Softness((r, r), True) if r > 0.0 else None
+    if light.kind == "SUN":
+        t = math.tan(0.5 * min(max(float(light.angle_rad), 0.0), math.radians(179.0)))
+        return Softness((t, t), True) if t > 0.0 else None
+    sx, sy = (0.5 * max(float(s), 0.0) for s in light.size_m)
+    if sx <= 0.0 or sy <= 0.0:
+        return None
+    axes = frame.world_to_light[:3, :3] @ _rigid(np.array(light.matrix_world, dtype=np.float64))[:3, :2]
+    ex, ey = np.abs(axes[:2]) @ np.array([sx, sy])
+    equal_area = math.sqrt(math.pi) / 2.0 if light.round_shape else 1.0
+    half = 0.5 * min(max(float(light.spread_rad), 1e-3), math.pi)
+    spread = (0.0, 0.0) if half >= 0.5 * math.pi - 1e-6 else (
+        math.tan(half), 1.0 / (math.tan(half) - half) if half > 0.05 else 3.0 / half**3)
+    return Softness((float(ex), float(ey)), bool(light.round_shape),
+                    tuple(float(a) for a in axes[:, 0] * sx * equal_area),
+                    tuple(float(a) for a in axes[:, 1] * sy * equal_area), spread)

@@ -20,6 +20,7 @@ from .light import (
     LightFrame,
     cone_warning,
     is_dark,
+    soft_extent,
     solids_may_shadow,
 )
 from .medium_grid import grid_allowances, prepare_grid
@@ -416,7 +417,8 @@ class Renderer:
             run_light_pass(gl, first=(i == 0), light_t=plan.light_t, tfm=plan.tfm,
                            light=(plan.frame, plan.light.intensity_w_per_sr, plan.shadow, plan.gobo,
                                   (float(plan.light.lights_medium), float(plan.light.lights_surfaces))),
-                           tfm_sigma_t=plan.tfm_sigma_t, medium_shadow=plan.medium_shadow, **common)
+                           tfm_sigma_t=plan.tfm_sigma_t, medium_shadow=plan.medium_shadow,
+                           soft=soft_extent(plan.light, plan.frame), **common)
             self.counters["light_passes"] += 1
             steps.step("scattering", t0)
         t0 = time.perf_counter()
@@ -637,11 +639,12 @@ class Renderer:
         passes skip the lookup for the media's samples (it would be exactly 1)."""
         if shadow is None or everywhere or not boxes:
             return True
-        key = (light.key, frame.key, scene.solids_key, res, "medium shadow",
+        extent = soft_extent(light, frame)      # a light's size: solids beside its centre's rays too
+        key = (light.key, frame.key, scene.solids_key, res, "medium shadow", extent,
                tuple((tuple(np.round(np.asarray(b, float), 12).ravel()), tuple(lo), tuple(hi))
                      for b, lo, hi in boxes))
         flag, built = self._medium_shadows.get(key, lambda: _Value(float(
-            solids_may_shadow(frame, solids.parts, boxes, res, shadow.far))))
+            solids_may_shadow(frame, solids.parts, boxes, res, shadow.far, extent))))
         self.counters["medium_shadow_tests"] += built
         return bool(flag.value)
 
@@ -891,14 +894,9 @@ def _slot_key(slot: MediumSlot) -> tuple:
     return (grid, tuple(np.round(slot.world_to_box, 12).ravel()))
 
 
-AREA_NOTE = ("Area light '{name}' is rendered as a point at its centre with a cosine profile, "
-             "without soft shadows (measured within 4 % of Cycles' brightness for a light no larger "
-             "than its distance to the medium; docs/architecture.md).")
-
-
 def _frame_notes(scene: Scene, lights, warnings: list[str]) -> list[str]:
     """The render report: the frame's ``warnings`` once each, then what the lights say (none
-    lit, approximations, cones past the maps' reach)."""
+    lit, cones past the maps' reach)."""
     warnings = list(warnings)
     world = [light for light in scene.lights if light.from_world]
     if world and len(world) == len(scene.lights):
@@ -911,14 +909,8 @@ def _frame_notes(scene: Scene, lights, warnings: list[str]) -> list[str]:
     elif not [light for light in lights if not light.from_world]:
         warnings.append("Every light has zero power or colour (or a spot no cone angle): no "
                         "light beam.")
-    warnings += _light_notes(lights)
     warnings = list(dict.fromkeys(warnings))       # once each, however many faces said it
     return warnings + [w for w in map(cone_warning, lights) if w]
-
-
-def _light_notes(lights) -> list[str]:
-    """One line per light kind the renderer approximates."""
-    return [AREA_NOTE.format(name=light.name) for light in lights if light.kind == "AREA"]
 
 
 def merged_fog(fogs) -> Medium | None:

@@ -102,11 +102,10 @@ class Light:
       cone; ``spot_size_rad`` is the full cone angle, ``spot_blend`` Blender's blend in [0, 1];
       ``gobo`` is an optional projected texture, an (h, w, 3) float32 array (top row first)
       stretched over the square that bounds the cone. One perspective map face.
-    - 'POINT': I = power_w / (4 pi) W/sr in every direction (radius treated as 0). Six cube faces.
-    - 'AREA': approximated by a point at its centre with a cosine emission profile about its
-      normal (local -Z): I(theta) = power_w / pi * cos(theta) W/sr, so that it emits power_w
-      watts (measured against Cycles: its brightness matches this normalisation, not P / 4).
-      ``size_m`` = (size, size_y) in metres, for the report only.
+    - 'POINT': I = power_w / (4 pi) W/sr in every direction. Six cube faces.
+    - 'AREA': a rectangle (or ellipse) of ``size_m`` = (size, size_y) metres in its local XY plane,
+      emitting along local -Z with the radiance power_w / (pi A): P / pi W/sr on its axis far
+      away (measured against Cycles), the solid angle it fills near it; its soft shadows.
       Five cube faces (the back one emits nothing).
     - 'SUN': parallel light travelling along local -Z; ``power_w`` is Blender's strength, the
       irradiance in W/m^2 on a surface facing it. One orthographic face fitted to the media.
@@ -117,10 +116,15 @@ class Light:
     ``use_shadow``): nothing shadows the light, neither the solids nor the media (as Cycles
     renders it), for every kind. ``lights_medium`` / ``lights_surfaces`` False: the light lights no
     medium / no surface (the light object's Ray Visibility ▸ Volume Scatter / Diffuse off in
-    Blender), though it is still seen and still shadowed. ``from_world``: a sun standing in for
+    Blender, or its Light Linking receiver collection excluding every medium / every solid), though
+    it is still seen and still shadowed. ``from_world``: a sun standing in for
     part of the world's light (engine/world_light.py), not a light of the scene; its
     ``angle_rad``, the angular diameter of the cone of directions it stands for, softens the
-    shadows it casts on surfaces (shaders/world_soft.glsl).
+    shadows it casts on surfaces (shaders/world_soft.glsl) instead of the generic soft shadows.
+    Size (soft shadows, light.soft_extent; none of it enters ``key``, so a size edit rebuilds no
+    map): ``radius_m`` a spot's or point light's radius, metres; ``angle_rad`` a sun's angular
+    diameter; an area light's ``size_m``, an ellipse (Blender's Disk and Ellipse) where
+    ``round_shape``, and its ``spread_rad`` (Blender's Spread: below pi, Cycles' soft-box grid).
     """
 
     matrix_world: np.ndarray
@@ -138,7 +142,10 @@ class Light:
     from_world: bool = False
     lights_medium: bool = True
     lights_surfaces: bool = True
+    radius_m: float = 0.0
     angle_rad: float = 0.0
+    round_shape: bool = False
+    spread_rad: float = float(np.pi)
 
     def __post_init__(self):
         if self.kind not in LIGHT_KINDS:

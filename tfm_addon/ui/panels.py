@@ -186,12 +186,6 @@ class TFM_PT_light(_LightSubpanel, bpy.types.Panel):
         layout = _split(self.layout)
         light = context.light
         layout.prop(light.tfm, "use_tfm")
-        if light.type in ('SPOT', 'POINT') and light.shadow_soft_size > 0.0:
-            layout.label(text="The radius is treated as zero", icon='INFO')
-        elif light.type == 'SUN' and light.angle > 0.0:
-            layout.label(text="The angle is treated as zero (a sharp sun)", icon='INFO')
-        elif light.type == 'AREA':
-            layout.label(text="Rendered as a point with a cosine profile", icon='INFO')
 
 
 class TFM_PT_light_texture(_LightSubpanel, bpy.types.Panel):

@@ -118,7 +118,7 @@ def run_light_pass(gl: GLContext, *, camera: Camera, plane: ViewPlane, medium: M
                    medium_gpu: MediaGPU, settings: RenderSettings, ambient, first: bool,
                    light=None, light_t: int = LIGHT_T_NONE, tfm=None, tfm_sigma_t=None,
                    attributes=None, active=None, compose=None, sums=None,
-                   medium_shadow: bool = True, ambient_surface=None) -> None:
+                   medium_shadow: bool = True, ambient_surface=None, soft=None) -> None:
     """Add one pass into the bound ScatteringTargets. ``light`` is (face, intensity, ShadowMap
     or None, gobo texture or None[, (weight on the media, weight on the surfaces)]) or None for the
     ambient-only first pass (``ambient``: the world radiance the media scatter on the first pass,
@@ -131,7 +131,8 @@ def run_light_pass(gl: GLContext, *, camera: Camera, plane: ViewPlane, medium: M
     combined image too (the targets bound with ``begin(composing=True)``), or with ``sums``
     (accumulate.SampleSums, bound by ``begin_sample``) adds the sample into them instead.
     ``medium_shadow`` False: no solid shadows a point of the media from this face
-    (light.solids_may_shadow), their samples skip the shadow map."""
+    (light.solids_may_shadow), their samples skip the shadow map. ``soft``: the light's size
+    across the face (light.soft_extent) or None: soft shadows from its shadow map and TFM."""
     medium_kind = medium_gpu.kind
     if light is not None and light_t == LIGHT_T_NONE and not first:
         medium_kind = MEDIUM_NONE          # this light never reaches the medium
@@ -153,6 +154,9 @@ def run_light_pass(gl: GLContext, *, camera: Camera, plane: ViewPlane, medium: M
         defines.update(face_defines(light[0], light[2], light[3]))
         if light[2] is not None and not medium_shadow:
             defines["MEDIUM_SHADOW"] = 0
+        if soft is not None:
+            defines["SOFT_SHADOW"] = 1
+            defines["AREA_SPREAD"] = int(soft.area_spread[1] > 0.0)
     if compose is not None and sums is not None:
         defines.update(SUMS=1, PASSES=int(sums.passes))
     elif compose is not None:
@@ -179,6 +183,11 @@ def run_light_pass(gl: GLContext, *, camera: Camera, plane: ViewPlane, medium: M
         frame, intensity, shadow, gobo = light[:4]
         bind_light(prog, frame, intensity, settings.map_resolution, shadow, gobo)
         set_uniforms(prog, u_light_targets=tuple(light[4]) if len(light) > 4 else (1.0, 1.0))
+        if defines.get("SOFT_SHADOW"):
+            set_uniforms(prog, u_soft_extent=soft.extent, u_soft_round=int(soft.round),
+                         u_area_u=soft.area_u, u_area_v=soft.area_v, u_area_spread=soft.area_spread,
+                         u_soft_near=0.0 if shadow is None else shadow.near,
+                         u_soft_seed=0.0 if settings.view_jitter is None else float(settings.view_jitter))
     if tfm is not None:
         tfm.bind(prog, medium.sigma_t if tfm_sigma_t is None else tfm_sigma_t)
     if emits or colored:

@@ -12,7 +12,8 @@ from .solids import POSITION_ONLY, SolidsBuffer
 
 class ShadowMap:
     """An R32F texture of distances in metres (1e30 where no solid is seen), and the same as a
-    depth texture (distance / ``far``) that the light passes sample with hardware comparison."""
+    depth texture (distance / ``far``) that the light passes sample with hardware comparison;
+    ``near``: the nearest caster's distance (its bounds'), metres."""
 
     def __init__(self, gl: GLContext, frame: LightFrame, solids: SolidsBuffer, resolution: int):
         ctx = gl.ctx
@@ -35,6 +36,11 @@ class ShadowMap:
         far = far if far > 0.0 else 1.0         # scale-free: near and far follow the scene
         near = far * 1e-5
         self.far = far
+        # The nearest caster's distance from the face's origin (each mesh's bounds), metres: how
+        # far a soft shadow's blocker search reaches.
+        pos = frame.position
+        gaps = [np.maximum(np.maximum(a - pos, pos - b), 0.0) for a, b, _ in solids.parts]
+        self.near = max(min((float(np.linalg.norm(g)) for g in gaps), default=far), far * 1e-3)
         prog = gl.program("shadow_map.vert", "shadow_map.frag")
         set_matrix(prog, "u_light_clip", frame.clip_matrix(near, far))
         set_matrix(prog, "u_world_to_light", frame.world_to_light)

@@ -228,6 +228,8 @@ bool in_face(vec3 q) {
 }
 
 float spot_falloff(vec3 q);
+float soft_spot_falloff(vec3 q);
+float area_emission(vec3 q, float r);
 
 // Intensity factor at q by direction (the spot cone, none, or the area light's cosine) times
 // the distance falloff.
@@ -235,8 +237,8 @@ float emission_profile(vec3 q, float r) {
     if (u_face_ortho == 1) return 1.0;
     float f = 1.0 / (r * r);
     if (u_profile == 1) return f;
-    if (u_profile == 2) return f * max(dot(q / max(r, 1e-30), u_emit_axis), 0.0);
-    return q.z < 0.0 ? f * spot_falloff(q) : 0.0;
+    if (u_profile == 2) return area_emission(q, r);
+    return q.z < 0.0 ? f * soft_spot_falloff(q) : 0.0;
 }
 
 float spot_falloff(vec3 q) {
@@ -248,13 +250,15 @@ float spot_falloff(vec3 q) {
     return x * x * (3.0 - 2.0 * x);
 }
 
-// Fraction of the light reaching distance r along the map direction uv past the solids:
-// the hardware's 2x2 percentage-closer filter on the linear depth (distance / far).
+// Fraction of the light reaching q (distance r) past the solids: a light with a size, the
+// fraction of its shape (soft_shadow.glsl); a point, the hardware's 2x2 percentage-closer filter on the linear depth (distance / far).
 // The bias is scale-free: g_bias_texels texel footprints at r, plus 2e-4 of the map's depth
 // range. A lit surface needs a few footprints (else it shadows itself); a point of the medium is
 // no occluder and needs none (a larger bias lets light leak through a solid just before it).
 float g_bias_texels = 0.0;
-float solid_visibility(vec2 uv, float r) {
+#include "soft_shadow.glsl"
+float solid_visibility(vec3 q, float r) {
+    vec2 uv = shadow_uv(q);
     if (u_has_shadow == 0) return 1.0;
 #if !MEDIUM_SHADOW
     // A point of the media, which no solid shadows. A define: the same test on a uniform saved
@@ -264,6 +268,9 @@ float solid_visibility(vec2 uv, float r) {
     if (u_face_ortho == 1 && (any(lessThan(uv, vec2(0.0))) || any(greaterThan(uv, vec2(1.0))))) return 1.0;
     float footprint = u_face_ortho == 1 ? max(u_shadow_rect.z, u_shadow_rect.w) : r * max(u_tan_half.x, u_tan_half.y);
     float bias = g_bias_texels * footprint / u_map_res + 2e-4 * u_shadow_far;
+#if SOFT_SHADOW
+    return soft_visibility(q, uv, r, bias);
+#endif
     return texture(u_shadow_depth, vec3(uv, (r - bias) / u_shadow_far));
 }
 

@@ -51,7 +51,7 @@ vec3 light_arriving(vec3 p, vec3 q, out float r) {
     float emit = emission_profile(q, r);
     if (emit <= 0.0) return vec3(0.0);
     vec2 uv = light_uv(q);
-    float vis = solid_visibility(shadow_uv(q), r);
+    float vis = solid_visibility(q, r);
     if (vis <= 0.0) return vec3(0.0);
     return u_intensity * (emit * vis) * gobo(uv) * light_transmittance(p, q, r);
 }
@@ -100,6 +100,9 @@ void main() {
         t_far = u_clip.y * len;
     }
     ivec2 px = ivec2(gl_FragCoord.xy);
+#if SOFT_SHADOW
+    soft_start();
+#endif
     // Where in each step the march samples: the midpoint, or (antialiasing samples) the sample's
     // offset plus a per-pixel hash, so that neighbouring pixels and successive samples differ.
     float step_at = u_view_jitter < 0.0 ? 0.5
@@ -135,9 +138,15 @@ void main() {
             surface += albedo / PI * world_sun_arriving(P, qP, mat3(u_world_to_light) * n, step_at)
                        * u_light_targets.y;
 #else
+#if SOFT_SHADOW
+            g_soft_normal = mat3(u_world_to_light) * n;     // its plane, for the soft shadow's taps
+#endif
             surface += albedo / PI * ndl * light_arriving(P, qP, r) * u_light_targets.y;
 #endif
             g_bias_texels = 0.0;
+#if SOFT_SHADOW
+            g_soft_normal = vec3(0.0);
+#endif
         }
 #endif
     }

@@ -81,11 +81,9 @@ float tfm_texel(ivec2 c, float r) {
                       r);
 }
 
-// F at map coordinates uv. TFM_FILTER 0: the 2x2 nearest texels are each reconstructed in their
-// own domain, then blended (exact domains, 4x the fetches). 1: the hardware blends domains
-// and coefficients (one fetch per texture; mixes domains where neighbouring texels differ).
-float tfm_lookup(vec2 uv, float r) {
-#if TFM_FILTER == 1
+// F at map coordinates uv, the hardware blending the 2x2 nearest texels' domains and coefficients
+// (one fetch per texture; mixes domains where neighbouring texels differ).
+float tfm_filtered(vec2 uv, float r) {
     vec4 zero = vec4(0.0);
     return tfm_series(texture(u_krange, uv),
 #if N_TARGETS > 0
@@ -109,6 +107,13 @@ float tfm_lookup(vec2 uv, float r) {
                       zero,
 #endif
                       r);
+}
+
+// F at map coordinates uv. TFM_FILTER 0: the 2x2 nearest texels are each reconstructed in their
+// own domain, then blended (exact domains, 4x the fetches). 1: tfm_filtered.
+float tfm_lookup(vec2 uv, float r) {
+#if TFM_FILTER == 1
+    return tfm_filtered(uv, r);
 #else
     int res = textureSize(u_krange, 0).x;      // the TFM's own side (may differ from the shadow map's)
     vec2 f = uv * float(res) - 0.5;
@@ -124,6 +129,22 @@ float tfm_lookup(vec2 uv, float r) {
     return v;
 #endif
 }
+
+#if SOFT_SHADOW
+// F averaged over the light's shape (soft_shadow.glsl): the map read through points of the shape,
+// each offset by the spread of the middle of the medium along the centre ray (between its entry
+// and the sample, or its exit): one tap for a point of the medium, eight for a surface.
+float soft_tfm_lookup(vec3 q, vec2 uv, float r) {
+    vec2 k = texelFetch(u_krange, ivec2(uv * vec2(textureSize(u_krange, 0))), 0).xy;
+    float s = k.y > k.x ? max(soft_spread(max(0.5 * (k.x + min(k.y, r)), 1e-3 * r), r), 0.0) : 0.0;
+    vec2 scale = soft_uv_scale(q, r, vec4(0.0, 0.0, u_tan_half)) * s;
+    vec2 rnd = soft_random();
+    int n = soft_taps(4);
+    float f = 0.0;
+    for (int i = 0; i < n; ++i) f += tfm_filtered(uv + light_point(i, n, rnd) * scale, r);
+    return f / float(n);
+}
+#endif
 #endif
 
 // Unit direction from p toward the light, world (q: p in face space, r: light_distance).
@@ -138,6 +159,9 @@ vec3 media_light_transmittance(vec3 p, vec3 q, float r) {
 #if LIGHT_T == 0
     vec2 uv = light_uv(q);
     if (u_face_ortho == 1 && (any(lessThan(uv, vec2(0.0))) || any(greaterThan(uv, vec2(1.0))))) return vec3(1.0);
+#if SOFT_SHADOW
+    return EXP2_RGB(u_tfm_exponent * log2(max(soft_tfm_lookup(q, uv, r), 1e-30)));
+#endif
     return EXP2_RGB(u_tfm_exponent * log2(max(tfm_lookup(uv, r), 1e-30)));   // F^exponent, one log
 #elif LIGHT_T == 1
     vec3 dir = toward_light(p, q, r);
