@@ -11,6 +11,12 @@ the sum of a surface's cos θ · 4π/n over the suns above it is close to π, th
 integral, and a medium sample's sum of phase-weighted shares is close to L. An environment image
 (an HDRI) gives each direction the irradiance of the part of the sphere nearest to it, coming from
 that part's brightness-weighted mean direction.
+
+Each sun also carries, as ``Light.angle_rad``, the cone of directions it stands for: a cap of its
+share of the sphere (a constant world), or the cap whose mean cosine is that of its part's light
+about its direction (an environment: a small bright patch gives a narrow cone, an even sky a wide
+one). The light passes light surfaces over that cone (shaders/world_soft.glsl), so that the suns'
+shadows blend into one soft shadow.
 """
 
 from __future__ import annotations
