@@ -359,12 +359,15 @@ def _render_tiles(engine, scene, settings, samples: int, side: int, view_layer, 
     """A frame too large for the memory budget, rendered in tiles of ``side`` pixels
     (engine/tiles.py), each written into Blender's result as it is done; the frame's warnings,
     timings and chosen settings."""
+    from ..engine.camera import pixel_window
     from ..engine.tiles import render_tiled
 
     passes = enabled_passes(view_layer)
     worker = get_worker()
 
     def render_tile(tile_scene, tile_settings, until, whites, with_passes):
+        size = pixel_window(tile_scene.camera)[2:]
+        worker.call(lambda r: r.trim_pools(size), timeout_s=60.0)    # one tile size's GL images
         return worker.render(tile_scene, tile_settings, cancel=engine.test_break, samples=samples,
                              passes=with_passes, until=until, whites=whites)
 
