@@ -30,3 +30,22 @@ def test_a_frame_above_the_budget_renders_in_tiles_equal_to_the_whole(blank, tmp
     for name, image in whole.items():
         error = float(np.abs(tiled[name] - image).max() / np.abs(image).max())
         assert error < 2e-3, (name, error)
+
+
+def test_a_render_border_in_tiles_equals_the_border_rendered_whole(blank, tmp_path, monkeypatch):
+    final_render = importlib.import_module(f"{MODULE}.tfm_addon.blender.final_render")
+    monkeypatch.delenv(final_render.BUDGET_ENV, raising=False)
+    scene_builder.build(smoke(width=160, height=120, n=24), str(tmp_path), settings=SETTINGS, samples=4)
+    scene = bpy.context.scene
+    render = scene.render
+    render.use_border = True
+    render.border_min_x, render.border_max_x, render.border_min_y, render.border_max_y = 0.1, 0.85, 0.2, 0.9
+    scene.tfm.memory_budget_gb = 64.0
+    whole = render_passes(tmp_path, "whole")
+    scene.tfm.memory_budget_gb = (final_render.result_bytes(160, 120, 3)
+                                  + final_render.ENGINE_BYTES_PER_PIXEL * 100 ** 2) / 1024 ** 3
+    tiled = render_passes(tmp_path, "tiled")
+    assert tiled["Combined"].shape == whole["Combined"].shape
+    for name, image in whole.items():
+        error = float(np.abs(tiled[name] - image).max() / np.abs(image).max())
+        assert error < 2e-3, (name, error)
