@@ -46,5 +46,4 @@ def test_a_grid_above_the_read_limit_is_read_as_block_means(blank, tmp_path, mon
     said = [m for _, m in final_render.last_messages]
     assert any("read at 1/2 resolution" in m for m in said), said
     ssim = metrics.ssim(halved, full)
-    print("SSIM halved against full", ssim)
     assert 0.95 < ssim < 0.9999, ssim       # the same smoke at half its resolution
