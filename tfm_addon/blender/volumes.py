@@ -138,8 +138,15 @@ def _copy(grid, lo, hi, factor: int = 1) -> np.ndarray:
             nj = min(rows, out_shape[1] - j0)
             block = np.zeros((f, nj * f, nz, *tail), dtype=dtype)     # contiguous, as copyToArray needs
             grid.copyToArray(block, ijk=(lo[0] + i * f, lo[1] + j0 * f, lo[2]))
-            sums = block.reshape(f, nj, f, out_shape[2], f, *tail).sum(axis=(0, 2, 4))
-            out[i, j0:j0 + nj] = sums / (f ** 3)
+            planes = block[0].astype(np.float32)         # the f planes along x added ...
+            for k in range(1, f):
+                planes += block[k]
+            planes = planes.reshape(nj, f, out_shape[2], f, *tail)
+            target = out[i, j0:j0 + nj]
+            for a in range(f):                              # ... then y and z by strided slices (numpy's
+                for c in range(f):                          # sum over short axes is ~10x slower)
+                    target += planes[:, a, :, c]
+            target *= np.float32(1.0 / f ** 3)
     return out
 
 
