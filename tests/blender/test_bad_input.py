@@ -192,7 +192,7 @@ def test_a_warning_is_said_once_per_animation_render(blank, tmp_path):
     assert any("'Panel'" in m and "spread" in m for level, m in _messages())
 
 
-def test_a_frame_above_the_memory_budget_is_refused_before_rendering(blank, tmp_path, monkeypatch):
+def test_a_frame_whose_result_exceeds_the_budget_is_refused_before_rendering(blank, tmp_path, monkeypatch):
     _smoke_in_blender(tmp_path)
     final_render = _mod("final_render")
     asked = []
@@ -208,16 +208,20 @@ def test_a_frame_above_the_memory_budget_is_refused_before_rendering(blank, tmp_
     monkeypatch.setattr(final_render, "get_worker", lambda: Spy())
     monkeypatch.delenv(final_render.BUDGET_ENV, raising=False)
     bpy.context.scene.tfm.memory_budget_gb = 0.01            # 10.2 MiB
-    engine = FakeEngine(256, 256)                            # ~26 MB estimated
+    engine = FakeEngine(512, 512)                    # its render result alone takes 13.6 MB
     final_render.render(engine, bpy.context.evaluated_depsgraph_get())
     assert asked == [] and engine.results == 0
     (message,) = engine.errors
-    need = final_render.frame_estimate(256, 256, 3)
+    need = final_render.result_bytes(512, 512, 3) + final_render.ENGINE_BYTES_PER_PIXEL * 128 ** 2
     assert need > 0.01 * 1024 ** 3
-    assert message.startswith(f"The frame is 256x256 (0.1 megapixels): TFM would need about "
-                              f"{need / 1024 ** 3:.2f} GiB")
+    assert message.startswith(f"The frame is 512x512 (0.3 megapixels): TFM would need about "
+                              f"{need / 1024 ** 3:.2f} GiB to render it even in tiles")
     assert "above the memory budget of 0.01 GiB (Render Properties > Performance > Memory Limit)" in message
 
+    scene = bpy.context.scene
+    assert final_render.tiling(scene, 256, 256, 3)[0] == 114    # within the budget in tiles
     monkeypatch.setenv(final_render.BUDGET_ENV, "64")        # the environment overrides the scene
-    assert final_render.budget_refusal(bpy.context.scene, 256, 256, 3) is None
-    assert "TFM_MEMORY_BUDGET_GB" in final_render.budget_refusal(bpy.context.scene, 262144, 262144, 3)
+    assert final_render.tiling(scene, 256, 256, 3) == (None, None)
+    assert "TFM_MEMORY_BUDGET_GB" in final_render.tiling(scene, 65536, 65536, 3)[1]
+    monkeypatch.setenv(final_render.BUDGET_ENV, "8")
+    assert final_render.tiling(scene, 8192, 8192, 3) == (final_render.MAX_TILE, None)

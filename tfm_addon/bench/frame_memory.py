@@ -73,11 +73,13 @@ os._exit(0)
 """
 
 
-def measure(side: int, samples: int) -> dict:
+def measure(side: int, samples: int, budget_gb: float | None = None) -> dict:
     root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
     # glibc returns freed arrays of 64 KiB and more to the system at once (as it does by itself
     # for arrays above 32 MiB): the resident peak then follows the live memory at every size.
     env = dict(os.environ, MALLOC_MMAP_THRESHOLD_="65536")
+    if budget_gb is not None:     # a frame above it renders in tiles (final_render.tiling)
+        env["TFM_MEMORY_BUDGET_GB"] = str(budget_gb)
     done = subprocess.run([sys.executable, "-c", CHILD, root, str(side), str(samples)],
                           capture_output=True, text=True, timeout=3600, env=env)
     for line in done.stdout.splitlines():
@@ -93,12 +95,17 @@ def main(argv=None) -> None:
     parser.add_argument("--sides", type=int, nargs="+", default=[1024, 2048])
     parser.add_argument("--samples", type=int, default=16)
     parser.add_argument("--verbose", action="store_true", help="when the peak came, RSS around the copy")
+    parser.add_argument("--budget-gb", type=float, nargs="+", default=[None],
+                        help="memory budgets (GiB) to render each size under: a frame above one renders "
+                             "in tiles")
     args = parser.parse_args(argv)
-    print("side  samples  seconds  RSS peak above (MB)  B/px  beyond result B/px  traced peak B/px")
-    for side in args.sides:
-        r = measure(side, args.samples)
+    print("side  budget GiB  samples  seconds  RSS peak above (MB)  B/px  beyond result B/px  "
+          "traced peak B/px")
+    for side, budget in [(s, b) for s in args.sides for b in args.budget_gb]:
+        r = measure(side, args.samples, budget)
         px = side * side
-        print(f"{side:5d} {r['samples']:7d} {r['seconds']:8.1f} {r['rss_peak_above'] / 1e6:18.0f} "
+        print(f"{side:5d} {budget or '-':>10} {r['samples']:7d} {r['seconds']:8.1f} "
+              f"{r['rss_peak_above'] / 1e6:18.0f} "
               f"{r['rss_peak_above'] / px:6.0f} {r['rss_peak_above'] / px - r['result_bytes_per_px']:18.0f} "
               f"{r['traced_peak'] / px:16.0f}", flush=True)
         if args.verbose:

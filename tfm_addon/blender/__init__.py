@@ -6,11 +6,12 @@ Imports ``bpy`` (through ``render_engine``); only ``tfm_addon.register`` imports
 
 import bpy
 
-from . import extract, render_engine, viewport
+from . import extract, preflight, render_engine, viewport
 from .render_worker import close_worker
 from .volumes import grid_cache
 
-_register_classes, _unregister_classes = bpy.utils.register_classes_factory(render_engine.classes)
+_register_classes, _unregister_classes = bpy.utils.register_classes_factory(
+    render_engine.classes + preflight.classes)
 
 
 def register():

@@ -8,6 +8,7 @@ into Blender's render result, and reports problems to the user; nothing raises i
 from __future__ import annotations
 
 import dataclasses
+import math
 import os
 import sys
 import time
@@ -82,16 +83,35 @@ def memory_budget(scene) -> tuple[int | None, str]:
     return total // 2, "half of this machine's memory"
 
 
-def budget_refusal(scene, width: int, height: int, passes: int) -> str | None:
-    """The message refusing a frame whose estimate exceeds the memory budget, or None."""
+MIN_TILE = 64        # pixels a side: a frame whose render result leaves no room for such tiles is refused
+MAX_TILE = 2048      # pixels a side of the largest tile
+
+
+def result_bytes(width: int, height: int, passes: int) -> int:
+    """Blender's render result: float32 RGBA Combined and RGB per pass."""
+    return int(width) * int(height) * 4 * (4 + 3 * passes)
+
+
+def tiling(scene, width: int, height: int, passes: int) -> tuple[int | None, str | None]:
+    """How a final render fits the memory budget: (None, None) the whole frame at once; (side,
+    None) in tiles of at most ``side`` pixels a side (the renderer's memory then follows the tile:
+    ENGINE_BYTES_PER_PIXEL of the tile with its apron); (None, message) refused: Blender's render
+    result alone leaves no room for a MIN_TILE tile."""
+    from ..engine.tiles import TILE_APRON
+
     budget, source = memory_budget(scene)
-    need = frame_estimate(width, height, passes)
-    if budget is None or need <= budget:
-        return None
-    return (f"The frame is {width}x{height} ({width * height / 1e6:.1f} megapixels): TFM would need "
-            f"about {need / GIB:.2f} GiB to render it, above the memory budget of {budget / GIB:.2f} "
-            f"GiB ({source}). Nothing was rendered: lower the resolution, turn off passes, or raise "
-            f"the limit (Memory Limit, or {BUDGET_ENV})")
+    if budget is None or frame_estimate(width, height, passes) <= budget:
+        return None, None
+    left = budget - result_bytes(width, height, passes)
+    side = int(math.isqrt(max(left, 0) // ENGINE_BYTES_PER_PIXEL)) - 2 * TILE_APRON
+    if side >= MIN_TILE:
+        return min(side, MAX_TILE), None
+    need = result_bytes(width, height, passes) + ENGINE_BYTES_PER_PIXEL * (MIN_TILE + 2 * TILE_APRON) ** 2
+    return None, (f"The frame is {width}x{height} ({width * height / 1e6:.1f} megapixels): TFM would "
+                  f"need about {need / GIB:.2f} GiB to render it even in tiles (Blender's render result "
+                  f"alone takes {result_bytes(width, height, passes) / GIB:.2f} GiB), above the memory "
+                  f"budget of {budget / GIB:.2f} GiB ({source}). Nothing was rendered: lower the "
+                  f"resolution, turn off passes, or raise the limit (Memory Limit, or {BUDGET_ENV})")
 
 
 def strict_mode(scene) -> bool:
@@ -288,8 +308,9 @@ def _render(engine, depsgraph, strict: bool) -> str:
     width, height = engine.resolution_x, engine.resolution_y
     window = border_window(scene.render, width, height)
     preview = engine.is_preview
+    tile = None
     if not preview:       # before anything the size of the frame is allocated
-        refusal = budget_refusal(scene, width, height, len(enabled_passes(depsgraph.view_layer)))
+        tile, refusal = tiling(scene, width, height, len(enabled_passes(depsgraph.view_layer)))
         if refusal is not None:
             return _fail(engine, refusal)
     try:
@@ -319,9 +340,13 @@ def _render(engine, depsgraph, strict: bool) -> str:
                 shown[0] = k
                 engine.update_stats("", f"TFM: sample {k}/{samples}")
 
-        output = get_worker().render(extraction.scene(), settings,
-                                     cancel=engine.test_break, progress=progress, samples=samples,
-                                     client="preview" if preview else "final")
+        if tile is None:
+            output = get_worker().render(extraction.scene(), settings,
+                                         cancel=engine.test_break, progress=progress, samples=samples,
+                                         client="preview" if preview else "final")
+        else:
+            output = _render_tiles(engine, extraction.scene(), settings, samples, tile,
+                                   depsgraph.view_layer, progress)
     except RenderCancelled:
         last_messages.append(('INFO', "cancelled"))
         return "cancelled"
@@ -337,9 +362,34 @@ def _render(engine, depsgraph, strict: bool) -> str:
     if settings.quality == 'AUTO' and output.chosen and not preview:
         auto_choices[scene.name] = dict(output.chosen)
         _tell(engine, 'INFO', auto_line(output.chosen))
-    written = write_result(engine, output, depsgraph.view_layer.name, width, height,
-                           passes=enabled_passes(depsgraph.view_layer))
+    written = tile is not None or write_result(engine, output, depsgraph.view_layer.name, width, height,
+                                               passes=enabled_passes(depsgraph.view_layer))
     return "written" if written else "failed: the render result could not be written"
+
+
+def _render_tiles(engine, scene, settings, samples: int, side: int, view_layer, progress):
+    """A frame too large for the memory budget, rendered in tiles of ``side`` pixels
+    (engine/tiles.py), each written into Blender's result as it is done; the frame's warnings,
+    timings and chosen settings."""
+    from ..engine.camera import pixel_window
+    from ..engine.tiles import render_tiled
+
+    passes = enabled_passes(view_layer)
+    worker = get_worker()
+
+    def render_tile(tile_scene, tile_settings, until, whites, with_passes):
+        size = pixel_window(tile_scene.camera)[2:]
+        worker.call(lambda r: r.trim_pools(size), timeout_s=60.0)    # one tile size's GL images
+        return worker.render(tile_scene, tile_settings, cancel=engine.test_break, samples=samples,
+                             passes=with_passes, until=until, whites=whites)
+
+    def write(tile, out):
+        x0, y0, w, h = tile.core
+        if not write_result(engine, out, view_layer.name, w, h, passes=passes, x=x0, y=y0):
+            raise RendererError("the render result could not be written")
+
+    return render_tiled(render_tile, scene, settings, samples, side, write, passes=bool(passes),
+                        progress=progress)
 
 
 def _fail(engine, message: str) -> str:
@@ -347,13 +397,14 @@ def _fail(engine, message: str) -> str:
     return f"failed: {message}"
 
 
-def write_result(engine, output, layer_name: str, width: int, height: int, passes=PASSES) -> bool:
-    """Copy a RenderOutput (top row first) into Blender's render result (bottom row first):
-    Combined and ``passes`` (pairs of Blender and RenderOutput pass names). False when it could
-    not (reported)."""
+def write_result(engine, output, layer_name: str, width: int, height: int, passes=PASSES,
+                 x: int = 0, y: int = 0) -> bool:
+    """Copy a RenderOutput (top row first) into Blender's render result (bottom row first), at
+    pixel (``x``, ``y``) from its lower-left corner (a tile): Combined and ``passes`` (pairs of
+    Blender and RenderOutput pass names). False when it could not (reported)."""
     for name, _ in passes:
         engine.add_pass(name, 3, "RGB", layer=layer_name)
-    result = engine.begin_result(0, 0, width, height, layer=layer_name)
+    result = engine.begin_result(x, y, width, height, layer=layer_name)
     try:
         layer = result.layers[0]
         images = {"Combined": output.combined}

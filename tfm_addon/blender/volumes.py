@@ -100,22 +100,62 @@ def dense_array(grid) -> tuple[np.ndarray, tuple[int, int, int]]:
     return _copy(grid, tuple(int(v) for v in lo), tuple(int(v) for v in hi)), tuple(int(v) for v in lo)
 
 
-def _copy(grid, lo, hi) -> np.ndarray:
-    """The voxels lo..hi (inclusive) of a float or vec3 grid as float32."""
+# The most voxels a grid is read into (1 GiB as float32; the renderer's default grid budget,
+# RenderSettings.max_grid_bytes, holds as many in R16): a larger active box is read at a lower
+# resolution (read_factor), never copied dense at full size.
+MAX_READ_VOXELS = 2 ** 28
+SLAB_BYTES = 64 * 2 ** 20     # the most a downsampled read copies at once
+
+
+def read_factor(shape, max_voxels: int = MAX_READ_VOXELS) -> int:
+    """1, or the smallest power of two f whose f x f x f means bring ``shape`` within
+    ``max_voxels``."""
+    f = 1
+    while np.prod([-(-int(n) // f) for n in shape], dtype=np.float64) > max_voxels:
+        f *= 2
+    return f
+
+
+def _copy(grid, lo, hi, factor: int = 1) -> np.ndarray:
+    """The voxels lo..hi (inclusive) of a float or vec3 grid as float32; ``factor`` > 1: the means
+    of factor^3 blocks from lo (zeros past hi), copied a slab at a time, so that the full-resolution
+    box is never held."""
     shape = tuple(int(h - l + 1) for l, h in zip(lo, hi, strict=True))
     kind = grid.valueTypeName
-    if kind.startswith("vec3"):
-        array = np.zeros((*shape, 3), dtype=np.float64 if kind == "vec3d" else np.float32)
-    else:
-        array = np.zeros(shape, dtype=np.float64 if kind == "double" else np.float32)
-    grid.copyToArray(array, ijk=tuple(int(v) for v in lo))
-    return np.ascontiguousarray(array, dtype=np.float32)
+    tail = (3,) if kind.startswith("vec3") else ()
+    dtype = np.float64 if kind in ("vec3d", "double") else np.float32
+    if factor == 1:
+        array = np.zeros((*shape, *tail), dtype=dtype)
+        grid.copyToArray(array, ijk=tuple(int(v) for v in lo))
+        return np.ascontiguousarray(array, dtype=np.float32)
+    f = factor
+    out_shape = tuple(-(-n // f) for n in shape)
+    out = np.zeros((*out_shape, *tail), dtype=np.float32)
+    nz = out_shape[2] * f
+    rows = max(1, SLAB_BYTES // (f * f * nz * 8 * (3 if tail else 1)))     # output rows of y a slab
+    for i in range(out_shape[0]):
+        for j0 in range(0, out_shape[1], rows):
+            nj = min(rows, out_shape[1] - j0)
+            block = np.zeros((f, nj * f, nz, *tail), dtype=dtype)     # contiguous, as copyToArray needs
+            grid.copyToArray(block, ijk=(lo[0] + i * f, lo[1] + j0 * f, lo[2]))
+            planes = block[0].astype(np.float32)         # the f planes along x added ...
+            for k in range(1, f):
+                planes += block[k]
+            planes = planes.reshape(nj, f, out_shape[2], f, *tail)
+            target = out[i, j0:j0 + nj]
+            for a in range(f):                              # ... then y and z by strided slices (numpy's
+                for c in range(f):                          # sum over short axes is ~10x slower)
+                    target += planes[:, a, :, c]
+            target *= np.float32(1.0 / f ** 3)
+    return out
 
 
 def read_grid_set(openvdb, path: str, density_name: str, extras, label: str, warnings: list[str],
-                  key: str) -> DensityGrid:
+                  key: str, max_voxels: int | None = None) -> DensityGrid:
     """The density grid and the ``extras`` of a .vdb file, densely over the union of their active
-    boxes (extras whose transform differs from the density's are skipped with a warning)."""
+    boxes (extras whose transform differs from the density's are skipped with a warning);
+    ``max_voxels``: a box with more voxels is read as the means of f x f x f blocks (read_factor),
+    said in a warning."""
     try:
         density = openvdb.read(path, density_name)
     except Exception as ex:
@@ -145,18 +185,27 @@ def read_grid_set(openvdb, path: str, density_name: str, extras, label: str, war
     boxes = [g.evalActiveVoxelBoundingBox() for g in grids.values()]
     lo = tuple(min(int(b[0][k]) for b in boxes) for k in range(3))
     hi = tuple(max(int(b[1][k]) for b in boxes) for k in range(3))
+    shape = tuple(h - l + 1 for l, h in zip(lo, hi, strict=True))
+    factor = 1 if max_voxels is None else read_factor(shape, max_voxels)
+    if factor > 1:
+        reduced = "x".join(str(-(-n // factor)) for n in shape)
+        warnings.append(f"Volume '{label}': the grids' active box is {'x'.join(map(str, shape))} voxels "
+                        f"({np.prod(shape, dtype=np.float64) * 4 / 2 ** 30:.1f} GiB as a dense float "
+                        f"grid); read at 1/{factor} resolution, {reduced}, the means of "
+                        f"{factor}x{factor}x{factor} voxels")
     arrays = {}
     for name, g in grids.items():
         try:
-            arrays[name] = _copy(g, lo, hi)
+            arrays[name] = _copy(g, lo, hi, factor)
         except Exception as ex:   # a grid of another value type (int, bool, ...)
             if name == density_name:
                 raise VolumeReadError(f"Volume '{label}': cannot read grid '{name}': {ex}") from ex
             warnings.append(f"Volume '{label}': grid '{name}' ({g.valueTypeName}) is not read")
     for a in arrays.values():
         a.setflags(write=False)
-    shift = np.eye(4)
-    shift[:3, 3] = lo
+    shift = np.eye(4)                # array index -> file index (a block's centre when downsampled)
+    shift[:3, :3] *= factor
+    shift[:3, 3] = np.asarray(lo, np.float64) + (factor - 1) / 2
     d = arrays.pop(density_name)
     return DensityGrid(density=d, index_to_object=to_object @ shift, grid_name=density_name,
                        extras=arrays, key=key, warnings=tuple(warnings),
@@ -220,7 +269,7 @@ class GridCache:
             cached = self._lookup(key)
             if cached is None:
                 cached = self._store(key, self._read_file(import_openvdb(), path, name, label,
-                                                          extras, repr(key)))
+                                                          extras, repr(key), MAX_READ_VOXELS))
             return cached, warnings + list(cached.warnings)
 
         with tempfile.TemporaryDirectory(prefix="tfm_volume_") as tmp:
@@ -234,7 +283,7 @@ class GridCache:
             cached = self._lookup(key)
             if cached is None:
                 cached = self._store(key, self._read_file(import_openvdb(), saved, name, label,
-                                                          extras, repr(key)))
+                                                          extras, repr(key), MAX_READ_VOXELS))
         return cached, warnings + list(cached.warnings)
 
     def read_path(self, path: str, density_name: str, label: str, extras: tuple[str, ...] = ()
@@ -263,9 +312,9 @@ class GridCache:
             self._entries.popitem(last=False)
         return grid
 
-    def _read_file(self, openvdb, path, name, label, extras=(), key="") -> DensityGrid:
+    def _read_file(self, openvdb, path, name, label, extras=(), key="", max_voxels=None) -> DensityGrid:
         self.reads += 1
-        return read_grid_set(openvdb, path, name, extras, label, [], key)
+        return read_grid_set(openvdb, path, name, extras, label, [], key, max_voxels)
 
 
 VOLUME_FRAME_NONE = 2**31 - 1     # Blender's VOLUME_FRAME_NONE: no file of the sequence this frame

@@ -106,20 +106,45 @@ def _channel_max(a: np.ndarray) -> np.ndarray:
     return out
 
 
+def white_rank(pixels: int) -> int:
+    """How many of a frame's ``pixels`` brightest values its white is the least of: the white is
+    the 99.9th percentile (nearest rank) of the pixels' largest colour channel."""
+    return pixels - int(0.999 * (pixels - 1)) if pixels else 0
+
+
+def brightest(mean: np.ndarray, count: int) -> np.ndarray:
+    """The ``count`` largest values of the largest colour channel of ``mean`` (h, w, c), unsorted:
+    what a frame rendered in tiles keeps of each tile to find the frame's white (frame_white)."""
+    return largest(_channel_max(np.asarray(mean, np.float32)[..., :3]).ravel(), count)
+
+
+def largest(values: np.ndarray, count: int) -> np.ndarray:
+    """The ``count`` largest of ``values`` (1-D), unsorted."""
+    if values.size <= count:
+        return values
+    return np.partition(values, values.size - count)[values.size - count:]
+
+
+def frame_white(values: np.ndarray, pixels: int) -> float:
+    """The white of a frame of ``pixels`` pixels from (at least) its ``white_rank`` brightest
+    largest-channel values; 1 where it is not positive."""
+    values = np.asarray(values, np.float32).ravel()
+    n = white_rank(pixels)
+    white = float(np.partition(values, values.size - n)[values.size - n]) if n else 0.0
+    return white if white > 0 else 1.0
+
+
 def unconverged(mean: np.ndarray, square_mean: np.ndarray, threshold: float = ADAPTIVE_THRESHOLD,
-                contrast: bool = False) -> np.ndarray:
+                contrast: bool = False, white: float | None = None) -> np.ndarray:
     """The pixels that go on sampling: (h, w) bool from the per-pixel mean and mean square of the
     samples so far ((h, w, 4) each, linear RGB in units of the frame's white and alpha as it is,
     or (h, w, 3) without alpha); ``contrast``: the neighbourhood's contrast counts too (the first
-    decision). See the module's docstring."""
+    decision); ``white``: the frame's white where ``mean`` is a tile of it (None: ``mean``'s own).
+    See the module's docstring."""
     mean = np.asarray(mean, dtype=np.float32)
-    top = _channel_max(mean[..., :3]).ravel()
-    if top.size:
-        k = int(0.999 * (top.size - 1))       # the 99.9th percentile, nearest rank
-        white = float(np.partition(top, k)[k])
-    else:
-        white = 0.0
-    white = white if white > 0 else 1.0
+    if white is None:
+        pixels = mean.shape[0] * mean.shape[1]
+        white = frame_white(brightest(mean, white_rank(pixels)), pixels)
     scale = np.ones(mean.shape[-1], dtype=np.float32)
     scale[:3] = white                 # alpha (a 4th channel) is measured against 1
     variance = np.maximum(np.asarray(square_mean, np.float32) - mean * mean, 0.0)

@@ -749,6 +749,20 @@ class Renderer:
         vbo = self._targets.get(("active", active.key), lambda: self.gl.ctx.buffer(vertices.tobytes()))[0]
         return vbo, len(vertices)
 
+    def trim_pools(self, keep_size: tuple[int, int] | None = None) -> None:
+        """Release the free G-buffers and sample sums (kept for the next frame of their size) of
+        every image size but ``keep_size``: a frame rendered in tiles of several sizes
+        (tiles.py) would otherwise keep a set per size."""
+        if self._gl is None:
+            return
+        with self._gl.ctx:
+            for size in [k for k in self._gbuffer_pool if k != keep_size]:
+                for gbuffer in self._gbuffer_pool.pop(size):
+                    gbuffer.release()
+            for key in [k for k in self._sums_pool if k[0] != keep_size]:
+                for sums in self._sums_pool.pop(key):
+                    sums.destroy()
+
     def clear_maps(self) -> None:
         """Drop every cached map and buffer (compiled programs stay): the next render is full."""
         self._frame_memos.clear()

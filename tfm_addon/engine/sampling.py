@@ -300,28 +300,34 @@ def iter_samples(renderer: Renderer, scene: Scene, settings: RenderSettings | No
                  progress: Callable[[float], None] | None = None,
                  first: int = 0, accumulator: Accumulator | None = None,
                  client: str = "final",
-                 adaptive_threshold: float | None = ADAPTIVE_THRESHOLD) -> Iterator[Accumulator]:
+                 adaptive_threshold: float | None = ADAPTIVE_THRESHOLD,
+                 until: int | None = None,
+                 whites: tuple[float | None, float | None] = (None, None)) -> Iterator[Accumulator]:
     """Render samples ``first`` .. ``samples - 1`` of ``scene`` into ``accumulator`` and yield it
     after each. ``progress`` gets the fraction of all ``samples`` done; ``cancel`` is the renderer's
     (checked between passes); ``client`` is the renderer's cache client. ``adaptive_threshold``:
     when ``samples`` is at least ADAPTIVE_FRAME_SAMPLES, adaptive sampling (engine/adaptive.py:
     after ADAPTIVE_FIRST_SAMPLES and after ADAPTIVE_MIN_SAMPLES samples, only the pixels whose
     samples still vary take more; this is the second decision's threshold); None: every pixel takes
-    every sample. The frame's GPU sums are released once the last sample is yielded: a frame
+    every sample. ``until``: stop before that sample (a tile's first samples, tiles.py);
+    ``whites``: the frame's white at each decision where ``scene`` is a tile of it (None: the
+    image's own). The frame's GPU sums are released once the last sample is yielded: a frame
     continued later (``first``) with the same ``accumulator`` is refused."""
     n = max(int(samples), 1)
     scene = prepare_scene(scene, settings)     # node graphs evaluated once, here on the render thread
     settings = frame_settings(scene, settings, n)
     acc = accumulator or Accumulator()
     adaptive = adaptive_threshold is not None and n >= ADAPTIVE_FRAME_SAMPLES
-    for k in range(first, n):
+    for k in range(first, n if until is None else min(n, until)):
         if adaptive and acc.count == k:
             if k == ADAPTIVE_FIRST_SAMPLES and acc.decisions == 0:
                 acc.active = active_pixels(unconverged(acc.output.combined, acc.square_mean,
-                                                       ADAPTIVE_FIRST_THRESHOLD, contrast=True))
+                                                       ADAPTIVE_FIRST_THRESHOLD, contrast=True,
+                                                       white=whites[0]))
                 acc.decisions = 1
             elif k == ADAPTIVE_MIN_SAMPLES and acc.decisions == 1:
-                going = unconverged(acc.output.combined, acc.square_mean, adaptive_threshold)
+                going = unconverged(acc.output.combined, acc.square_mean, adaptive_threshold,
+                                    white=whites[1])
                 acc.active = active_pixels(going & acc.active.mask)
                 acc.decisions = 2
         active = acc.active
@@ -340,11 +346,14 @@ def render_samples(renderer: Renderer, scene: Scene, settings: RenderSettings | 
                    cancel: Callable[[], bool] | None = None,
                    progress: Callable[[float], None] | None = None, passes: bool = True,
                    client: str = "final",
-                   adaptive_threshold: float | None = ADAPTIVE_THRESHOLD) -> RenderOutput:
+                   adaptive_threshold: float | None = ADAPTIVE_THRESHOLD,
+                   until: int | None = None,
+                   whites: tuple[float | None, float | None] = (None, None)) -> RenderOutput:
     """The mean of ``samples`` jittered samples of ``scene`` (one: the pixel-centre image),
-    adaptively sampled (iter_samples)."""
+    adaptively sampled (iter_samples; ``until`` and ``whites`` as there)."""
     acc = Accumulator()
     for _ in iter_samples(renderer, scene, settings, samples, cancel, passes, progress, accumulator=acc,
-                          client=client, adaptive_threshold=adaptive_threshold):
+                          client=client, adaptive_threshold=adaptive_threshold, until=until,
+                          whites=whites):
         pass
     return acc.output

@@ -287,19 +287,20 @@ class RenderWorker:
     def render(self, scene: Scene, settings: RenderSettings | None = None,
                cancel: Callable[[], bool] | None = None,
                progress: Callable[[float], None] | None = None, passes: bool = True,
-               samples: int = 1, client: str = "final") -> RenderOutput:
+               samples: int = 1, client: str = "final", **sampling) -> RenderOutput:
         """Renderer.render on the GL thread (``samples`` > 1: the mean of that many antialiasing
         samples, sampling.render_samples). ``cancel`` and ``progress`` are called on the calling
         thread while it waits (every POLL_S seconds); a true ``cancel()`` stops the render at the
         renderer's next check (between passes) and raises RenderCancelled. ``client``: the
-        renderer's cache client ('final', 'preview', ...)."""
+        renderer's cache client ('final', 'preview', ...); ``sampling``: render_samples' ``until``
+        and ``whites`` (a tile of a frame, tiles.py)."""
         from .sampling import render_samples
 
         def fn(r, job):
             if samples <= 1:
                 return r.render(scene, settings, job.check_in, job.set_progress, passes, client=client)
             return render_samples(r, scene, settings, samples, job.check_in, job.set_progress, passes,
-                                  client=client)
+                                  client=client, **sampling)
 
         return wait_for(self.submit(fn), cancel, progress)
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..camera import ViewPlane, camera_to_world
+from ..camera import ViewPlane, camera_to_world, pixel_window
 from ..gl_context import GLContext, set_matrix, set_uniforms
 from ..scene import Camera, Medium, RenderSettings
 from .bindings import MEDIUM_GRID, MEDIUM_NONE, MediaGPU, bind_light, bind_units, pass_state
@@ -111,7 +111,8 @@ class ScatteringTargets:
 def camera_uniforms(prog, camera: Camera, plane: ViewPlane) -> None:
     set_matrix(prog, "u_camera_to_world", camera_to_world(camera))
     set_uniforms(prog, u_plane0=(plane.x0, plane.y0), u_pixel_size=plane.pixel_size,
-                 u_ortho=int(plane.ortho), u_clip=(camera.clip_start, camera.clip_end))
+                 u_ortho=int(plane.ortho), u_clip=(camera.clip_start, camera.clip_end),
+                 u_window_origin=tuple(float(v) for v in pixel_window(camera)[:2]))
 
 
 def run_light_pass(gl: GLContext, *, camera: Camera, plane: ViewPlane, medium: Medium | None,

@@ -23,6 +23,7 @@ uniform vec3 u_ambient_surface; // ... and the surfaces reflect
 uniform int u_view_steps;
 uniform int u_light_in_medium;
 uniform float u_view_jitter;   // < 0: march at step midpoints; else this sample's start offset
+uniform vec2 u_window_origin;  // the window's lower-left pixel in the frame (a border or a tile)
 #if SUMS
 // A lone light pass of an antialiasing sample adds the sample straight into the frame's sums, as
 // composite.frag's ACCUMULATE would (compose.glsl's SAMPLE_SUMS outputs).
@@ -106,7 +107,7 @@ void main() {
     // Where in each step the march samples: the midpoint, or (antialiasing samples) the sample's
     // offset plus a per-pixel hash, so that neighbouring pixels and successive samples differ.
     float step_at = u_view_jitter < 0.0 ? 0.5
-        : fract(u_view_jitter + fract(52.9829189 * fract(dot(vec2(px), vec2(0.06711056, 0.00583715)))));
+        : fract(u_view_jitter + fract(52.9829189 * fract(dot(vec2(px) + u_window_origin, vec2(0.06711056, 0.00583715)))));
     vec4 g0 = texelFetch(u_gb0, px, 0);
     vec4 g1 = texelFetch(u_gb1, px, 0);
     bool hit = g1.w > 0.5;

@@ -1,0 +1,49 @@
+"""A .vdb whose active box holds more voxels than a grid is read into (volumes.MAX_READ_VOXELS) is
+read at a lower resolution, slab by slab, as the means of f x f x f voxels on the same world box,
+and the render report says so: never a dense copy at full size."""
+
+import importlib
+
+import bpy
+import numpy as np
+from blender_helpers import MODULE, SETTINGS, render_passes, smoke
+
+from tfm_addon.blender import scene_builder
+from tfm_addon.engine import metrics
+
+
+def test_a_grid_above_the_read_limit_is_read_as_block_means(blank, tmp_path, monkeypatch):
+    volumes = importlib.import_module(f"{MODULE}.tfm_addon.blender.volumes")
+    extract = importlib.import_module(f"{MODULE}.tfm_addon.blender.extract")
+    final_render = importlib.import_module(f"{MODULE}.tfm_addon.blender.final_render")
+    made = scene_builder.build(smoke(width=64, height=48, n=40), str(tmp_path), settings=SETTINGS)
+    full = render_passes(tmp_path, "full")["Combined"]
+    volumes.grid_cache.clear()
+    volume = made["medium"].evaluated_get(bpy.context.evaluated_depsgraph_get()).data
+    grid, _ = volumes.grid_cache.read(volume, "density", "Smoke", generated=False)
+    dense, to_object = np.asarray(grid.density), grid.index_to_object
+
+    monkeypatch.setattr(volumes, "MAX_READ_VOXELS", 20 ** 3)
+    monkeypatch.setattr(volumes, "SLAB_BYTES", 4096)            # several slabs a plane
+    volumes.grid_cache.clear()
+    small, warnings = volumes.grid_cache.read(volume, "density", "Smoke", generated=False)
+    f = volumes.read_factor(dense.shape, 20 ** 3)
+    assert f == 2 and small.density.shape == tuple(-(-n // 2) for n in dense.shape)
+    padded = np.pad(dense, [(0, -n % 2) for n in dense.shape])
+    means = padded.reshape(padded.shape[0] // 2, 2, padded.shape[1] // 2, 2, padded.shape[2] // 2, 2).mean(
+        axis=(1, 3, 5))
+    assert np.allclose(small.density, means, atol=1e-6)
+    # Array index i of the halved grid sits at the centre of full-resolution voxels 2i and 2i + 1.
+    centre = to_object @ np.array([2 * 3 + 0.5, 2 * 5 + 0.5, 2 * 7 + 0.5, 1.0])
+    assert np.allclose(small.index_to_object @ np.array([3, 5, 7, 1.0]), centre)
+    shape = "x".join(map(str, dense.shape))
+    assert any(f"the grids' active box is {shape} voxels" in w and "read at 1/2 resolution" in w
+               for w in warnings), warnings
+
+    volumes.grid_cache.clear()
+    extract.clear_simplified()
+    halved = render_passes(tmp_path, "halved")["Combined"]
+    said = [m for _, m in final_render.last_messages]
+    assert any("read at 1/2 resolution" in m for m in said), said
+    ssim = metrics.ssim(halved, full)
+    assert 0.95 < ssim < 0.9999, ssim       # the same smoke at half its resolution

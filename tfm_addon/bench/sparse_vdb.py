@@ -1,0 +1,126 @@
+"""A production-sized sparse .vdb's first final frame (``python -m tfm_addon.bench.sparse_vdb``).
+
+Writes (once, by code) a float grid whose active box is ``--side``³ voxels with about
+``--active`` million active voxels (blobs of smoke scattered in the box, the rest inactive), then
+renders it in a fresh Blender process (bpy as a module, the add-on from this checkout) at 640x360
+through ``bpy.ops.render.render``: the seconds from the render call to the written frame and the
+peak resident memory above the process before the call (sampled every 5 ms), with the frame's
+report lines (the read's downsampling among them). The grid is dense once read (docs/blender.md,
+"Volumes"): these are the dense path's figures for such a file.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+
+import numpy as np
+
+CHILD = r"""
+import json, os, sys, threading, time
+root, vdb, side = sys.argv[-3], sys.argv[-2], int(sys.argv[-1])
+sys.path.insert(0, root); sys.path.insert(0, os.path.join(root, "tests", "blender"))
+import bpy, tfm_addon
+tfm_addon.register()
+from blender_helpers import smoke, SETTINGS
+from tfm_addon.blender import scene_builder, final_render
+import tempfile
+bpy.ops.wm.read_factory_settings(use_empty=True)
+made = scene_builder.build(smoke(width=640, height=360, n=32), tempfile.mkdtemp(prefix="tfm_sparse_"),
+                           settings=SETTINGS, samples=1)
+scene = bpy.context.scene
+scene.tfm.quality = 'AUTO'
+ob = made["medium"]
+ob.data.filepath = vdb
+voxel = 2.0 / side                        # the smoke's 2 m box, centred at (0, 0, 1.2)
+ob.matrix_world = ((1, 0, 0, -1.0), (0, 1, 0, -1.0), (0, 0, 1, 0.2), (0, 0, 0, 1))
+
+def rss():
+    with open("/proc/self/statm") as f:
+        return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
+
+peak = [0]; stop = [False]
+def watch():
+    while not stop[0]:
+        peak[0] = max(peak[0], rss())
+        time.sleep(0.005)
+import gc; gc.collect()
+before = rss()
+t = threading.Thread(target=watch, daemon=True); t.start()
+start = time.perf_counter()
+bpy.ops.render.render()
+seconds = time.perf_counter() - start
+stop[0] = True; t.join()
+print("RESULT " + json.dumps({"seconds": seconds, "rss_peak_above": peak[0] - before,
+      "before": before, "messages": final_render.last_messages,
+      "timings": final_render.last_timings}), flush=True)
+os._exit(0)
+"""
+
+
+def write_sparse_vdb(path: str, side: int, active_millions: float, seed: int = 5) -> int:
+    """A float grid 'density' with voxel size 2/side m, its active voxels in spherical blobs (a
+    smooth falloff to 0 at their rim) filling a ``side``³ box; written slab by slab, never dense.
+    Returns the active voxel count."""
+    from tfm_addon.blender.openvdb_module import import_openvdb
+
+    vdb = import_openvdb()
+    rng = np.random.default_rng(seed)
+    radius = side / 24.0
+    per_blob = 4.0 / 3.0 * np.pi * radius ** 3
+    count = max(1, int(active_millions * 1e6 / per_blob))
+    centres = rng.uniform(radius, side - radius, size=(count, 3))
+    grid = vdb.FloatGrid()
+    grid.name = "density"
+    grid.transform = vdb.createLinearTransform(voxelSize=2.0 / side)
+    slab = 64
+    r = int(np.ceil(radius))
+    for z0 in range(0, side, slab):
+        block = np.zeros((side, side, slab), np.float32)
+        for c in centres[np.abs(centres[:, 2] - (z0 + slab / 2)) < slab / 2 + radius]:
+            lo = np.maximum(np.floor(c - r).astype(int), [0, 0, z0])
+            hi = np.minimum(np.ceil(c + r).astype(int) + 1, [side, side, z0 + slab])
+            if np.any(hi <= lo):
+                continue
+            x, y, z = np.meshgrid(*(np.arange(lo[k], hi[k]) for k in range(3)), indexing="ij")
+            d2 = ((x - c[0]) ** 2 + (y - c[1]) ** 2 + (z - c[2]) ** 2) / radius ** 2
+            value = np.clip(1.0 - d2, 0.0, None) * 8.0
+            view = block[lo[0]:hi[0], lo[1]:hi[1], lo[2] - z0:hi[2] - z0]
+            np.maximum(view, value.astype(np.float32), out=view)
+        grid.copyFromArray(block, ijk=(0, 0, z0), tolerance=0.0)
+    vdb.write(path, grids=[grid])
+    return int(grid.activeVoxelCount())
+
+
+def main(argv=None) -> None:
+    import argparse
+
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("--side", type=int, default=1024)
+    parser.add_argument("--active", type=float, default=32.0, help="millions of active voxels")
+    parser.add_argument("--vdb", default="/tmp/tfm_sparse_bench.vdb")
+    args = parser.parse_args(argv)
+    root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+    if not os.path.exists(args.vdb):
+        active = write_sparse_vdb(args.vdb, args.side, args.active)
+        print(f"wrote {args.vdb}: {args.side}³ box, {active / 1e6:.1f} M active voxels", flush=True)
+    env = dict(os.environ, MALLOC_MMAP_THRESHOLD_="65536")
+    done = subprocess.run([sys.executable, "-c", CHILD, root, args.vdb, str(args.side)],
+                          capture_output=True, text=True, timeout=3600, env=env)
+    for line in done.stdout.splitlines():
+        if line.startswith("RESULT "):
+            r = json.loads(line[7:])
+            print(f"first final frame 640x360: {r['seconds']:.1f} s, "
+                  f"peak {r['rss_peak_above'] / 2**30:.2f} GiB above the process "
+                  f"({r['before'] / 2**30:.2f} GiB before)")
+            for level, message in r["messages"]:
+                print(f"  {level}: {message}")
+            print("  timings: " + ", ".join(f"{k} {v:.2f} s" for k, v in sorted(r["timings"].items())))
+            return
+    raise RuntimeError(done.stdout[-3000:] + done.stderr[-3000:])
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,201 @@
+"""The pre-flight check of a .blend on a render-farm worker, before any frame renders.
+
+``check(scene)`` lists what would make the scene's frames render wrong on this machine: the render
+engine not TFM, a file the scene reads missing (a Volume's .vdb or every frame of its sequence in
+the frame range, a fluid domain's baked cache for those frames, an image, a linked library), each
+with the absolute path tried, and OpenGL not available (else its vendor and renderer are named).
+The operator ``bpy.ops.tfm.preflight()`` prints the lines and, where there are problems, reports an
+error, which a script called from the command line turns into a non-zero exit status
+(``--python-exit-code``); docs/blender.md, "Render farms".
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+
+import bpy
+
+from .fluid import cache_file, data_frame, domain_modifier, noise_file
+from .volumes import sequence_frame_path
+
+ENGINE_ID = 'TFM'
+GL_TIMEOUT_S = 60.0
+VOLUME_FRAME_NONE = None     # a frame outside a Clip sequence: no file is read
+
+
+@dataclasses.dataclass
+class Preflight:
+    """What the check found: ``problems`` (each a line naming what and the path tried) and
+    ``notes`` (what was checked and found, for the log)."""
+
+    problems: list[str] = dataclasses.field(default_factory=list)
+    notes: list[str] = dataclasses.field(default_factory=list)
+
+    def lines(self) -> list[str]:
+        return ([f"TFM preflight: {n}" for n in self.notes]
+                + [f"TFM preflight: PROBLEM: {p}" for p in self.problems]
+                + [f"TFM preflight: {len(self.problems)} problem(s)" if self.problems
+                   else "TFM preflight: OK"])
+
+
+def sequence_file_frame(frame: int, start: int, duration: int, offset: int, mode: str) -> int | None:
+    """The frame number of a volume sequence's file read at scene ``frame`` (Blender's
+    ``volume_sequence_frame``), None where the sequence reads no file (Clip outside its frames)."""
+    if duration <= 0:
+        return None
+    f = frame - start + 1
+    if mode == 'CLIP':
+        if f < 1 or f > duration:
+            return None
+    elif mode == 'EXTEND':
+        f = min(max(f, 1), duration)
+    elif mode == 'REPEAT':
+        f %= duration
+        if f == 0:
+            f = duration
+    elif mode == 'PING_PONG':
+        period = duration * 2 - 2
+        if period <= 0:
+            f = 1
+        else:
+            f %= period
+            if f == 0:
+                f = period
+            if f > duration:
+                f = duration * 2 - f
+    return f + offset
+
+
+def _abspath(path: str, id_data) -> str:
+    library = getattr(id_data, "library", None)
+    return os.path.normpath(bpy.path.abspath(path, library=library))
+
+
+def _render_objects(scene):
+    """The objects a final render of ``scene`` may see: the scene's objects not hidden from
+    renders and those of the collections they instance (each object once)."""
+    seen, stack = set(), [ob for ob in scene.objects]
+    while stack:
+        ob = stack.pop()
+        if ob.name_full in seen or ob.hide_render:
+            continue
+        seen.add(ob.name_full)
+        yield ob
+        if ob.instance_type == 'COLLECTION' and ob.instance_collection is not None:
+            stack.extend(ob.instance_collection.all_objects)
+
+
+def _frames(scene) -> range:
+    return range(scene.frame_start, scene.frame_end + 1, max(1, scene.frame_step))
+
+
+def _check_volume(volume, label: str, frames: range, out: Preflight) -> None:
+    if volume.packed_file is not None or not volume.filepath:
+        return                                   # packed or generated: nothing to find
+    path = _abspath(volume.filepath, volume)
+    if not volume.is_sequence:
+        if not os.path.isfile(path):
+            out.problems.append(f"Volume '{label}': '{path}' not found")
+        return
+    missing = []
+    wanted = {sequence_file_frame(f, volume.frame_start, volume.frame_duration, volume.frame_offset,
+                                  volume.sequence_mode) for f in frames} - {VOLUME_FRAME_NONE}
+    for n in sorted(wanted):
+        tried = sequence_frame_path(path, n)
+        if not os.path.isfile(tried):
+            missing.append(tried)
+    if missing:
+        out.problems.append(f"Volume '{label}': {len(missing)} of the {len(wanted)} files the frames "
+                            f"{frames.start}-{frames.stop - 1} read are missing, the first "
+                            f"'{missing[0]}'")
+
+
+def _check_fluid(ob, frames: range, out: Preflight) -> None:
+    modifier = domain_modifier(ob, render=True)
+    if modifier is None:
+        return
+    settings = modifier.domain_settings
+    directory = _abspath(settings.cache_directory, ob)
+    if settings.cache_data_format != 'OPENVDB':
+        out.problems.append(f"Fluid domain '{ob.name}': cache format {settings.cache_data_format} is "
+                            f"not read (only OpenVDB); cache folder '{directory}'")
+        return
+    baked = range(settings.cache_frame_start, settings.cache_frame_end + 1)
+    cached = sorted({data_frame(settings, f) for f in frames} & set(baked))
+    missing = [cache_file(directory, c) for c in cached if not os.path.isfile(cache_file(directory, c))]
+    if settings.use_noise:
+        missing += [noise_file(directory, c) for c in cached if not os.path.isfile(noise_file(directory, c))]
+    if missing:
+        out.problems.append(f"Fluid domain '{ob.name}': {len(missing)} cache files of the frames "
+                            f"{frames.start}-{frames.stop - 1} are missing in '{directory}', the first "
+                            f"'{missing[0]}'")
+
+
+def _check_images(out: Preflight) -> None:
+    for image in bpy.data.images:
+        if image.users == 0 or image.packed_file is not None or image.source not in ('FILE', 'SEQUENCE'):
+            continue
+        path = _abspath(image.filepath, image)
+        if image.filepath and not os.path.isfile(path):
+            out.problems.append(f"Image '{image.name}': '{path}' not found")
+
+
+def _check_libraries(out: Preflight) -> None:
+    for library in bpy.data.libraries:
+        path = _abspath(library.filepath, library)
+        if not os.path.isfile(path):
+            out.problems.append(f"Library '{library.name}': '{path}' not found")
+
+
+def _check_gl(out: Preflight) -> None:
+    from .render_worker import get_worker
+
+    try:
+        out.notes.append("OpenGL " + get_worker().call(lambda r: r.gl.describe(), timeout_s=GL_TIMEOUT_S))
+    except Exception as ex:
+        out.problems.append(f"OpenGL is not available: {type(ex).__name__}: {ex}")
+
+
+def check(scene, gl: bool = True) -> Preflight:
+    """Everything a final render of ``scene``'s frame range needs on this machine (module doc)."""
+    from .final_render import addon_version
+
+    out = Preflight()
+    frames = _frames(scene)
+    out.notes.append(f"add-on {addon_version()}, scene '{scene.name}', "
+                     f"frames {frames.start}-{frames.stop - 1}")
+    if scene.render.engine != ENGINE_ID:
+        out.problems.append(f"Scene '{scene.name}' renders with {scene.render.engine}, not TFM "
+                            f"(Render Properties > Render Engine)")
+    for ob in _render_objects(scene):
+        if ob.type == 'VOLUME' and ob.data is not None:
+            _check_volume(ob.data, ob.name, frames, out)
+        elif ob.type == 'MESH':
+            _check_fluid(ob, frames, out)
+    _check_images(out)
+    _check_libraries(out)
+    if gl:
+        _check_gl(out)
+    return out
+
+
+class TFM_OT_preflight(bpy.types.Operator):
+    """Check that this machine can render the scene's frames with TFM: files found, OpenGL
+    available, TFM the render engine"""
+
+    bl_idname = "tfm.preflight"
+    bl_label = "TFM Pre-flight Check"
+
+    def execute(self, context):
+        result = check(context.scene)
+        for line in result.lines():
+            print(line, flush=True)
+        if result.problems:
+            self.report({'ERROR'}, "TFM preflight: " + "; ".join(result.problems))
+            return {'CANCELLED'}
+        self.report({'INFO'}, "TFM preflight: OK")
+        return {'FINISHED'}
+
+
+classes = (TFM_OT_preflight,)
