@@ -16,9 +16,10 @@ import traceback
 import numpy as np
 
 from ..engine.errors import RenderCancelled, RendererError
-from ..engine.sampling import AUTO_SAMPLES
+from ..engine.sampling import auto_samples
 from .camera import border_window
 from .extract import extract
+from .motion import read_motion
 from .render_worker import get_worker
 
 # Blender pass name -> RenderOutput pass name.
@@ -186,9 +187,10 @@ def enabled_passes(view_layer) -> tuple[tuple[str, str], ...]:
                  if getattr(settings, f"use_pass_{name}", True))
 
 
-def sample_count(scene) -> int:
-    """Antialiasing samples of a final render: scene.tfm.samples, or AUTO_SAMPLES for 0."""
-    return int(scene.tfm.samples) or AUTO_SAMPLES
+def sample_count(scene, camera=None) -> int:
+    """Antialiasing samples of a final render: scene.tfm.samples, or for 0 the automatic count
+    (sampling.auto_samples: AUTO_SAMPLES, more for ``camera``'s depth of field)."""
+    return int(scene.tfm.samples) or auto_samples(camera)
 
 
 def register_passes(engine, scene, view_layer) -> None:
@@ -297,7 +299,7 @@ def _render(engine, depsgraph, strict: bool) -> str:
         settings = extraction.settings
         if preview:
             settings = preview_settings(settings, width, height)
-        samples = 1 if preview else sample_count(scene)
+        samples = 1 if preview else sample_count(scene, extraction.camera)
         engine.update_stats("", "TFM: rendering" if samples == 1 else f"TFM: sample 1/{samples}")
         shown = [0]
 
@@ -308,7 +310,14 @@ def _render(engine, depsgraph, strict: bool) -> str:
                 shown[0] = k
                 engine.update_stats("", f"TFM: sample {k}/{samples}")
 
-        output = get_worker().render(extraction.scene(), settings,
+        scene_to_render = extraction.scene()
+        if not preview:     # motion blur: matrices across the shutter (blender/motion.py)
+            motion, notes = read_motion(engine, depsgraph, scene_to_render,
+                                        engine.camera_override or depsgraph.scene.camera)
+            for message in notes:
+                _warn(engine, message, preview)
+            scene_to_render = dataclasses.replace(scene_to_render, motion=motion)
+        output = get_worker().render(scene_to_render, settings,
                                      cancel=engine.test_break, progress=progress, samples=samples,
                                      client="preview" if preview else "final")
     except RenderCancelled:

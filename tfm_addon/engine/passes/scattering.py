@@ -115,7 +115,7 @@ def run_light_pass(gl: GLContext, *, camera: Camera, plane: ViewPlane, medium: M
                    medium_gpu: MediaGPU, settings: RenderSettings, ambient, first: bool,
                    light=None, light_t: int = LIGHT_T_NONE, tfm=None, tfm_sigma_t=None,
                    attributes=None, active=None, compose=None, sums=None,
-                   medium_shadow: bool = True) -> None:
+                   medium_shadow: bool = True, fire=None) -> None:
     """Add one pass into the bound ScatteringTargets. ``light`` is (face, intensity, ShadowMap
     or None, gobo texture or None[, (weight on the media, weight on the surfaces)]) or None for the
     ambient-only first pass; ``tfm_sigma_t`` the
@@ -127,7 +127,8 @@ def run_light_pass(gl: GLContext, *, camera: Camera, plane: ViewPlane, medium: M
     combined image too (the targets bound with ``begin(composing=True)``), or with ``sums``
     (accumulate.SampleSums, bound by ``begin_sample``) adds the sample into them instead.
     ``medium_shadow`` False: no solid shadows a point of the media from this face
-    (light.solids_may_shadow), their samples skip the shadow map."""
+    (light.solids_may_shadow), their samples skip the shadow map. ``fire`` (passes/fire.FireGPU
+    or None): the emitting medium's light on the solids, added by the first pass."""
     medium_kind = medium_gpu.kind
     if light is not None and light_t == LIGHT_T_NONE and not first:
         medium_kind = MEDIUM_NONE          # this light never reaches the medium
@@ -145,6 +146,8 @@ def run_light_pass(gl: GLContext, *, camera: Camera, plane: ViewPlane, medium: M
         defines["GLOW_BLOCKS"] = 1      # the constant emission glows in these blocks only
     if active is not None:
         defines["RECTS"] = 1
+    if fire is not None and first:
+        defines["FIRE_LIGHT"] = 1
     if light is not None:
         defines.update(face_defines(light[0], light[2], light[3]))
         if light[2] is not None and not medium_shadow:
@@ -177,6 +180,8 @@ def run_light_pass(gl: GLContext, *, camera: Camera, plane: ViewPlane, medium: M
         tfm.bind(prog, medium.sigma_t if tfm_sigma_t is None else tfm_sigma_t)
     if emits or colored:
         attributes.bind(prog, medium, emits)
+    if fire is not None and first:
+        fire.bind(prog, medium)
     if compose is not None:
         film_transparent, world = compose
         set_uniforms(prog, u_film_transparent=int(bool(film_transparent)),

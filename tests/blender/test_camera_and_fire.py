@@ -1,0 +1,54 @@
+"""The camera as Cycles renders it (depth of field, motion blur, camera types) and a fire lighting
+the ground, beyond the conformance rows (dof, dof_blades, motion_blur_volume, motion_blur_camera,
+fire_lights_ground): what the report says, and the ground under the fire against Cycles."""
+
+import importlib
+
+import bpy
+import numpy as np
+import pytest
+from blender_helpers import MODULE
+
+from tfm_addon.bench import conformance
+
+
+def _mod(name):
+    return importlib.import_module(f"{MODULE}.tfm_addon.blender.{name}")
+
+
+def test_the_fire_lights_the_ground_within_ten_percent_of_cycles(blank, tmp_path):
+    row = conformance.ROW_BY_ID["fire_lights_ground"]
+    cycles, _ = conformance.load_reference(row.id)
+    result = conformance.render_tfm(row, str(tmp_path))
+    ground = slice(int(cycles.shape[0] * 0.75), None)      # the rows below the fire: ground only
+    ratio = result.image[ground, :, :3].sum(axis=(0, 1)) / cycles[ground, :, :3].sum(axis=(0, 1))
+    print(f"ground under the fire: TFM / Cycles {np.round(ratio, 3)}; report {result.messages}")
+    assert float(cycles[ground, :, 0].mean()) > 1e-3       # Cycles lights it
+    assert np.all(np.abs(ratio - 1.0) <= 0.10)
+    assert any("lights the surfaces from" in m for m in result.messages)
+
+
+def test_unsupported_cameras_and_orthographic_depth_of_field_are_said(blank):
+    bpy.ops.object.camera_add()
+    cam = bpy.context.object
+    bpy.context.scene.camera = cam
+    extract = _mod("extract").extract
+    cam.data.type = 'PANO'
+    lines = extract(bpy.context.evaluated_depsgraph_get()).all_warnings
+    assert any("panoramic cameras are not supported" in w for w in lines), lines
+    cam.data.type = 'ORTHO'
+    cam.data.dof.use_dof = True
+    lines = extract(bpy.context.evaluated_depsgraph_get()).all_warnings
+    assert any("depth of field of an orthographic camera is not rendered" in w for w in lines), lines
+    cam.data.type = 'PERSP'
+    ex = extract(bpy.context.evaluated_depsgraph_get())
+    lens = ex.camera.aperture
+    assert lens is not None and lens.radius_m == pytest.approx(0.05 / (2 * cam.data.dof.aperture_fstop))
+
+
+def test_a_volumes_velocity_grid_is_named_when_motion_blur_is_on(blank, tmp_path):
+    grids = {"density": conformance.density_grid(8), "velocity": np.ones((8, 8, 8, 3), np.float32)}
+    conformance.volume_object(str(tmp_path), grids=grids)
+    notes = _mod("motion").velocity_notes(bpy.context.evaluated_depsgraph_get())
+    assert notes == ["Volume 'Smoke': its velocity grid 'velocity' is not rendered; motion blur moves "
+                     "the volume with its object only"], notes
