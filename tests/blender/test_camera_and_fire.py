@@ -52,3 +52,29 @@ def test_a_volumes_velocity_grid_is_named_when_motion_blur_is_on(blank, tmp_path
     notes = _mod("motion").velocity_notes(bpy.context.evaluated_depsgraph_get())
     assert notes == ["Volume 'Smoke': its velocity grid 'velocity' is not rendered; motion blur moves "
                      "the volume with its object only"], notes
+
+
+def test_a_viewport_through_the_camera_shows_its_depth_of_field(blank):
+    from types import SimpleNamespace
+
+    bpy.ops.object.camera_add()
+    cam = bpy.context.object
+    bpy.context.scene.camera = cam
+    cam.data.dof.use_dof, cam.data.dof.focus_distance = True, 2.5
+    lens = _mod("camera").camera_view_aperture
+    dg = bpy.context.evaluated_depsgraph_get()
+    seen = lens(SimpleNamespace(view_perspective='CAMERA'), bpy.context.scene, dg)
+    assert seen is not None and seen.focus_m == pytest.approx(2.5)
+    assert lens(SimpleNamespace(view_perspective='PERSP'), bpy.context.scene, dg) is None
+
+
+def test_motion_blur_reads_the_shutter_and_leaves_the_frame_as_it_was(blank, tmp_path):
+    row = conformance.ROW_BY_ID["motion_blur_volume"]
+    conformance.render_tfm(row, str(tmp_path))
+    scene = bpy.context.scene
+    ob = scene.objects["Smoke"]
+    assert (scene.frame_current, scene.frame_subframe) == (1, 0.0)
+    before = ob.matrix_world.translation.x
+    scene.frame_set(1)
+    assert ob.matrix_world.translation.x == pytest.approx(before)
+    assert _mod("motion").shutter_window(scene.render, 1.0) == (0.75, 1.25)

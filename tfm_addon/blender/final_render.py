@@ -29,6 +29,7 @@ PASSES = (("Scattering", "scattering"), ("Surfaces", "surfaces"), ("Transmittanc
 last_messages: list[tuple[str, str]] = []
 # Seconds per stage of the last final render, as the renderer measured them.
 last_timings: dict[str, float] = {}
+last_samples = [0]   # the antialiasing samples of the last frame (the log line)
 # Warnings already given in a material preview: each is reported once per session, since Blender
 # renders the same preview scene again for every material and shape.
 _preview_reported: set[str] = set()
@@ -251,6 +252,7 @@ def render(engine, depsgraph) -> None:
     error, and command-line Blender exits with STRICT_EXIT_CODE."""
     last_messages.clear()
     last_timings.clear()
+    last_samples[0] = 0
     if engine.is_preview:
         _render(engine, depsgraph, strict=False)
         return
@@ -264,7 +266,7 @@ def render(engine, depsgraph) -> None:
         print(f"TFM frame {scene.frame_current} ({depsgraph.view_layer.name}) interrupted after "
               f"{time.perf_counter() - start:.2f} s", flush=True)
         raise
-    log_frame(scene, depsgraph.view_layer.name, width, height, sample_count(scene),
+    log_frame(scene, depsgraph.view_layer.name, width, height, last_samples[0] or sample_count(scene),
               time.perf_counter() - start, status, get_worker())
     if strict and status.startswith("failed") and _background():
         print(f"TFM strict mode: frame {scene.frame_current} failed ({status[len('failed: '):]}); "
@@ -300,6 +302,7 @@ def _render(engine, depsgraph, strict: bool) -> str:
         if preview:
             settings = preview_settings(settings, width, height)
         samples = 1 if preview else sample_count(scene, extraction.camera)
+        last_samples[0] = samples
         engine.update_stats("", "TFM: rendering" if samples == 1 else f"TFM: sample 1/{samples}")
         shown = [0]
 

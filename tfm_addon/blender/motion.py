@@ -54,9 +54,13 @@ def velocity_notes(depsgraph) -> list[str]:
         ob = instance.object
         if ob.type != 'VOLUME' or not instance.show_self:
             continue
-        name = getattr(ob.data, "velocity_grid", "")
-        if name and any(g.name == name for g in ob.data.grids):
-            notes.append(f"Volume '{_label(instance)}': its velocity grid '{name}' is not rendered; "
+        data = ob.data
+        grids = {g.name for g in data.grids}
+        names = [data.velocity_grid] if data.velocity_grid in grids else [
+            n for n in (data.velocity_x_grid, data.velocity_y_grid, data.velocity_z_grid) if n in grids]
+        if names:
+            quoted = "', '".join(names)
+            notes.append(f"Volume '{_label(instance)}': its velocity grid '{quoted}' is not rendered; "
                          f"motion blur moves the volume with its object only")
     return notes
 

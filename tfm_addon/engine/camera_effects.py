@@ -71,7 +71,7 @@ def lens_camera(camera, u: float, v: float):
     x, y = aperture_point(ap.blades, ap.rotation_rad, ap.ratio, u, v)
     dx, dy = x * ap.radius_m, y * ap.radius_m
     m = np.array(camera.matrix_world, dtype=np.float64)
-    axes = m[:3, :3] / np.linalg.norm(m[:3, :3], axis=0)
+    axes = m[:3, :3] / np.sqrt((m[:3, :3] ** 2).sum(axis=0))
     m[:3, 3] += axes[:, 0] * dx + axes[:, 1] * dy
     # The window at unit depth moves by -lens / focus: the focus plane's points keep their pixels.
     side = _fitted_side(camera) * max(ap.focus_m, 1e-6)
@@ -110,13 +110,32 @@ def _slerp(a: np.ndarray, b: np.ndarray, t: float) -> np.ndarray:
     return (math.sin((1 - t) * theta) * a + math.sin(t * theta) * b) / math.sin(theta)
 
 
+# No LAPACK here (called for every sample): its threads, woken while llvmpipe's run, slowed a
+# frame with a moving camera to three times a still one's on the shared cores.
+
+def orthonormal(a: np.ndarray) -> np.ndarray:
+    """The rotation of the 3x3 ``a``'s columns by Gram-Schmidt (a mirror turned into a rotation)."""
+    x = a[:, 0] / np.sqrt(a[:, 0] @ a[:, 0])
+    y = a[:, 1] - x * (x @ a[:, 1])
+    y = y / np.sqrt(y @ y)
+    return np.stack([x, y, np.cross(x, y)], axis=1)
+
+
 def _decompose(m: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(translation, rotation quaternion, 3x3 scale and shear) with m[:3, :3] = R @ S."""
-    u, _, vt = np.linalg.svd(m[:3, :3])
-    r = u @ vt
-    if np.linalg.det(r) < 0:      # a mirrored object: the mirror stays in the scale
-        r = -r
+    r = orthonormal(m[:3, :3])
     return m[:3, 3].copy(), _quaternion(r), r.T @ m[:3, :3]
+
+
+def _affine_inverse(m: np.ndarray) -> np.ndarray:
+    """The inverse of an affine 4x4 (the 3x3 part by its adjugate)."""
+    a = m[:3, :3]
+    adj = np.stack([np.cross(a[:, 1], a[:, 2]), np.cross(a[:, 2], a[:, 0]), np.cross(a[:, 0], a[:, 1])])
+    inv = adj / (a[:, 0] @ adj[0])
+    out = np.eye(4)
+    out[:3, :3] = inv
+    out[:3, 3] = -(inv @ m[:3, 3])
+    return out
 
 
 def interpolate(steps: tuple[np.ndarray, ...], t: float) -> np.ndarray:
@@ -146,7 +165,7 @@ class ObjectMotion:
 
     def moved(self, t: float) -> np.ndarray:
         """The world-space move from the frame's placement to the one at shutter time ``t``."""
-        return interpolate(self.steps, t) @ np.linalg.inv(np.asarray(self.frame, dtype=np.float64))
+        return interpolate(self.steps, t) @ _affine_inverse(np.asarray(self.frame, dtype=np.float64))
 
     @property
     def moves(self) -> bool:

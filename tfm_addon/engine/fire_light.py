@@ -26,6 +26,7 @@ from functools import cached_property
 import numpy as np
 
 from . import blackbody, boxes
+from .camera_effects import orthonormal
 from .quality import trilinear
 from .scene import GridValue, Medium
 
@@ -135,14 +136,12 @@ def _blocks(a: np.ndarray, b: int) -> np.ndarray:
 
 
 def placement(medium: Medium) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(R, S, t) with the grid's placement index_to_world = [R S | t]: R a rotation, S symmetric.
+    """(R, S, t) with the grid's placement index_to_world = [R S | t]: R a rotation (of the
+    placement's columns, Gram-Schmidt), S upper triangular.
     The points and maps are made in the frame of S (``fire_light``), so that moving or turning
     the medium (motion blur's samples, an object dragged) only turns and moves them."""
     m = np.asarray(medium.index_to_world, np.float64)
-    u, _, vt = np.linalg.svd(m[:3, :3])
-    if np.linalg.det(u @ vt) < 0.0:
-        u[:, -1] = -u[:, -1]
-    r = u @ vt
+    r = orthonormal(m[:3, :3])       # Gram-Schmidt, no LAPACK: called by every sample's first pass
     return r, r.T @ m[:3, :3], m[:3, 3].copy()
 
 
