@@ -78,3 +78,22 @@ def test_motion_blur_reads_the_shutter_and_leaves_the_frame_as_it_was(blank, tmp
     scene.frame_set(1)
     assert ob.matrix_world.translation.x == pytest.approx(before)
     assert _mod("motion").shutter_window(scene.render, 1.0) == (0.75, 1.25)
+
+
+def test_an_object_cycles_does_not_blur_stays_sharp(blank, tmp_path):
+    row = conformance.ROW_BY_ID["motion_blur_volume"]
+    build = row.build
+
+    def still(tmpdir, blur_scene: bool):
+        build(tmpdir)
+        bpy.context.scene.objects["Smoke"].cycles.use_motion_blur = False   # Object ▸ Motion Blur
+        bpy.context.scene.render.use_motion_blur = blur_scene
+
+    images = []
+    for blur_scene in (True, False):
+        row.build = lambda tmpdir, b=blur_scene: still(tmpdir, b)
+        try:
+            images.append(conformance.render_tfm(row, str(tmp_path / str(blur_scene))).image)
+        finally:
+            row.build = build
+    assert np.abs(images[0] - images[1]).max() < 1e-6

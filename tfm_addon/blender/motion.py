@@ -15,7 +15,19 @@ import numpy as np
 from ..engine.camera_effects import Motion, ObjectMotion
 from ..engine.scene import Scene
 
-MOTION_STEPS = 3   # Cycles' default: an object's Motion Steps 1, the shutter's start, middle and end
+MAX_STEPS = 9      # matrices read across the shutter at most (an object's Motion Steps 3)
+
+
+def _blurred(ob) -> bool:
+    """Whether Cycles blurs the object (Object ▸ Motion Blur, on by default)."""
+    settings = getattr(ob, "cycles", None)
+    return bool(getattr(settings, "use_motion_blur", True))
+
+
+def _steps(ob) -> int:
+    """Cycles' motion steps of an object: 2^Motion Steps + 1 matrices (3 by default)."""
+    settings = getattr(ob, "cycles", None)
+    return min(2 ** max(int(getattr(settings, "motion_steps", 1)), 1) + 1, MAX_STEPS)
 
 
 def shutter_window(render, frame: float) -> tuple[float, float]:
@@ -39,10 +51,10 @@ def _matrices(depsgraph, names: set[str], camera_object) -> tuple[dict[str, np.n
     found: dict[str, np.ndarray] = {}
     for instance in depsgraph.object_instances:
         name = _label(instance)
-        if name in names and name not in found:
+        if name in names and name not in found and _blurred(instance.object):
             found[name] = np.array(instance.matrix_world, dtype=np.float64)
     camera = None
-    if camera_object is not None:
+    if camera_object is not None and _blurred(camera_object):
         camera = np.array(camera_object.evaluated_get(depsgraph).matrix_world, dtype=np.float64)
     return found, camera
 
@@ -67,8 +79,9 @@ def velocity_notes(depsgraph) -> list[str]:
 
 def read_motion(engine, depsgraph, scene: Scene, camera_object) -> tuple[Motion | None, list[str]]:
     """The scene's motion across the shutter when Render ▸ Motion Blur is on: the camera's and
-    each medium's and mesh's matrices at MOTION_STEPS times (``engine.frame_set``), and the
-    report lines for what it leaves out. (None, []) when motion blur is off."""
+    each medium's and mesh's matrices (those Cycles blurs: Object ▸ Motion Blur on) at equally
+    spaced times (``engine.frame_set``), as many as the largest of their Cycles motion steps asks
+    for, and the report lines for what it leaves out. (None, []) when motion blur is off."""
     b_scene = depsgraph.scene
     render = b_scene.render
     if not render.use_motion_blur:
@@ -77,10 +90,13 @@ def read_motion(engine, depsgraph, scene: Scene, camera_object) -> tuple[Motion 
     start, end = shutter_window(render, frame + subframe)
     names = {m.name for m in scene.media} | {m.name for m in scene.meshes}
     at_frame, camera_at_frame = _matrices(depsgraph, names, camera_object)
+    owners = [i.object for i in depsgraph.object_instances if _label(i) in at_frame]
+    count = max([_steps(ob) for ob in owners + ([camera_object] if camera_at_frame is not None else [])],
+                default=3)
     steps = []
     try:
-        for i in range(MOTION_STEPS):
-            t = start + (end - start) * i / (MOTION_STEPS - 1)
+        for i in range(count):
+            t = start + (end - start) * i / (count - 1)
             whole = math.floor(t)
             engine.frame_set(int(whole), t - whole)
             steps.append(_matrices(depsgraph, names, camera_object))
@@ -97,4 +113,8 @@ def read_motion(engine, depsgraph, scene: Scene, camera_object) -> tuple[Motion 
         om = ObjectMotion(tuple(s[1] for s in steps), camera_at_frame)
         camera = om if om.moves else None
     motion = Motion(camera=camera, objects=objects) if camera is not None or objects else None
-    return motion, velocity_notes(depsgraph)
+    notes = velocity_notes(depsgraph)
+    cycles = getattr(b_scene, "cycles", None)
+    if getattr(cycles, "rolling_shutter_type", 'NONE') != 'NONE':
+        notes.append("Motion blur: the rolling shutter is not rendered (the whole frame is exposed at once)")
+    return motion, notes
