@@ -194,8 +194,13 @@ def moved_scene(scene, t: float):
         om = motion.objects.get(medium.name)
         if om is not None:
             d = om.moved(t)
+            # The moved copies name their grids by the frame's medium's keys (hashed once a frame),
+            # so that a sample hashes its new placement only.
+            source = medium.source_key
+            if source is None and medium.density is not None:
+                source = f"{medium.grid_key}:{medium.grids_key}"
             medium = dataclasses.replace(
-                medium,
+                medium, source_key=source,
                 index_to_world=None if medium.density is None else d @ medium.index_to_world,
                 box_to_world=None if medium.box_to_world is None else d @ medium.box_to_world)
         media.append(medium)
