@@ -20,6 +20,8 @@ before they reach it. The surfaces read, per pixel, each point's map once (light
 from __future__ import annotations
 
 import dataclasses
+import hashlib
+from collections import OrderedDict
 from dataclasses import dataclass
 from functools import cached_property
 
@@ -177,7 +179,11 @@ def fire_light(medium: Medium, max_points: int = MAX_POINTS) -> FireLight | None
     voxel_volume = abs(float(np.linalg.det(to_world[:3, :3])))
     # The transmittance of a block is the emission-weighted mean of its eight half blocks' (one
     # ray from the block's centre would shadow its outer, less shadowed, emission as its core).
-    half = _split(weight, world, b // 2)                    # (kx, ky, kz, 8) weights and centres
+    # Each half block's map is marched from the centre of its emitting voxels, so the maps depend
+    # on where the medium emits, not how much: an edit of the emission's colour or strength
+    # finds them made (``_half_maps``).
+    emits = weight > 0.0
+    half_weight = _split(weight, world, b // 2)[0]           # (kx, ky, kz, 8)
     w = _blocks(weight, b)
     wsum = w.sum(axis=-1)
     keep = wsum > 0.0
@@ -186,13 +192,38 @@ def fire_light(medium: Medium, max_points: int = MAX_POINTS) -> FireLight | None
     centre = np.einsum("nk,nkc->nc", w, xyz) / wsum[:, None]
     spread = np.einsum("nk,nk->n", w, ((xyz - centre[:, None]) ** 2).sum(axis=-1)) / wsum
     intensity = _blocks(emission, b)[keep].sum(axis=1) * voxel_volume
-    hw, hc = half[0][keep], half[1][keep]                   # (n, 8), (n, 8, 3)
-    lit = hw > 0.0
-    t = np.zeros((len(centre), DIRECTIONS, DIRECTIONS, 3))
-    maps = _outward_transmittance(medium, hc[lit])          # (m, D, D, 3)
-    np.add.at(t, np.nonzero(lit)[0], maps * hw[lit][:, None, None, None])
-    t /= hw.sum(axis=1)[:, None, None, None]
+    maps = _half_maps(medium, world, emits, b)                # (n, 8, D, D, 3), the blocks kept
+    hw = half_weight[keep]
+    t = np.einsum("nh,nhuvc->nuvc", hw, maps) / hw.sum(axis=1)[:, None, None, None]
     return FireLight(centre, intensity, spread, t, b)
+
+
+_HALF_MAPS: OrderedDict = OrderedDict()   # what _half_maps made, by what they depend on (4 kept)
+HALF_MAPS_KEPT = 4
+
+
+def _half_maps(medium: Medium, world: np.ndarray, emits: np.ndarray, b: int) -> np.ndarray:
+    """(n, 8, D, D, 3) the transmittance maps of the eight half blocks of each of the n blocks of
+    b voxels where some voxel emits (in the blocks' order), from the centre of each half block's
+    emitting voxels (1 where none emits); kept by the density, its extinction, the placement's
+    shape, the emitting voxels and b."""
+    key = (medium.grid_key, tuple(float(c) for c in medium.sigma_t),
+           np.round(np.asarray(medium.index_to_world)[:3, :3], 9).tobytes(), b,
+           hashlib.blake2b(np.packbits(emits).tobytes(), digest_size=16).hexdigest(), emits.shape)
+    found = _HALF_MAPS.get(key)
+    if found is not None:
+        _HALF_MAPS.move_to_end(key)
+        return found
+    count, centres = _split(emits.astype(np.float64), world, b // 2)
+    keep = count.sum(axis=-1) > 0.0
+    count, centres = count[keep], centres[keep]
+    lit = count > 0.0
+    maps = np.ones(count.shape + (DIRECTIONS, DIRECTIONS, 3), np.float32)
+    maps[lit] = _outward_transmittance(medium, centres[lit])
+    _HALF_MAPS[key] = maps
+    while len(_HALF_MAPS) > HALF_MAPS_KEPT:
+        _HALF_MAPS.popitem(last=False)
+    return maps
 
 
 def _split(weight: np.ndarray, world: np.ndarray, h: int) -> tuple[np.ndarray, np.ndarray]:
