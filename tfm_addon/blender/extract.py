@@ -440,7 +440,7 @@ def _walk_instances(depsgraph, parts: Change, cache: GridCache,
             _medium_visibility_notes(depsgraph, instance, notes[Change.MEDIUM])
             if found is not None:
                 found_media.append(replace(found, name=_label(instance),
-                                                   lights_surfaces=_lights_surfaces(instance)))
+                                           lights_surfaces=_lights_surfaces(instance)))
                 sources.append(_label(instance))
         elif kind == 'MESH' and fluid.domain_modifier(ob, depsgraph.mode == 'RENDER') is not None:
             if Change.MEDIUM in parts:   # a smoke / fire domain: its cache, never its mesh
@@ -450,7 +450,7 @@ def _walk_instances(depsgraph, parts: Change, cache: GridCache,
                 _medium_visibility_notes(depsgraph, instance, notes[Change.MEDIUM])
                 if found is not None:
                     found_media.append(replace(found, name=_label(instance),
-                                                   lights_surfaces=_lights_surfaces(instance)))
+                                               lights_surfaces=_lights_surfaces(instance)))
                     sources.append(_label(instance))
         elif kind in meshes.MESH_TYPES and parts & (Change.SOLIDS | Change.MEDIUM):
             material = meshes.first_material(ob)
