@@ -6,15 +6,18 @@ transmittance up to each point. For a Lambertian surface at P with normal n that
 irradiance E(P) = ∫ L_e(y) T(y, P) max(n·ω, 0) / |y - P|² dy over the medium's volume (L_e the
 emitted radiance per metre, W/(sr m²) per m, so L_e dV is the intensity of a volume element).
 
-Approximation (numpy, once per medium and placement, cached by the renderer): the emission grid is
-cut into blocks of b³ voxels, b the smallest for which at most MAX_POINTS blocks emit; each block
-becomes a point at its emission-weighted centre with intensity ∑ L_e ΔV (W/sr) and a softening
-radius, its emission's RMS spread (a point's 1/r² would blow up next to a large block). The
-medium's own shadowing of a point is its transmittance from the point outwards, along each of
-DIRECTIONS² directions (an octahedral map, marched to the edge of the grid's box through the
-density): exact for a surface outside the medium's box, where rays from the point leave the medium
-before they reach it. The surfaces read, per pixel, each point's map once (light.glsl's
-``fire_irradiance``); solids do not shadow this light (the render report says so).
+Approximation (numpy, cached by the renderer by the medium's content, not its placement): the
+emission grid is cut into blocks of b³ voxels, b the smallest even size for which at most MAX_POINTS
+blocks emit; each block becomes a point at its emission-weighted centre with intensity ∑ L_e ΔV
+(W/sr) and a softening radius, its emission's RMS spread (a point's 1/r² would blow up next to a
+large block). The medium's own shadowing of a point is its transmittance outwards along each of
+DIRECTIONS² directions (an octahedral map), the emission-weighted mean of its eight half blocks'
+maps, each marched from the centre of the half block's emitting voxels to the edge of the grid's
+box through the density: exact for a surface outside the medium's box, where rays from the point
+leave the medium before they reach it. The maps are kept by where the medium emits
+(``_half_maps``), so an edit of the emission's colour or strength recomputes the points only. The
+surfaces read, per pixel, each point's map once (shaders/fire_light.glsl's ``fire_irradiance``);
+solids do not shadow this light (the render report says so).
 """
 
 from __future__ import annotations
