@@ -2,6 +2,7 @@
 the ground, beyond the conformance rows (dof, dof_blades, motion_blur_volume, motion_blur_camera,
 fire_lights_ground): what the report says, and the ground under the fire against Cycles."""
 
+import dataclasses
 import importlib
 
 import bpy
@@ -92,3 +93,38 @@ def test_an_object_cycles_does_not_blur_stays_sharp_and_the_frame_is_restored(bl
             assert scene.objects["Smoke"].matrix_world.translation.x == pytest.approx(x)
             assert _mod("motion").shutter_window(scene.render, 1.0) == (0.75, 1.25)
     assert np.abs(images[0] - images[1]).max() < 1e-6
+
+
+def test_the_viewport_through_the_camera_converges_to_the_final_renders_depth_of_field(blank, tmp_path):
+    import time
+    from types import SimpleNamespace
+
+    row = conformance.ROW_BY_ID["dof"]
+    final = conformance.render_tfm(row, str(tmp_path), samples=6).image
+    dg = bpy.context.evaluated_depsgraph_get()
+    ob = bpy.context.scene.camera.evaluated_get(dg)
+    camera_module = _mod("camera")
+    view = np.linalg.inv(camera_module.without_scale(ob.matrix_world))
+    width, height = final.shape[1], final.shape[0]
+    projection = np.array(ob.calc_matrix_camera(dg, x=width, y=height))
+    camera = camera_module.camera_from_view(view, projection, width, height)
+    lens = camera_module.camera_view_aperture(SimpleNamespace(view_perspective='CAMERA'),
+                                              bpy.context.scene, dg)
+    camera = dataclasses.replace(camera, aperture=lens)
+    session = _mod("viewport").ViewportSession()
+    try:
+        session.update(dg)
+        assert session.request(camera, 6)
+        end = time.monotonic() + 60.0
+        frame = None
+        while time.monotonic() < end:
+            frame = session.frame()
+            if frame is not None and frame.samples == 6 and session.view.state == "idle":
+                break
+            time.sleep(0.01)
+        assert frame is not None and frame.samples == 6
+        assert float(np.abs(frame.image - final).max()) <= 1e-4
+        pinhole = session.render(dataclasses.replace(camera, aperture=None)).combined
+        assert float(np.abs(pinhole - final).max()) > 0.01      # the lens blurred it
+    finally:
+        session.close()
