@@ -213,7 +213,7 @@ ADAPTIVE_REFERENCE = """
     box.materials.append(glow_mat)
     glow_ob = bpy.data.objects.new("Glow", box)
     s.collection.objects.link(glow_ob)
-    for ob in (ref, glow_ob):   # the emission lights nothing in TFM: keep Cycles' from lighting
+    for ob in (ref, glow_ob):   # the emission alone: keep Cycles' from lighting the smoke
         ob.visible_diffuse = False
         ob.visible_volume_scatter = False
 """

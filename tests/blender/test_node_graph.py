@@ -115,7 +115,7 @@ def test_density_attribute_into_emission_strength_beside_principled_density(blan
     _link(nt, attr.outputs["Fac"], mul.inputs[0])
     _link(nt, mul.outputs[0], pv.inputs["Emission Strength"])
     _link(nt, pv.outputs[0], out.inputs["Volume"])
-    ob.visible_diffuse = ob.visible_volume_scatter = False   # emission lights nothing (see docs)
+    ob.visible_diffuse = ob.visible_volume_scatter = False   # the emission alone (see docs)
     _compare(tmp_path, per_channel=True)
 
 
@@ -149,7 +149,7 @@ def test_fire_colour_from_temperature_ramp(blank, tmp_path):
     _link(nt, em.outputs[0], add.inputs[0])
     _link(nt, absorb.outputs[0], add.inputs[1])
     _link(nt, add.outputs[0], out.inputs["Volume"])
-    ob.visible_diffuse = ob.visible_volume_scatter = False   # emission lights nothing (see docs)
+    ob.visible_diffuse = ob.visible_volume_scatter = False   # the emission alone (see docs)
     _compare(tmp_path, per_channel=True)
 
 

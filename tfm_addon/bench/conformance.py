@@ -63,7 +63,7 @@ class Row:
     title: str
     build: Callable[[str], None]
     coloured: bool = False          # brightness compared per channel
-    emissive: bool = False          # Cycles reference: the medium lights nothing (BLENDER.md)
+    emissive: bool = False          # both renders: the medium lights nothing (``build``)
     note: str = ""
 
     @property
@@ -1002,6 +1002,95 @@ def _(tmpdir):
     _world_volume('ShaderNodeVolumeScatter', 0.05)
 
 
+def _resolution(width: int, height: int) -> None:
+    import bpy
+
+    r = bpy.context.scene.render
+    r.resolution_x, r.resolution_y = width, height
+
+
+@row("dof", "Camera ▸ Depth of Field: focus 3 m (the smoke at 7 m), f/0.25, 160x90")
+def _(tmpdir):
+    import bpy
+
+    _pv_row(tmpdir)
+    _resolution(160, 90)
+    dof = bpy.context.scene.camera.data.dof
+    dof.use_dof, dof.focus_distance, dof.aperture_fstop = True, 3.0, 0.25
+
+
+@row("dof_blades", "Depth of Field: focus on an object 2.5 m away, f/0.2, 5 blades turned 20°, ratio 2, "
+     "160x90")
+def _(tmpdir):
+    import math
+
+    import bpy
+
+    _pv_row(tmpdir)
+    _resolution(160, 90)
+    bpy.ops.object.empty_add(location=(0.3, -4.5, 0.8))
+    dof = bpy.context.scene.camera.data.dof
+    dof.use_dof, dof.focus_object, dof.aperture_fstop = True, bpy.context.object, 0.2
+    dof.aperture_blades, dof.aperture_rotation, dof.aperture_ratio = 5, math.radians(20.0), 2.0
+
+
+def _moving(ob, step=(0.8, 0.0, 0.0)) -> None:
+    """Keys ``ob`` at frames 0, 1, 2, moving by ``step`` a frame (linear), the scene at frame 1."""
+    import bpy
+
+    bpy.context.preferences.edit.keyframe_new_interpolation_type = 'LINEAR'
+    here = ob.location.copy()
+    for frame in (0, 1, 2):
+        ob.location = [here[i] + (frame - 1) * step[i] for i in range(3)]
+        ob.keyframe_insert("location", frame=frame)
+    bpy.context.scene.frame_set(1)
+
+
+@row("motion_blur_volume", "Render ▸ Motion Blur (shutter 0.5, centre): the smoke moving 0.8 m a frame")
+def _(tmpdir):
+    import bpy
+
+    mat, nt, out = material()
+    principled(nt, out)
+    ob = smoke_with(tmpdir, mat)
+    _moving(ob)
+    bpy.context.scene.render.use_motion_blur = True
+
+
+@row("motion_blur_camera", "Render ▸ Motion Blur (shutter 1, start): the camera moving 0.4 m a frame")
+def _(tmpdir):
+    import bpy
+
+    _pv_row(tmpdir)
+    scene = bpy.context.scene
+    _moving(scene.camera, (0.4, 0.0, 0.0))
+    r = scene.render
+    r.use_motion_blur, r.motion_blur_shutter, r.motion_blur_position = True, 1.0, 'START'
+
+
+@row("fire_lights_ground", "A fire (Emission shader + Volume Absorption) lighting the ground, no lamp",
+     coloured=True)
+def _(tmpdir):
+    mat, nt, out = material("Fire")
+    emission = nt.nodes.new('ShaderNodeEmission')
+    emission.inputs["Color"].default_value = (1.0, 0.45, 0.12, 1.0)
+    nt.links.new(math_node(nt, 'MULTIPLY', attribute(nt).outputs["Fac"], 2.0).outputs[0],
+                 emission.inputs["Strength"])
+    absorb = nt.nodes.new('ShaderNodeVolumeAbsorption')
+    absorb.inputs["Color"].default_value = (0.0, 0.0, 0.0, 1.0)
+    nt.links.new(attribute(nt).outputs["Fac"], absorb.inputs["Density"])
+    add = nt.nodes.new('ShaderNodeAddShader')
+    nt.links.new(emission.outputs[0], add.inputs[0])
+    nt.links.new(absorb.outputs[0], add.inputs[1])
+    nt.links.new(add.outputs[0], out.inputs["Volume"])
+    base(lights=None)
+    import bpy
+
+    bpy.data.materials["Ground"].node_tree.nodes["Diffuse BSDF"].inputs["Color"].default_value = \
+        (0.8, 0.8, 0.8, 1.0)
+    volume_object(tmpdir, name="Fire", mat=mat)
+
+
 ROW_BY_ID = {r.id: r for r in ROWS}
 
 
@@ -1016,9 +1105,19 @@ def reset() -> None:
 
 
 def build(r: Row, tmpdir: str) -> None:
+    """Row ``r``'s scene; an emissive row's volumes light nothing (Object ▸ Visibility ▸ Ray
+    Visibility: Diffuse and Volume Scatter off), in both renders, so that the row compares the
+    emission alone (the light a medium casts on the ground has its own row)."""
+    import bpy
+
     reset()
     os.makedirs(tmpdir, exist_ok=True)
     r.build(tmpdir)
+    if r.emissive:
+        for ob in bpy.context.scene.objects:
+            if ob.type == 'VOLUME':
+                ob.visible_diffuse = False
+                ob.visible_volume_scatter = False
 
 
 def _read_render(tmpdir: str, name: str) -> np.ndarray:
@@ -1051,11 +1150,6 @@ def render_cycles(r: Row, tmpdir: str, samples: int = 2048, seed: int = 0) -> tu
     scene = bpy.context.scene
     cycles_single_scattering(scene, samples=samples)
     scene.cycles.seed = seed
-    if r.emissive:   # emission lights nothing in the engine (docs/blender.md): not in the reference
-        for ob in scene.objects:
-            if ob.type == 'VOLUME':
-                ob.visible_diffuse = False
-                ob.visible_volume_scatter = False
     t0 = time.perf_counter()
     bpy.ops.render.render()
     seconds = time.perf_counter() - t0
@@ -1256,8 +1350,9 @@ def write_page(page_rows: list[PageRow], md: Path, png_dir: Path, blender: str, 
         f"{WIDTH}x{HEIGHT}, Blender {blender}; {seconds:.0f} s for every row, scenes built included.",
         "- Scenes: Blender's defaults for everything a row does not set (Space Object, clipping 0.001, "
         "Add-menu light sizes), a black World unless the row lights with it, a grey ground, a point "
-        "light of 1000 W unless the row sets the light; emissive rows' Cycles references turn the "
-        "volume's diffuse and volume-scatter visibility off (the engine's emission lights nothing).",
+        "light of 1000 W unless the row sets the light; emissive rows turn the volume's diffuse and "
+        "volume-scatter visibility off in both renders (they compare the emission alone; a fire "
+        "lighting the ground has its own row).",
         "- Expectation: **rendered** must pass; **reported** rows are not rendered yet and must "
         "say their line in the render report (`conformance.EXPECT`); **wrong** rows render wrongly "
         "without a word (`conformance.WRONG`). Flipping a row is deleting its line there.",

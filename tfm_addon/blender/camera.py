@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..engine.scene import Camera
+from ..engine.scene import Aperture, Camera
 
 
 def without_scale(matrix) -> np.ndarray:
@@ -46,10 +46,11 @@ def camera_from_object(camera_object, width_px: int, height_px: int, *, window=N
     """The renderer's Camera for an evaluated camera object rendering width_px x height_px."""
     data = camera_object.data
     projection = data.type
-    if projection == 'PANO':
-        if warnings is not None:
-            warnings.append(f"Camera '{camera_object.name}': panoramic cameras are not supported, "
-                            f"rendering it as a perspective camera")
+    notes = [] if warnings is None else warnings
+    if projection not in ('PERSP', 'ORTHO'):
+        kind = "panoramic" if projection == 'PANO' else projection.lower()
+        notes.append(f"Camera '{camera_object.name}': {kind} cameras are not supported, "
+                     f"rendering it as a perspective camera")
         projection = 'PERSP'
     return Camera(
         matrix_world=without_scale(camera_object.matrix_world),
@@ -66,7 +67,44 @@ def camera_from_object(camera_object, width_px: int, height_px: int, *, window=N
         clip_start=data.clip_start,
         clip_end=data.clip_end,
         border=None if window is None else border_fractions(window, width_px, height_px),
+        aperture=aperture(camera_object, projection, notes),
     )
+
+
+def aperture(camera_object, projection: str, warnings: list[str]) -> Aperture | None:
+    """The camera's depth of field as Cycles reads it (blender/camera.cpp): aperture size =
+    focal length / (2 f-stop), the focus distance along the view axis to the focus object when
+    one is set; None when Depth of Field is off."""
+    dof = camera_object.data.dof
+    if not dof.use_dof:
+        return None
+    if projection != 'PERSP':
+        warnings.append(f"Camera '{camera_object.name}': depth of field of an orthographic camera is "
+                        f"not rendered")
+        return None
+    focus = float(dof.focus_distance)
+    target = dof.focus_object
+    if target is not None:
+        if dof.focus_subtarget:
+            warnings.append(f"Camera '{camera_object.name}': depth of field focuses on the object "
+                            f"'{target.name}', not on its bone '{dof.focus_subtarget}'")
+        m = without_scale(camera_object.matrix_world)
+        t = np.array(target.matrix_world, dtype=np.float64).reshape(4, 4)
+        focus = abs(float(np.dot(m[:3, 2], m[:3, 3] - t[:3, 3])))
+    fstop = max(float(dof.aperture_fstop), 1e-5)
+    return Aperture(radius_m=camera_object.data.lens * 1e-3 / (2.0 * fstop), focus_m=focus,
+                    blades=int(dof.aperture_blades) if dof.aperture_blades >= 3 else 0,
+                    rotation_rad=float(dof.aperture_rotation), ratio=float(dof.aperture_ratio))
+
+
+def camera_view_aperture(rv3d, scene, depsgraph) -> Aperture | None:
+    """The depth of field a viewport shows: the scene camera's when the view looks through it
+    (Cycles' viewport does the same), else none."""
+    ob = scene.camera
+    if rv3d.view_perspective != 'CAMERA' or ob is None or ob.type != 'CAMERA':
+        return None
+    ob = ob.evaluated_get(depsgraph)
+    return aperture(ob, 'PERSP' if ob.data.type != 'ORTHO' else 'ORTHO', [])
 
 
 def camera_from_view(view_matrix, window_matrix, width_px: int, height_px: int) -> Camera:

@@ -461,7 +461,8 @@ def _walk_instances(depsgraph, parts: Change, cache: GridCache,
             found = _volume_medium(instance, cache, notes[Change.MEDIUM], simplify, kept, depsgraph)
             _medium_visibility_notes(depsgraph, instance, notes[Change.MEDIUM])
             if found is not None:
-                found_media.append(replace(found, name=_label(instance)))
+                found_media.append(replace(found, name=_label(instance),
+                                           lights_surfaces=_lights_surfaces(instance)))
                 sources.append(_label(instance))
         elif kind == 'MESH' and fluid.domain_modifier(ob, depsgraph.mode == 'RENDER') is not None:
             if Change.MEDIUM in parts:   # a smoke / fire domain: its cache, never its mesh
@@ -470,7 +471,8 @@ def _walk_instances(depsgraph, parts: Change, cache: GridCache,
                                       notes[Change.MEDIUM], simplify)
                 _medium_visibility_notes(depsgraph, instance, notes[Change.MEDIUM])
                 if found is not None:
-                    found_media.append(replace(found, name=_label(instance)))
+                    found_media.append(replace(found, name=_label(instance),
+                                               lights_surfaces=_lights_surfaces(instance)))
                     sources.append(_label(instance))
         elif kind in meshes.MESH_TYPES and parts & (Change.SOLIDS | Change.MEDIUM):
             material = meshes.first_material(ob)
@@ -486,7 +488,8 @@ def _walk_instances(depsgraph, parts: Change, cache: GridCache,
                                          arrays)
                     _medium_visibility_notes(depsgraph, instance, notes[Change.MEDIUM])
                     if found is not None:
-                        found_media.append(replace(found, name=_label(instance)))
+                        found_media.append(replace(found, name=_label(instance),
+                                                   lights_surfaces=_lights_surfaces(instance)))
                         sources.append(_label(instance))
                 continue
             if Change.SOLIDS not in parts:
@@ -531,6 +534,15 @@ def _has_hair(ob) -> bool:
 UNRENDERED_TYPES = {'CURVES': "Hair curves", 'POINTCLOUD': "Point clouds"}
 # Objects whose matrix places what is rendered (degenerate() checks it before they are read).
 PLACED_TYPES = {'LIGHT', 'VOLUME'} | meshes.MESH_TYPES
+
+
+def _lights_surfaces(instance) -> bool:
+    """Whether a medium's emission lights the surfaces: Cycles' Diffuse ray visibility of its
+    object (and its instancer's)."""
+    owners = [instance.object]
+    if instance.is_instance and instance.parent is not None:
+        owners.append(instance.parent)
+    return all(o.visible_diffuse for o in owners)
 
 
 def _medium_visibility_notes(depsgraph, instance, notes: list[str]) -> None:

@@ -17,9 +17,10 @@ import traceback
 import numpy as np
 
 from ..engine.errors import RenderCancelled, RendererError
-from ..engine.sampling import AUTO_SAMPLES
+from ..engine.sampling import auto_samples
 from .camera import border_window
 from .extract import extract
+from .motion import read_motion
 from .render_worker import get_worker
 
 # Blender pass name -> RenderOutput pass name.
@@ -32,6 +33,7 @@ last_timings: dict[str, float] = {}
 # Scene name -> what Auto chose for that scene's last final render (RenderOutput.chosen), shown
 # under Render Properties ▸ Volumes.
 auto_choices: dict[str, dict] = {}
+last_samples = [0]   # the antialiasing samples of the last frame (the log line)
 # Warnings already given in a material preview: each is reported once per session, since Blender
 # renders the same preview scene again for every material and shape.
 _preview_reported: set[str] = set()
@@ -209,9 +211,10 @@ def enabled_passes(view_layer) -> tuple[tuple[str, str], ...]:
                  if getattr(settings, f"use_pass_{name}", True))
 
 
-def sample_count(scene) -> int:
-    """Antialiasing samples of a final render: scene.tfm.samples, or AUTO_SAMPLES for 0."""
-    return int(scene.tfm.samples) or AUTO_SAMPLES
+def sample_count(scene, camera=None) -> int:
+    """Antialiasing samples of a final render: scene.tfm.samples, or for 0 the automatic count
+    (sampling.auto_samples: AUTO_SAMPLES, more for ``camera``'s depth of field)."""
+    return int(scene.tfm.samples) or auto_samples(camera)
 
 
 def register_passes(engine, scene, view_layer) -> None:
@@ -280,6 +283,7 @@ def render(engine, depsgraph) -> None:
     error, and command-line Blender exits with STRICT_EXIT_CODE."""
     last_messages.clear()
     last_timings.clear()
+    last_samples[0] = 0
     if engine.is_preview:
         _render(engine, depsgraph, strict=False)
         return
@@ -293,7 +297,7 @@ def render(engine, depsgraph) -> None:
         print(f"TFM frame {scene.frame_current} ({depsgraph.view_layer.name}) interrupted after "
               f"{time.perf_counter() - start:.2f} s", flush=True)
         raise
-    log_frame(scene, depsgraph.view_layer.name, width, height, sample_count(scene),
+    log_frame(scene, depsgraph.view_layer.name, width, height, last_samples[0] or sample_count(scene),
               time.perf_counter() - start, status, get_worker())
     if strict and status.startswith("failed") and _background():
         print(f"TFM strict mode: frame {scene.frame_current} failed ({status[len('failed: '):]}); "
@@ -329,7 +333,8 @@ def _render(engine, depsgraph, strict: bool) -> str:
         settings = extraction.settings
         if preview:
             settings = preview_settings(settings, width, height)
-        samples = 1 if preview else sample_count(scene)
+        samples = 1 if preview else sample_count(scene, extraction.camera)
+        last_samples[0] = samples
         engine.update_stats("", "TFM: rendering" if samples == 1 else f"TFM: sample 1/{samples}")
         shown = [0]
 
@@ -340,12 +345,19 @@ def _render(engine, depsgraph, strict: bool) -> str:
                 shown[0] = k
                 engine.update_stats("", f"TFM: sample {k}/{samples}")
 
+        scene_to_render = extraction.scene()
+        if not preview:     # motion blur: matrices across the shutter (blender/motion.py)
+            motion, notes = read_motion(engine, depsgraph, scene_to_render,
+                                        engine.camera_override or depsgraph.scene.camera)
+            for message in notes:
+                _warn(engine, message, preview)
+            scene_to_render = dataclasses.replace(scene_to_render, motion=motion)
         if tile is None:
-            output = get_worker().render(extraction.scene(), settings,
+            output = get_worker().render(scene_to_render, settings,
                                          cancel=engine.test_break, progress=progress, samples=samples,
                                          client="preview" if preview else "final")
         else:
-            output = _render_tiles(engine, extraction.scene(), settings, samples, tile,
+            output = _render_tiles(engine, scene_to_render, settings, samples, tile,
                                    depsgraph.view_layer, progress)
     except RenderCancelled:
         last_messages.append(('INFO', "cancelled"))

@@ -1,11 +1,12 @@
 """The RenderEngine Blender talks to: every callback forwards to the module that does the work."""
 
+import dataclasses
 import traceback
 
 import bpy
 
 from . import final_render, viewport
-from .camera import camera_from_view
+from .camera import camera_from_view, camera_view_aperture
 from .viewport import DrawTexture, ViewportSession, view_size
 
 
@@ -57,6 +58,9 @@ class TFMRenderEngine(bpy.types.RenderEngine):
         width, height = view_size(region, tfm.viewport_scale)
         try:
             camera = camera_from_view(rv3d.view_matrix, rv3d.window_matrix, width, height)
+            lens = camera_view_aperture(rv3d, context.scene, depsgraph)
+            if lens is not None and camera.projection == 'PERSP':
+                camera = dataclasses.replace(camera, aperture=lens)
             session.request(camera, tfm.viewport_samples)
         except Exception as ex:
             self._viewport_failed(ex)

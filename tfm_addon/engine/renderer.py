@@ -14,6 +14,8 @@ from . import medium_attributes, shading, world_light
 from .adaptive import ActivePixels
 from .camera import view_plane
 from .errors import RenderCancelled
+from .fire_light import content_key as fire_content_key
+from .fire_light import fire_light
 from .frame_plan import FacePlan, FramePlan, plan_faces, plan_frame
 from .gl_context import GLContext
 from .light import (
@@ -40,6 +42,7 @@ from .passes.bindings import (
     pass_state,
 )
 from .passes.emission import AttributesGPU
+from .passes.fire import FireGPU, has_fire_unit
 from .passes.gbuffer import GBuffer
 from .passes.probe import probe_light_transmittance
 from .passes.scattering import (
@@ -217,8 +220,10 @@ class Renderer:
         self._sums_pool: dict[tuple, list[SampleSums]] = {}            # free sample sums by size, passes
         self._targets = _Cache()
         self._attributes = _Cache()
+        self._fires = _Cache()
         self._caches = [self._media, self._solids, self._shadows, self._tfms, self._gobos,
-                        self._gbuffers, self._targets, self._attributes, self._medium_shadows]
+                        self._gbuffers, self._targets, self._attributes, self._medium_shadows,
+                        self._fires]
         self._frame_memos: dict[str, _FrameMemo] = {}   # per client: what the samples of its frame share
 
     @property
@@ -364,7 +369,8 @@ class Renderer:
             built += [self._build_face(scene, settings, face, medium_gpu, casters, gobo, warnings)
                       for face in plan.faces if face.light is light]
             steps.step("light_maps", t0)
-        frame = _Frame(plan, medium_gpu, medium, attributes, seen, built)
+        frame = _Frame(plan, medium_gpu, medium, attributes, seen, built,
+                       self._fire(medium, seen, warnings))
         if accumulate is not None:
             self._frame_memos[client] = _FrameMemo(
                 _frame_of(scene, settings, accumulate, client, map_image_side), frame, list(warnings),
@@ -404,7 +410,7 @@ class Renderer:
                       ambient=ambient if scene.world_lights_medium else dark,
                       ambient_surface=ambient if scene.world_lights_surfaces else dark,
                       attributes=frame.attributes, active=self._active_rects(size, active),
-                      compose=compose, sums=sums if lone else None)
+                      compose=compose, sums=sums if lone else None, fire=frame.fire)
         self.counters["pixels_shaded"] += (size[0] * size[1] if active is None
                                            else int(np.count_nonzero(active.mask)))
         if not frame.lights:
@@ -562,6 +568,24 @@ class Renderer:
         gpu.fog = fog
         gpu.key = tuple(_slot_key(s) for s in slots) + ((("fog", fog.key),) if fog is not None else ())
         return gpu, warnings
+
+    def _fire(self, medium, seen, warnings: list[str]) -> FireGPU | None:
+        """The light the first marched medium's emission casts on the solids the camera sees
+        (engine/fire_light.py), where its object lights surfaces; cached by what it depends on but the
+        medium's placement (a moving fire's samples share it)."""
+        if (medium is None or not medium.lights_surfaces or not medium.has_emission
+                or not seen.vertex_count):
+            return None
+        if not has_fire_unit(self.gl):
+            warnings.append(f"Medium '{medium.name}': its emission does not light the surfaces "
+                            f"(this OpenGL has too few texture units)")
+            return None
+        found, built = self._fires.get(("fire", fire_content_key(medium)), lambda: _fire_gpu(self.gl, medium))
+        self.counters["fire_lights"] += built
+        if found is not None:
+            warnings.append(f"Medium '{medium.name}' lights the surfaces from {len(found.light)} points "
+                            f"of its emission; solids do not shadow that light")
+        return found
 
     def _medium_attributes(self, medium, medium_gpu: MediaGPU) -> AttributesGPU | None:
         """The emission and colour-grid textures of ``medium`` (the first medium marched), or
@@ -799,6 +823,12 @@ class _Frame:
     attributes: AttributesGPU | None
     seen: SolidsBuffer
     lights: list[_LightPlan]
+    fire: FireGPU | None = None
+
+
+def _fire_gpu(gl, medium) -> FireGPU | None:
+    light = fire_light(medium)
+    return None if light is None else FireGPU(gl, light)
 
 
 @dataclass

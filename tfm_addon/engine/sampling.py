@@ -28,6 +28,8 @@ from .adaptive import (
     active_pixels,
     unconverged,
 )
+from .camera import view_plane
+from .camera_effects import lens_camera, moved_scene
 from .output import RenderOutput
 from .quality import medium_stats
 from .renderer import Renderer, effective_settings, prepare_scene
@@ -43,6 +45,24 @@ VIEW_DEPTH_PER_STEP = 0.25   # under AUTO: the largest optical depth a sample's 
 MANY_SAMPLES = 12        # under AUTO, a frame of at least this many samples ...
 MANY_SAMPLES_COEFFICIENTS = 4   # ... takes at least this many TFM coefficients (frame_settings)
 ADAPTIVE_FRAME_SAMPLES = 12  # frames of at least this many samples are adaptive (ADAPTIVE_MIN_SAMPLES + 4)
+
+
+AUTO_LENS_SAMPLES = 64   # the most automatic samples a camera's depth of field asks for
+
+
+def auto_samples(camera: Camera | None) -> int:
+    """The final render's samples when Samples is 0 (automatic): AUTO_SAMPLES, more for a camera
+    with depth of field. The lens points are shared by every pixel of a sample, so a blur of B
+    pixels shows the sample's copies of the image; (B / 2)² of them (at most AUTO_LENS_SAMPLES)
+    sit close enough to merge, B the blur of a point at infinity (aperture diameter / focus
+    distance, in pixels). The f/0.25 row of the conformance suite (B = 15 px at 160x90): SSIM
+    against Cycles 0.9779 at 16 samples, 0.9929 at 32, 0.9968 at the 55 this gives."""
+    ap = None if camera is None else camera.aperture
+    if ap is None or ap.radius_m <= 0.0 or camera.projection != "PERSP":
+        return AUTO_SAMPLES
+    plane = view_plane(camera)
+    blur_px = 2.0 * ap.radius_m / max(ap.focus_m, 1e-6) / plane.pixel_size
+    return int(min(max(AUTO_SAMPLES, math.ceil((blur_px / 2.0) ** 2)), AUTO_LENS_SAMPLES))
 
 
 def radical_inverse(k: int, base: int) -> float:
@@ -116,6 +136,37 @@ def subpixel_offset(k: int) -> tuple[float, float]:
     return x / 2.0**32, y / 2.0**32
 
 
+# Seeds of the lens and shutter sequences: (index shuffle, x, y) and (index shuffle, t), drawn at
+# random (random.Random(11)), the best of twelve draws by the largest correlation between any two
+# of the subpixel, lens and shutter dimensions at 16, 64 and 256 samples (|r| sqrt(n) <= 2.2).
+LENS_SEEDS = (0x28518867, 0x9F8558A6, 0x03D71684)
+SHUTTER_SEEDS = (0xD4EA65D0, 0x8743FEB6)
+
+
+def _shuffled_sobol(k: int, seeds: tuple[int, ...]) -> tuple[float, ...]:
+    """Point ``k`` of the Sobol sequence's first len(seeds) - 1 dimensions with its index shuffled
+    (a nested uniform scramble of k's bits, Burley 2020: a block of 2^m indices from a multiple of
+    2^m maps to such a block, so each block still puts one point in each cell of the net) and each
+    dimension Owen-scrambled, then shifted so that point 0 is the centre: sequences with other
+    seeds are independent of the subpixel offsets and of each other."""
+    def point(j: int) -> tuple[int, ...]:
+        xy = _sobol_2d(_owen_scramble(j, seeds[0]))
+        return tuple(_owen_scramble(xy[d], s) for d, s in enumerate(seeds[1:]))
+
+    shift = tuple(p ^ (1 << 31) for p in point(0))
+    return tuple((p ^ s) / 2.0**32 for p, s in zip(point(k), shift, strict=True))
+
+
+def lens_sample(k: int) -> tuple[float, float]:
+    """Where sample ``k`` looks through the aperture, (u, v) in [0, 1)^2; sample 0 the centre."""
+    return (0.5, 0.5) if k == 0 else _shuffled_sobol(k, LENS_SEEDS)
+
+
+def shutter_time(k: int) -> float:
+    """When sample ``k`` is taken, as a fraction of the shutter; sample 0 its middle."""
+    return 0.5 if k == 0 else _shuffled_sobol(k, SHUTTER_SEEDS)[0]
+
+
 def march_offset(k: int) -> float | None:
     """The view-march start of sample ``k`` as a fraction of a step (each pixel adds its own
     hash to it), or None for sample 0 (samples at the step midpoints)."""
@@ -138,8 +189,13 @@ def jittered_camera(camera: Camera, k: int) -> Camera:
 
 
 def sample_scene(scene: Scene, settings: RenderSettings, k: int) -> tuple[Scene, RenderSettings]:
-    """The scene and settings of sample ``k``."""
-    return (dataclasses.replace(scene, camera=jittered_camera(scene.camera, k)),
+    """The scene and settings of sample ``k``: its subpixel offset, lens point (depth of field),
+    shutter time (motion blur) and march start."""
+    scene = moved_scene(scene, shutter_time(k))
+    camera = jittered_camera(scene.camera, k)
+    if camera.aperture is not None:
+        camera = lens_camera(camera, *lens_sample(k)) if k else dataclasses.replace(camera, aperture=None)
+    return (dataclasses.replace(scene, camera=camera),
             dataclasses.replace(settings, view_jitter=march_offset(k)))
 
 
@@ -317,7 +373,11 @@ def iter_samples(renderer: Renderer, scene: Scene, settings: RenderSettings | No
     scene = prepare_scene(scene, settings)     # node graphs evaluated once, here on the render thread
     settings = frame_settings(scene, settings, n)
     acc = accumulator or Accumulator()
-    adaptive = adaptive_threshold is not None and n >= ADAPTIVE_FRAME_SAMPLES
+    # The adaptive decisions read the first samples as the pixel's spread; with depth of field or
+    # motion blur the first samples have seen only a few lens points and times (a pixel beside a
+    # blurred edge is black in them and would stop): every pixel takes every sample.
+    blurred = (scene.camera.aperture is not None and scene.camera.aperture.radius_m > 0.0) or scene.motion
+    adaptive = adaptive_threshold is not None and n >= ADAPTIVE_FRAME_SAMPLES and not blurred
     for k in range(first, n if until is None else min(n, until)):
         if adaptive and acc.count == k:
             if k == ADAPTIVE_FIRST_SAMPLES and acc.decisions == 0:

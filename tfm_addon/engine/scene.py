@@ -19,6 +19,8 @@ from typing import Literal
 
 import numpy as np
 
+from .camera_effects import Motion
+
 RGB = tuple[float, float, float]
 
 
@@ -46,6 +48,21 @@ def _digest(*parts) -> str:
     return h.hexdigest()
 
 
+@dataclass(frozen=True)
+class Aperture:
+    """A thin lens (Blender's Depth of Field, as Cycles samples it): ``radius_m`` is Cycles'
+    aperture size, the lens's focal length over twice its f-stop; ``focus_m`` the distance of the
+    plane in focus along the view axis; ``blades`` (0, or 3 and more: a regular polygon whose
+    corners lie on the radius) turned by ``rotation_rad``; ``ratio`` squeezes the aperture's x by
+    1 / ratio (anamorphic bokeh)."""
+
+    radius_m: float
+    focus_m: float
+    blades: int = 0
+    rotation_rad: float = 0.0
+    ratio: float = 1.0
+
+
 @dataclass(frozen=True, eq=False)
 class Camera:
     """A Blender camera.
@@ -56,7 +73,8 @@ class Camera:
     latter using ``sensor_height_mm``). ``shift_x``/``shift_y`` are fractions of the fitted
     image side. ``ortho_scale`` (metres) is the fitted side of an orthographic view.
     ``clip_start``/``clip_end`` in metres. ``border`` = (xmin, ymin, xmax, ymax) in [0, 1] of the
-    full frame (Blender's render border, y up) or None.
+    full frame (Blender's render border, y up) or None. ``aperture``: depth of field (a thin lens,
+    sampled across the antialiasing samples; engine/camera_effects.py), None for a pinhole.
     """
 
     matrix_world: np.ndarray
@@ -73,6 +91,7 @@ class Camera:
     clip_start: float = 0.1
     clip_end: float = 100.0
     border: tuple[float, float, float, float] | None = None
+    aperture: Aperture | None = None
 
     def __post_init__(self):
         object.__setattr__(self, "matrix_world", _matrix(self.matrix_world))
@@ -82,7 +101,7 @@ class Camera:
         return _digest(self.matrix_world, self.width_px, self.height_px, self.projection,
                        self.lens_mm, self.sensor_width_mm, self.sensor_height_mm, self.sensor_fit,
                        self.shift_x, self.shift_y, self.ortho_scale, self.clip_start,
-                       self.clip_end, self.border)
+                       self.clip_end, self.border, self.aperture)
 
     @property
     def position(self) -> np.ndarray:
@@ -275,7 +294,7 @@ class Medium:
     W/(sr m^2) per m: ``emission_color * max(emission_strength, 0)`` plus the blackbody term
     ``blackbody_tint * sigma_SB / pi * 1e-6 * mix(1, T^4, blackbody_intensity) * bb(T)`` where
     ``blackbody_intensity`` > 0, T = ``temperature`` in kelvin and bb Cycles' Rec.709 blackbody
-    colour. Emission lights nothing: it is added along view rays only.
+    colour. Emission is added along view rays, and lights the solids where ``lights_surfaces``.
 
     ``source_key``: when given, a key that changes whenever ``density``, ``index_to_world`` or
     ``grids`` change (the file, frame and grid names they were read from); the arrays are then
@@ -294,6 +313,9 @@ class Medium:
     ``engine.shading.ShaderSource``; the density is then a one-voxel stand-in and ``source_key``
     the source's key): ``shading.resolve_scene`` turns it into a plain medium on the render
     thread, so that the host's thread never evaluates a graph.
+
+    ``lights_surfaces``: the emission lights the solids too (Cycles does, even with no bounces,
+    unless the object's Diffuse ray visibility is off), approximated by engine/fire_light.py.
     """
 
     sigma_a: RGB = (0.1, 0.1, 0.1)
@@ -315,6 +337,7 @@ class Medium:
     glow: GlowBlocks | None = None
     emission_grid: str | None = None
     shader: object | None = None
+    lights_surfaces: bool = False
 
     def __post_init__(self):
         if self.density is not None:
@@ -524,6 +547,8 @@ class Scene:
     ``world_lights_medium`` / ``world_lights_surfaces`` False: the world's light reaches no medium
     / no surface (the World's Ray Visibility ▸ Volume Scatter / Diffuse off in Blender; Camera off
     is a black ``world``).
+    ``motion``: where the camera and the objects move across the shutter (motion blur, sampled
+    across the antialiasing samples; engine/camera_effects.py), None: nothing moves.
     """
 
     camera: Camera
@@ -535,6 +560,7 @@ class Scene:
     environment: np.ndarray | None = None
     world_lights_medium: bool = True
     world_lights_surfaces: bool = True
+    motion: Motion | None = None
 
     def __post_init__(self):
         object.__setattr__(self, "lights", tuple(self.lights))

@@ -119,7 +119,7 @@ def run_light_pass(gl: GLContext, *, camera: Camera, plane: ViewPlane, medium: M
                    medium_gpu: MediaGPU, settings: RenderSettings, ambient, first: bool,
                    light=None, light_t: int = LIGHT_T_NONE, tfm=None, tfm_sigma_t=None,
                    attributes=None, active=None, compose=None, sums=None,
-                   medium_shadow: bool = True, ambient_surface=None, soft=None) -> None:
+                   medium_shadow: bool = True, ambient_surface=None, soft=None, fire=None) -> None:
     """Add one pass into the bound ScatteringTargets. ``light`` is (face, intensity, ShadowMap
     or None, gobo texture or None[, (weight on the media, weight on the surfaces)]) or None for the
     ambient-only first pass (``ambient``: the world radiance the media scatter on the first pass,
@@ -133,7 +133,8 @@ def run_light_pass(gl: GLContext, *, camera: Camera, plane: ViewPlane, medium: M
     (accumulate.SampleSums, bound by ``begin_sample``) adds the sample into them instead.
     ``medium_shadow`` False: no solid shadows a point of the media from this face
     (light.solids_may_shadow), their samples skip the shadow map. ``soft``: the light's size
-    across the face (light.soft_extent) or None: soft shadows from its shadow map and TFM."""
+    across the face (light.soft_extent) or None: soft shadows from its shadow map and TFM. ``fire``
+    (passes/fire.FireGPU or None): the emitting medium's light on the solids, added by the first pass."""
     medium_kind = medium_gpu.kind
     if light is not None and light_t == LIGHT_T_NONE and not first:
         medium_kind = MEDIUM_NONE          # this light never reaches the medium
@@ -151,6 +152,8 @@ def run_light_pass(gl: GLContext, *, camera: Camera, plane: ViewPlane, medium: M
         defines["GLOW_BLOCKS"] = 1      # the constant emission glows in these blocks only
     if active is not None:
         defines["RECTS"] = 1
+    if fire is not None and first:
+        defines["FIRE_LIGHT"] = 1
     if light is not None:
         defines.update(face_defines(light[0], light[2], light[3]))
         if light[2] is not None and not medium_shadow:
@@ -193,6 +196,8 @@ def run_light_pass(gl: GLContext, *, camera: Camera, plane: ViewPlane, medium: M
         tfm.bind(prog, medium.sigma_t if tfm_sigma_t is None else tfm_sigma_t)
     if emits or colored:
         attributes.bind(prog, medium, emits)
+    if fire is not None and first:
+        fire.bind(prog, medium)
     if compose is not None:
         film_transparent, world = compose
         set_uniforms(prog, u_film_transparent=int(bool(film_transparent)),

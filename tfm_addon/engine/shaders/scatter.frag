@@ -8,6 +8,7 @@
 #include "common.glsl"
 #include "transmittance.glsl"
 #include "emission.glsl"
+#include "fire_light.glsl"
 
 uniform sampler2D u_gb0;       // albedo, distance
 uniform sampler2D u_gb1;       // normal, hit
@@ -125,6 +126,9 @@ void main() {
         vec3 P = o + d * g0.w;
 #if FIRST_PASS
         surface += albedo * u_ambient_surface;
+#if FIRE_LIGHT
+        surface += albedo / PI * fire_irradiance(P, n);
+#endif
 #endif
 #if HAS_LIGHT
         vec3 qP = light_space(P);
