@@ -885,6 +885,98 @@ def _(tmpdir):
     _world_volume('ShaderNodeVolumeScatter', 0.05)
 
 
+# Surfaces: the ground's shader, seen low over it (the view grazes the far ground) --------------
+
+def _grazing_view() -> None:
+    import bpy
+
+    cam = bpy.context.scene.camera
+    cam.location = (0.0, -6.0, -0.65)
+    _aim(cam, (0.0, 0.0, -1.0))
+
+
+def surface_ground(shader: str | None = None, **inputs):
+    """The ground, 8 m, with a new material (Blender's default Principled BSDF), its shader
+    replaced by ``shader`` (a node type) when given; ``inputs`` set by socket name: (mat, node)."""
+    import bpy
+
+    bpy.ops.mesh.primitive_plane_add(size=8.0, location=(0.0, 0.0, -1.25))
+    mat = bpy.data.materials.new("Ground")
+    nt = mat.node_tree
+    node = nt.nodes["Principled BSDF"]
+    if shader is not None:
+        nt.nodes.remove(node)
+        node = nt.nodes.new(shader)
+        nt.links.new(node.outputs[0], nt.nodes["Material Output"].inputs["Surface"])
+    for k, v in inputs.items():
+        node.inputs[k].default_value = v
+    bpy.context.object.data.materials.append(mat)
+    return mat, node
+
+
+@row("surface_principled_default", "Ground: Blender's default Principled BSDF at a grazing view, point light")
+def _(tmpdir):
+    base(ground=False)
+    _grazing_view()
+    surface_ground()
+
+
+@row("surface_principled_metal", "Ground: Principled BSDF Metallic 1, Roughness 0.3, copper colour, under "
+     "the smoke", coloured=True)
+def _(tmpdir):
+    mat, nt, out = material()
+    principled(nt, out)
+    base(ground=False)
+    _grazing_view()
+    surface_ground(**{"Base Color": (0.95, 0.64, 0.54, 1.0), "Metallic": 1.0, "Roughness": 0.3})
+    volume_object(tmpdir, mat=mat)
+
+
+@row("surface_principled_specular", "Ground: Principled BSDF blue, Roughness 0.2, Specular IOR Level 1, "
+     "Specular Tint orange, plain GGX", coloured=True)
+def _(tmpdir):
+    base(ground=False)
+    _grazing_view()
+    _, node = surface_ground(**{"Base Color": (0.1, 0.3, 0.8, 1.0), "Roughness": 0.2,
+                                "Specular IOR Level": 1.0, "Specular Tint": (1.0, 0.7, 0.4, 1.0)})
+    node.distribution = 'GGX'
+
+
+@row("surface_glossy", "Ground: Glossy BSDF (0.8, 0.7, 0.5), Roughness 0.3", coloured=True)
+def _(tmpdir):
+    base(ground=False)
+    _grazing_view()
+    surface_ground('ShaderNodeBsdfGlossy', Color=(0.8, 0.7, 0.5, 1.0), Roughness=0.3)
+
+
+@row("surface_mix_shader", "Ground: Mix Shader 0.3 of two Principled BSDFs (red, green) from an RGB node",
+     coloured=True)
+def _(tmpdir):
+    base(ground=False)
+    _grazing_view()
+    mat, mix = surface_ground('ShaderNodeMixShader', Fac=0.3)
+    nt = mat.node_tree
+    rgb = nt.nodes.new('ShaderNodeRGB')
+    rgb.outputs[0].default_value = (0.8, 0.1, 0.1, 1.0)
+    for i, colour in ((1, None), (2, (0.1, 0.7, 0.2, 1.0))):
+        p = nt.nodes.new('ShaderNodeBsdfPrincipled')
+        if colour is None:
+            nt.links.new(rgb.outputs[0], p.inputs["Base Color"])
+        else:
+            p.inputs["Base Color"].default_value = colour
+        nt.links.new(p.outputs[0], mix.inputs[i])
+
+
+@row("spot_grazing_floor", "Spot light low over a Diffuse floor (the light grazes it)")
+def _(tmpdir):
+    base(lights=None, ground=False)
+    _grazing_view()
+    surface_ground('ShaderNodeBsdfDiffuse', Color=(0.8, 0.8, 0.8, 1.0))
+    spot = light('SPOT', (-3.0, 1.0, -0.85), energy=2000.0)
+    _aim(spot, (1.5, 1.0, -1.25))
+    spot.data.spot_size = 1.2
+
+
 ROW_BY_ID = {r.id: r for r in ROWS}
 
 

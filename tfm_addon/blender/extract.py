@@ -481,7 +481,7 @@ def _walk_instances(depsgraph, parts: Change, cache: GridCache,
             seen = colour_notes if flags["visible_camera"] else None   # an unseen colour needs no note
             solids.append(kept.solid(Mesh(vertices=vertices, triangles=tris,
                                           matrix_world=np.array(instance.matrix_world),
-                                          color=meshes.diffuse_color(ob, seen), name=_label(instance),
+                                          **meshes.shading(ob, seen), name=_label(instance),
                                           **flags)))
 
     notes[Change.SOLIDS].extend(dict.fromkeys(colour_notes))   # once per material

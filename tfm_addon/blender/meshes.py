@@ -1,10 +1,10 @@
-"""Solid objects as triangle meshes with a diffuse colour."""
+"""Solid objects as triangle meshes with their surface."""
 
 from __future__ import annotations
 
 import numpy as np
 
-from . import materials
+from . import surfaces
 
 # Object types that evaluate to a mesh.
 MESH_TYPES = {'MESH', 'CURVE', 'SURFACE', 'FONT', 'META'}
@@ -36,14 +36,14 @@ def first_material(evaluated_object):
     return None
 
 
-def diffuse_color(evaluated_object, notes: list[str] | None = None) -> tuple[float, float, float]:
-    """Albedo: the Principled BSDF base colour (or Diffuse BSDF colour) of the first material,
-    materials.FALLBACK_GREY (with a line in ``notes``) for a surface it cannot read, else the
-    object's viewport colour."""
-    color = materials.surface_color(first_material(evaluated_object), notes)
-    if color is None:
-        color = tuple(evaluated_object.color[:3])
-    return tuple(float(min(max(c, 0.0), 1.0)) for c in color)
+def shading(evaluated_object, notes: list[str] | None = None) -> dict:
+    """The mesh's ``color`` (its base colour) and ``surface`` (blender/surfaces.py) from its first
+    material's surface shader; without one, the object's viewport colour, Lambertian."""
+    surface = surfaces.read_surface(first_material(evaluated_object), notes)
+    if surface is None:
+        return {"color": tuple(float(min(max(c, 0.0), 1.0)) for c in evaluated_object.color[:3]),
+                "surface": None}
+    return {"color": tuple(float(min(max(c, 0.0), 1.0)) for c in surface.base_color), "surface": surface}
 
 
 def visibility(instance, view_layer) -> dict[str, bool]:

@@ -239,3 +239,17 @@ def compile_volume(material, texspace=None) -> ShaderGraph | None:
     link = None if index is None else Link(index, _output_name(node, socket), socket.type)
     kw = {} if texspace is None else {"texspace": tuple(tuple(float(x) for x in v) for v in texspace)}
     return ShaderGraph(tuple(c.nodes), link, tuple(c.notes), **kw)
+
+
+def compile_socket(socket, texspace=None) -> ShaderGraph:
+    """The graph feeding an input ``socket`` (of a surface shader): its output is the Link to the
+    value (None when unlinked or unreadable: the socket reads its own value), evaluated by
+    ``shading.evaluate_value``."""
+    c = _Compiler()
+    link = None
+    node, out = c.source(socket)
+    if node is not None:
+        value = c.input(socket.name, socket)
+        link = value.value if isinstance(value.value, Link) else None
+    kw = {} if texspace is None else {"texspace": tuple(tuple(float(x) for x in v) for v in texspace)}
+    return ShaderGraph(tuple(c.nodes), link, tuple(c.notes), **kw)

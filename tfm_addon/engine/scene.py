@@ -19,6 +19,8 @@ from typing import Literal
 
 import numpy as np
 
+from .surface import Surface
+
 RGB = tuple[float, float, float]
 
 
@@ -395,8 +397,9 @@ class Medium:
 
 @dataclass(frozen=True, eq=False)
 class Mesh:
-    """A solid diffuse object: ``vertices`` (n, 3) float in object space, ``triangles`` (m, 3)
-    int vertex indices, placed by ``matrix_world``; ``color`` is the diffuse albedo.
+    """A solid object: ``vertices`` (n, 3) float in object space, ``triangles`` (m, 3) int vertex
+    indices, placed by ``matrix_world``; ``color`` is the diffuse albedo, ``surface`` its shading
+    (engine/surface.py; None: a Lambertian surface of albedo ``color``).
 
     Visibility, as Cycles' object settings: ``visible_camera`` False hides it from the camera
     (it still casts shadows); ``cast_shadow`` False keeps it out of the shadow maps (no shadow
@@ -412,6 +415,7 @@ class Mesh:
     visible_camera: bool = True
     cast_shadow: bool = True
     holdout: bool = False
+    surface: Surface | None = None
 
     def __post_init__(self):
         v = np.ascontiguousarray(self.vertices, dtype=np.float32).reshape(-1, 3)
@@ -425,7 +429,13 @@ class Mesh:
     @cached_property
     def key(self) -> str:
         """What its vertex buffer holds (the visibility flags choose the sets it is in)."""
-        return _digest(self.vertices, self.triangles, self.matrix_world, self.color, self.holdout)
+        return _digest(self.vertices, self.triangles, self.matrix_world, self.color, self.holdout,
+                       repr(self.surface))
+
+    @property
+    def shading(self) -> Surface:
+        """The surface the renderer shades (a Lambertian ``color`` when ``surface`` is None)."""
+        return self.surface if self.surface is not None else Surface.lambert(self.color)
 
     @cached_property
     def shape_key(self) -> str:

@@ -158,6 +158,7 @@ class _Evaluation:
                  position: np.ndarray | None):
         self.graph, self.grids, self.n, self.position = graph, grids, n, position
         self.memo: dict[int, dict] = {}
+        self.uv: np.ndarray | None = None     # (n, 2) UV coordinates of surface points
         self.current = -1           # the node being evaluated
 
     def reads(self, output: str) -> bool:
@@ -229,6 +230,17 @@ def evaluate(graph: ShaderGraph, grids: Mapping[str, np.ndarray], n: int,
     mean_s = _mean3(s)
     g = np.where(mean_s > 0.0, np.broadcast_to(c.g_weighted, (n,)) / np.maximum(mean_s, 1e-30), 0.0)
     return VolumeFields(s, a, e, np.clip(g, -0.99, 0.99))
+
+
+def evaluate_value(graph: ShaderGraph, kind: str, n: int, position: np.ndarray | None = None,
+                   uv: np.ndarray | None = None):
+    """The value ``graph.output`` links to, as socket type ``kind`` (VALUE: (n,), RGBA or VECTOR:
+    (n, 3)), at ``n`` points of a surface: ``position`` (n, 3) in object space, ``uv`` (n, 2)."""
+    ev = _Evaluation(graph, {}, n, position)
+    ev.uv = uv
+    value = ev.input(Input("value", kind, graph.output))
+    shape = (n, 3) if kind in ("RGBA", "VECTOR") else (n,)
+    return np.broadcast_to(np.asarray(value, F), shape)
 
 
 # ---- value nodes --------------------------------------------------------------------------------

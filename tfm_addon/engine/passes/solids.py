@@ -1,26 +1,44 @@
-"""The solids as one vertex buffer: world positions, face normals, albedo, holdout flag."""
+"""The solids as one vertex buffer: world positions, face normals, base colour, hit flag; and
+the table of their surfaces (a uniform block)."""
 
 from __future__ import annotations
 
 import numpy as np
 
 from ..scene import Mesh
+from ..surface import MAX_MATERIALS, material_table
 
 FORMAT = "3f 3f 3f 1f"
 POSITION_ONLY = "3f 28x"
 
 
 def solids_vertices(meshes: tuple[Mesh, ...]) -> np.ndarray:
-    """(3 * triangles, 10) float32: position, face normal, albedo, holdout (1 or 0) per vertex,
-    world space."""
-    rows = _mesh_blocks(meshes)
+    """(3 * triangles, 10) float32: position, face normal, base colour, hit flag per vertex,
+    world space (``hit_flags``)."""
+    rows = _mesh_blocks(meshes, hit_flags(meshes)[0])
     return np.concatenate(rows) if rows else np.zeros((0, 10), np.float32)
 
 
-def _mesh_blocks(meshes: tuple[Mesh, ...]) -> list[np.ndarray]:
+def hit_flags(meshes: tuple[Mesh, ...]) -> tuple[list[float], list]:
+    """Per mesh, the G-buffer's hit flag: 2 for a holdout, 1 + 2 k for a surface that is entry k
+    of the material table; and the table (the distinct surfaces, at most MAX_MATERIALS: the rest
+    share the last entry)."""
+    table: dict = {}
+    flags = []
+    for mesh in meshes:
+        if mesh.holdout:
+            flags.append(2.0)
+            continue
+        surface = mesh.shading
+        k = table.setdefault(surface, min(len(table), MAX_MATERIALS - 1))
+        flags.append(1.0 + 2.0 * k)
+    return flags, list(table)
+
+
+def _mesh_blocks(meshes: tuple[Mesh, ...], flags: list[float]) -> list[np.ndarray]:
     """solids_vertices' rows of each mesh that has triangles (degenerate ones dropped)."""
     rows = []
-    for mesh in meshes:
+    for mesh, flag in zip(meshes, flags, strict=True):
         if len(mesh.triangles) == 0:
             continue
         v = mesh.world_vertices()[mesh.triangles]            # (m, 3, 3)
@@ -31,8 +49,8 @@ def _mesh_blocks(meshes: tuple[Mesh, ...]) -> list[np.ndarray]:
         block = np.empty((len(v), 3, 10), dtype=np.float32)
         block[:, :, 0:3] = v
         block[:, :, 3:6] = n[:, None, :]
-        block[:, :, 6:9] = np.asarray(mesh.color, dtype=np.float32)
-        block[:, :, 9] = float(mesh.holdout)
+        block[:, :, 6:9] = np.asarray(mesh.shading.base_color, dtype=np.float32)
+        block[:, :, 9] = flag
         rows.append(block.reshape(-1, 10))
     return rows
 
@@ -41,12 +59,15 @@ KEEP_TRIANGLES = 100_000   # per mesh, world triangles kept on the CPU for light
 
 
 class SolidsBuffer:
-    """The solids' vertices on the GPU, shared by the shadow-map and G-buffer passes; ``parts``:
+    """The solids' vertices on the GPU, shared by the shadow-map and G-buffer passes, and their
+    material table (``materials``, the light passes' uniform block); ``parts``:
     per mesh, its world bounds and (k, 3, 3) float32 world triangles (None beyond
     KEEP_TRIANGLES), for light.solids_may_shadow."""
 
     def __init__(self, ctx, meshes: tuple[Mesh, ...]):
-        blocks = [b for b in _mesh_blocks(meshes) if len(b)]
+        flags, surfaces = hit_flags(meshes)
+        self.materials = ctx.buffer(material_table(surfaces))
+        blocks = [b for b in _mesh_blocks(meshes, flags) if len(b)]
         self.parts = []
         for block in blocks:
             tri = block[:, :3].reshape(-1, 3, 3)
@@ -58,5 +79,6 @@ class SolidsBuffer:
         self.vbo = ctx.buffer(data.tobytes()) if len(data) else None
 
     def release(self) -> None:
+        self.materials.release()
         if self.vbo is not None:
             self.vbo.release()

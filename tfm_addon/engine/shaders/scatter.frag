@@ -8,9 +8,10 @@
 #include "common.glsl"
 #include "transmittance.glsl"
 #include "emission.glsl"
+#include "surface.glsl"
 
-uniform sampler2D u_gb0;       // albedo, distance
-uniform sampler2D u_gb1;       // normal, hit
+uniform sampler2D u_gb0;       // base colour, distance
+uniform sampler2D u_gb1;       // normal, hit flag (surface.glsl)
 uniform mat4 u_camera_to_world;
 uniform vec2 u_plane0;         // camera-space x, y of the window's lower-left corner (unit depth)
 uniform float u_pixel_size;    // at unit depth (perspective) or in metres (orthographic)
@@ -111,21 +112,25 @@ void main() {
     vec3 transmittance = vec3(1.0);
     float phase_g = u_g;
 
-    if (hit) {
-        vec3 albedo = g0.rgb;
+    if (hit && abs(g1.w - 2.0) > 0.5) {      // a surface (a holdout has no radiance)
         vec3 n = normalize(g1.xyz);
         if (dot(n, d) > 0.0) n = -n;
         vec3 P = o + d * g0.w;
+        SurfacePoint sp = surface_point(g1.w, g0.rgb);
+        Lobes lobes = surface_lobes(sp, dot(n, -d));
 #if FIRST_PASS
-        surface += albedo * u_ambient;
+        surface += surface_albedo(sp, lobes) * u_ambient + sp.emission;
 #endif
 #if HAS_LIGHT
         vec3 qP = light_space(P);
-        float ndl = dot(n, toward_light(P, qP, light_distance(qP)));
-        if (ndl > 0.0) {
+        vec3 L = toward_light(P, qP, light_distance(qP));
+        vec3 f = surface_bsdf_cos(sp, lobes, n, -d, L);
+        if (any(greaterThan(f, vec3(0.0)))) {
             float r;
-            g_bias_texels = 3.0;    // the solid's own shadow-map texels must not shadow it
-            surface += albedo / PI * ndl * light_arriving(P, qP, r) * u_light_targets.y;
+            // The solid's own shadow-map texels must not shadow it: 3 footprints, and as many
+            // as its depth changes across one where the light grazes it (slope-scaled).
+            g_bias_texels = surface_bias_texels(dot(n, L));
+            surface += f * light_arriving(P, qP, r) * u_light_targets.y;
             g_bias_texels = 0.0;
         }
 #endif

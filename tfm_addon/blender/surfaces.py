@@ -1,0 +1,146 @@
+"""A material's surface shader read as the engine's ``Surface`` (engine/surface.py).
+
+The walk starts at the Cycles output's Surface socket. Each shader node the engine shades has a row
+in ``SHADERS``; Mix and Add Shader combine what their inputs give (``surface.mix``). An input of a
+shader reads its constant value, or the value of the node graph feeding it (Value, RGB, Math, Mix,
+Color Ramp, ... compiled by ``node_graph`` and evaluated by ``engine/shading.py``). What is not
+read is named once in the report and rendered as said there.
+"""
+
+from __future__ import annotations
+
+from ..engine import shading
+from ..engine.surface import Surface, effective_ior, mix
+from . import node_graph
+from .materials import output_node
+
+FALLBACK = Surface.lambert((0.5, 0.5, 0.5))
+
+
+class _Reader:
+    def __init__(self, material):
+        self.material = material
+        self.notes: dict[str, None] = {}
+
+    def note(self, line: str) -> None:
+        self.notes.setdefault(f"Material '{self.material.name}': {line}", None)
+
+    def value(self, node, name: str):
+        """The input ``name`` of ``node``: its constant, or what the graph feeding it gives."""
+        socket = node.inputs[name]
+        kind = "RGBA" if socket.type == 'RGBA' else "VECTOR" if socket.type == 'VECTOR' else "VALUE"
+        graph = node_graph.compile_socket(socket)
+        for line in graph.notes:
+            self.note(line)
+        if graph.output is None:
+            v = socket.default_value
+            return tuple(float(x) for x in v[:3]) if kind != "VALUE" else float(v)
+        if graph.reads_position or graph.grids:
+            self.note(f"'{name}' of '{node.name}' varies over the surface (a texture): it is read as "
+                      f"its own value")
+            v = socket.default_value
+            return tuple(float(x) for x in v[:3]) if kind != "VALUE" else float(v)
+        v = shading.evaluate_value(graph, kind, 1)[0]
+        return tuple(float(x) for x in v) if kind != "VALUE" else float(v)
+
+    def unread(self, node, names_defaults) -> None:
+        """A line for each input of ``node`` set away from its default (None: linked at all)."""
+        for name, default in names_defaults:
+            if name not in node.inputs:
+                continue
+            changed = node.inputs[name].is_linked if default is None else self.value(node, name) != default
+            if changed:
+                self.note(f"'{name}' of '{node.name}' ({node.bl_label}) is not rendered")
+
+    def shader(self, socket) -> Surface | None:
+        """The surface the shader feeding ``socket`` gives (None: no shader)."""
+        c = node_graph._Compiler()
+        node, _ = c.source(socket)
+        if node is None:
+            return None
+        read = SHADERS.get(node.bl_idname)
+        if read is None:
+            self.note(f"its surface shader '{node.name}' ({node.bl_label}) is not read; rendered as a "
+                      f"diffuse grey {FALLBACK.base_color[0]:g}")
+            return FALLBACK
+        return read(self, node)
+
+
+def _principled(r: _Reader, node) -> Surface:
+    r.unread(node, (("Subsurface Weight", 0.0), ("Transmission Weight", 0.0), ("Coat Weight", 0.0),
+                    ("Sheen Weight", 0.0), ("Anisotropic", 0.0), ("Diffuse Roughness", 0.0),
+                    ("Thin Film Thickness", 0.0), ("Normal", None)))
+    if r.value(node, "Alpha") < 1.0:
+        r.note(f"the Alpha of '{node.name}' is rendered as 1 (opaque)")
+    strength = r.value(node, "Emission Strength")
+    emission = tuple(c * strength for c in r.value(node, "Emission Color"))
+    return Surface(base_color=tuple(max(c, 0.0) for c in r.value(node, "Base Color")),
+                   metallic=min(max(r.value(node, "Metallic"), 0.0), 1.0),
+                   roughness=min(max(r.value(node, "Roughness"), 0.0), 1.0),
+                   ior=effective_ior(r.value(node, "IOR"), r.value(node, "Specular IOR Level")),
+                   specular_tint=tuple(max(c, 0.0) for c in r.value(node, "Specular Tint")),
+                   emission=emission if strength > 1e-5 else (0.0, 0.0, 0.0),
+                   multiscatter=node.distribution == 'MULTI_GGX')
+
+
+def _diffuse(r: _Reader, node) -> Surface:
+    if r.value(node, "Roughness") > 0.0:
+        r.note(f"the Roughness of '{node.name}' (Oren-Nayar) is rendered as 0 (Lambert)")
+    return Surface.lambert(tuple(max(c, 0.0) for c in r.value(node, "Color")))
+
+
+def _glossy(r: _Reader, node) -> Surface:
+    if node.distribution not in ('GGX', 'MULTI_GGX'):
+        r.note(f"'{node.name}' uses the {node.distribution.replace('_', ' ').title()} distribution, "
+               f"rendered as GGX")
+    if r.value(node, "Anisotropy") != 0.0:
+        r.note(f"the Anisotropy of '{node.name}' is not rendered")
+    return Surface(base_color=tuple(max(c, 0.0) for c in r.value(node, "Color")), metallic=1.0,
+                   roughness=min(max(r.value(node, "Roughness"), 0.0), 1.0), ior=1.0,
+                   multiscatter=node.distribution == 'MULTI_GGX', constant_fresnel=True)
+
+
+def _emission(r: _Reader, node) -> Surface:
+    strength = r.value(node, "Strength")
+    return Surface(weight=0.0, emission=tuple(c * strength for c in r.value(node, "Color")))
+
+
+def _combine(r: _Reader, parts) -> Surface:
+    parts = [(f, s) for f, s in parts if s is not None]
+    surface, exact = mix(parts)
+    if not exact:
+        r.note("mixes shaders whose settings differ: rendered as one surface of their weighted mean")
+    return surface
+
+
+def _mix_shader(r: _Reader, node) -> Surface:
+    f = min(max(r.value(node, "Fac"), 0.0), 1.0)
+    return _combine(r, [(1.0 - f, r.shader(node.inputs[1])), (f, r.shader(node.inputs[2]))])
+
+
+def _add_shader(r: _Reader, node) -> Surface:
+    return _combine(r, [(1.0, r.shader(node.inputs[0])), (1.0, r.shader(node.inputs[1]))])
+
+
+SHADERS = {
+    'ShaderNodeBsdfPrincipled': _principled,
+    'ShaderNodeBsdfDiffuse': _diffuse,
+    'ShaderNodeBsdfGlossy': _glossy,
+    'ShaderNodeBsdfAnisotropic': _glossy,     # the Glossy BSDF's type since Blender 4.0
+    'ShaderNodeEmission': _emission,
+    'ShaderNodeMixShader': _mix_shader,
+    'ShaderNodeAddShader': _add_shader,
+}
+
+
+def read_surface(material, notes: list[str] | None = None) -> Surface | None:
+    """The material's surface, or None when it has no node surface (the caller shades the
+    object's colour); lines for what is not read go to ``notes``."""
+    out = output_node(material)
+    if out is None or not out.inputs["Surface"].is_linked:
+        return None
+    r = _Reader(material)
+    surface = r.shader(out.inputs["Surface"])
+    if notes is not None:
+        notes.extend(r.notes)
+    return surface
