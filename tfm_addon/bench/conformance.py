@@ -967,6 +967,52 @@ def _(tmpdir):
         nt.links.new(p.outputs[0], mix.inputs[i])
 
 
+def _test_image(width: int = 32, height: int = 16):
+    """An 8-bit sRGB image made by code: a warm-to-cool ramp across, dark stripes along."""
+    import bpy
+
+    img = bpy.data.images.new("Tiles", width, height)
+    u = (np.arange(width) + 0.5) / width
+    rgb = np.stack([0.9 - 0.7 * u, 0.3 + 0.3 * u, 0.1 + 0.8 * u], -1)[None].repeat(height, 0)
+    rgb[::4] *= 0.25
+    px = np.concatenate([rgb, np.ones((height, width, 1))], -1).astype(np.float32)
+    img.pixels.foreach_set(px.ravel())
+    return img
+
+
+@row("surface_checker_smoke", "Ground: Checker Texture (Generated coordinates) → Principled Base Color, "
+     "behind the smoke", coloured=True)
+def _(tmpdir):
+    mat, nt, out = material()
+    principled(nt, out)
+    base(ground=False)
+    ground, bsdf = surface_ground()
+    checker = ground.node_tree.nodes.new('ShaderNodeTexChecker')
+    checker.inputs["Scale"].default_value = 4.0
+    checker.inputs["Color1"].default_value = (0.9, 0.7, 0.3, 1.0)
+    ground.node_tree.links.new(checker.outputs["Color"], bsdf.inputs["Base Color"])
+    volume_object(tmpdir, mat=mat)
+
+
+@row("surface_image_smoke", "Ground: Image Texture (UV map, 8-bit sRGB) → Color Ramp-free Mix (Multiply) → "
+     "Diffuse, behind the smoke", coloured=True)
+def _(tmpdir):
+    mat, nt, out = material()
+    principled(nt, out)
+    base(ground=False)
+    ground, bsdf = surface_ground('ShaderNodeBsdfDiffuse')
+    gnt = ground.node_tree
+    tex = gnt.nodes.new('ShaderNodeTexImage')
+    tex.image = _test_image()
+    mix = gnt.nodes.new('ShaderNodeMix')
+    mix.data_type, mix.blend_type = 'RGBA', 'MULTIPLY'
+    mix.inputs["Factor"].default_value = 1.0
+    socket(mix.inputs, "B_Color").default_value = (1.0, 0.9, 0.8, 1.0)
+    gnt.links.new(tex.outputs["Color"], socket(mix.inputs, "A_Color"))
+    gnt.links.new(socket(mix.outputs, "Result_Color"), bsdf.inputs["Color"])
+    volume_object(tmpdir, mat=mat)
+
+
 @row("spot_grazing_floor", "Spot light low over a Diffuse floor (the light grazes it)")
 def _(tmpdir):
     base(lights=None, ground=False)

@@ -10,9 +10,10 @@ from . import surfaces
 MESH_TYPES = {'MESH', 'CURVE', 'SURFACE', 'FONT', 'META'}
 
 
-def triangles(evaluated_object) -> tuple[np.ndarray, np.ndarray] | None:
-    """Vertices (n, 3) float32 in object space and triangles (m, 3) int32 of an evaluated object,
-    or None when it has no faces."""
+def triangles(evaluated_object) -> tuple[np.ndarray, np.ndarray, np.ndarray | None] | None:
+    """Vertices (n, 3) float32 in object space, triangles (m, 3) int32 and the active UV map per
+    triangle corner (m, 3, 2) float32 (None without one) of an evaluated object, or None when it
+    has no faces."""
     mesh = evaluated_object.to_mesh()
     try:
         if mesh is None or len(mesh.polygons) == 0:
@@ -24,7 +25,15 @@ def triangles(evaluated_object) -> tuple[np.ndarray, np.ndarray] | None:
         mesh.loop_triangles.foreach_get("vertices", tris)
         vertices.setflags(write=False)
         tris.setflags(write=False)
-        return vertices.reshape(-1, 3), tris.reshape(-1, 3)
+        uv = None
+        if mesh.uv_layers.active is not None:
+            loops = np.empty(len(mesh.loop_triangles) * 3, dtype=np.int32)
+            mesh.loop_triangles.foreach_get("loops", loops)
+            data = np.empty(len(mesh.loops) * 2, dtype=np.float32)
+            mesh.uv_layers.active.data.foreach_get("uv", data)
+            uv = data.reshape(-1, 2)[loops].reshape(-1, 3, 2)
+            uv.setflags(write=False)
+        return vertices.reshape(-1, 3), tris.reshape(-1, 3), uv
     finally:
         evaluated_object.to_mesh_clear()
 
@@ -39,7 +48,11 @@ def first_material(evaluated_object):
 def shading(evaluated_object, notes: list[str] | None = None) -> dict:
     """The mesh's ``color`` (its base colour) and ``surface`` (blender/surfaces.py) from its first
     material's surface shader; without one, the object's viewport colour, Lambertian."""
-    surface = surfaces.read_surface(first_material(evaluated_object), notes)
+    data = evaluated_object.data
+    texspace = None
+    if hasattr(data, "texspace_location") and hasattr(data, "texspace_size"):
+        texspace = (tuple(data.texspace_location), tuple(data.texspace_size))
+    surface = surfaces.read_surface(first_material(evaluated_object), notes, texspace)
     if surface is None:
         return {"color": tuple(float(min(max(c, 0.0), 1.0)) for c in evaluated_object.color[:3]),
                 "surface": None}

@@ -9,6 +9,8 @@ read is named once in the report and rendered as said there.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 from ..engine import shading
 from ..engine.surface import Surface, effective_ior, mix
 from . import node_graph
@@ -18,28 +20,36 @@ FALLBACK = Surface.lambert((0.5, 0.5, 0.5))
 
 
 class _Reader:
-    def __init__(self, material):
+    def __init__(self, material, texspace=None):
         self.material = material
+        self.texspace = texspace
         self.notes: dict[str, None] = {}
+        self.textures: dict[str, object] = {}     # input name -> the graph of a varying one
 
     def note(self, line: str) -> None:
         self.notes.setdefault(f"Material '{self.material.name}': {line}", None)
 
-    def value(self, node, name: str):
-        """The input ``name`` of ``node``: its constant, or what the graph feeding it gives."""
+    def value(self, node, name: str, varying: bool = False):
+        """The input ``name`` of ``node``: its constant, or what the graph feeding it gives; a
+        graph that varies over the surface (textures) is kept in ``textures`` when ``varying``
+        (the constant returned is then the socket's own value), else named in the report."""
         socket = node.inputs[name]
         kind = "RGBA" if socket.type == 'RGBA' else "VECTOR" if socket.type == 'VECTOR' else "VALUE"
-        graph = node_graph.compile_socket(socket)
+        graph = node_graph.compile_socket(socket, self.texspace)
         for line in graph.notes:
             self.note(line)
+        v = socket.default_value
+        own = tuple(float(x) for x in v[:3]) if kind != "VALUE" else float(v)
         if graph.output is None:
-            v = socket.default_value
-            return tuple(float(x) for x in v[:3]) if kind != "VALUE" else float(v)
+            return own
         if graph.reads_position or graph.grids:
-            self.note(f"'{name}' of '{node.name}' varies over the surface (a texture): it is read as "
-                      f"its own value")
-            v = socket.default_value
-            return tuple(float(x) for x in v[:3]) if kind != "VALUE" else float(v)
+            if varying:
+                self.textures[name] = graph
+            else:
+                names = ", ".join(f"'{n.label}'" for n in graph.nodes if n.kind.startswith("TEX_"))
+                self.note(f"'{name}' of '{node.name}' varies over the surface (from {names or 'its position'}"
+                          f"), which is not rendered: it reads its own value")
+            return own
         v = shading.evaluate_value(graph, kind, 1)[0]
         return tuple(float(x) for x in v) if kind != "VALUE" else float(v)
 
@@ -74,7 +84,8 @@ def _principled(r: _Reader, node) -> Surface:
         r.note(f"the Alpha of '{node.name}' is rendered as 1 (opaque)")
     strength = r.value(node, "Emission Strength")
     emission = tuple(c * strength for c in r.value(node, "Emission Color"))
-    return Surface(base_color=tuple(max(c, 0.0) for c in r.value(node, "Base Color")),
+    return Surface(base_color=tuple(max(c, 0.0) for c in r.value(node, "Base Color", varying=True)),
+                   base_texture=r.textures.pop("Base Color", None),
                    metallic=min(max(r.value(node, "Metallic"), 0.0), 1.0),
                    roughness=min(max(r.value(node, "Roughness"), 0.0), 1.0),
                    ior=effective_ior(r.value(node, "IOR"), r.value(node, "Specular IOR Level")),
@@ -86,7 +97,8 @@ def _principled(r: _Reader, node) -> Surface:
 def _diffuse(r: _Reader, node) -> Surface:
     if r.value(node, "Roughness") > 0.0:
         r.note(f"the Roughness of '{node.name}' (Oren-Nayar) is rendered as 0 (Lambert)")
-    return Surface.lambert(tuple(max(c, 0.0) for c in r.value(node, "Color")))
+    surface = Surface.lambert(tuple(max(c, 0.0) for c in r.value(node, "Color", varying=True)))
+    return replace(surface, base_texture=r.textures.pop("Color", None))
 
 
 def _glossy(r: _Reader, node) -> Surface:
@@ -95,7 +107,8 @@ def _glossy(r: _Reader, node) -> Surface:
                f"rendered as GGX")
     if r.value(node, "Anisotropy") != 0.0:
         r.note(f"the Anisotropy of '{node.name}' is not rendered")
-    return Surface(base_color=tuple(max(c, 0.0) for c in r.value(node, "Color")), metallic=1.0,
+    return Surface(base_color=tuple(max(c, 0.0) for c in r.value(node, "Color", varying=True)), metallic=1.0,
+                   base_texture=r.textures.pop("Color", None),
                    roughness=min(max(r.value(node, "Roughness"), 0.0), 1.0), ior=1.0,
                    multiscatter=node.distribution == 'MULTI_GGX', constant_fresnel=True)
 
@@ -133,13 +146,14 @@ SHADERS = {
 }
 
 
-def read_surface(material, notes: list[str] | None = None) -> Surface | None:
+def read_surface(material, notes: list[str] | None = None, texspace=None) -> Surface | None:
     """The material's surface, or None when it has no node surface (the caller shades the
-    object's colour); lines for what is not read go to ``notes``."""
+    object's colour); lines for what is not read go to ``notes``. ``texspace``: (location, size)
+    of the object's texture space (Generated coordinates)."""
     out = output_node(material)
     if out is None or not out.inputs["Surface"].is_linked:
         return None
-    r = _Reader(material)
+    r = _Reader(material, texspace)
     surface = r.shader(out.inputs["Surface"])
     if notes is not None:
         notes.extend(r.notes)

@@ -117,7 +117,8 @@ class ShaderGraph:
     @cached_property
     def reads_position(self) -> bool:
         """Whether the graph needs the voxels' positions (texture coordinates, textures)."""
-        return any(node.kind == "TEX_COORD" or node.kind.startswith("TEX_") for node in self.nodes)
+        return any(node.kind in ("TEX_COORD", "UV_MAP") or node.kind.startswith("TEX_")
+                   for node in self.nodes)
 
 
 VOLUME_INFO = {"Color": "color", "Density": "density", "Flame": "flame", "Temperature": "temperature"}
@@ -579,11 +580,61 @@ def _blackbody(node, ins, ev):
 
 
 def _tex_coord(node, ins, ev):
+    out = {}
+    if ev.uv is not None:
+        out["UV"] = np.concatenate([ev.uv, np.zeros((len(ev.uv), 1))], axis=-1)
     if ev.position is None:
-        return {}
+        return out
     lo, size = (np.asarray(x, np.float64) for x in ev.graph.texspace)
     generated = (ev.position - (lo - size)) / np.where(size != 0.0, 2.0 * size, 1.0)
-    return {"Object": ev.position, "Generated": generated}
+    return {**out, "Object": ev.position, "Generated": generated}
+
+
+def _uv_map(node, ins, ev):
+    return {"UV": _tex_coord(node, ins, ev).get("UV", np.zeros(3, F))}
+
+
+# Images the graphs read (Image Texture), by the key their node holds: (pixels (h, w, 4) float32,
+# bottom row first; whether they are sRGB-encoded bytes, decoded after interpolation as Cycles
+# does). Registered once per content by the Blender side (blender/surfaces.py).
+IMAGES: dict[str, tuple[np.ndarray, bool]] = {}
+
+
+def _srgb_to_linear(c):
+    c = np.asarray(c, np.float64)
+    return np.where(c <= 0.04045, c / 12.92, ((np.maximum(c, 0.04045) + 0.055) / 1.055) ** 2.4)
+
+
+def _tex_image(node, ins, ev):
+    entry = IMAGES.get(node.param("image", ""))
+    v = ins.get("Vector")
+    if v is None:        # unlinked: the active UV map
+        v = _tex_coord(node, {}, ev).get("UV", np.zeros(3, F))
+    if entry is None:
+        return {"Color": np.array([1.0, 0.0, 1.0], F), "Alpha": np.ones((), F)}   # Cycles' missing image
+    pixels, srgb = entry
+    h, w = pixels.shape[:2]
+    uv = np.broadcast_to(np.asarray(v, np.float64), (ev.n, 3))[:, :2]
+    x, y = uv[:, 0] * w - 0.5, uv[:, 1] * h - 0.5
+    extend = node.param("extension", "REPEAT")
+
+    def wrap(i, n):
+        return np.mod(i, n) if extend == "REPEAT" else np.clip(i, 0, n - 1)
+
+    if node.param("interpolation", "Linear") == "Closest":
+        xi, yi = np.floor(x + 0.5).astype(np.int64), np.floor(y + 0.5).astype(np.int64)
+        rgba = pixels[wrap(yi, h), wrap(xi, w)]
+    else:
+        x0, y0 = np.floor(x).astype(np.int64), np.floor(y).astype(np.int64)
+        tx, ty = (x - x0)[:, None], (y - y0)[:, None]
+        xa, xb, ya, yb = wrap(x0, w), wrap(x0 + 1, w), wrap(y0, h), wrap(y0 + 1, h)
+        rgba = ((pixels[ya, xa] * (1 - tx) + pixels[ya, xb] * tx) * (1 - ty)
+                + (pixels[yb, xa] * (1 - tx) + pixels[yb, xb] * tx) * ty)
+    if extend == "CLIP":
+        outside = (uv[:, 0] < 0) | (uv[:, 0] > 1) | (uv[:, 1] < 0) | (uv[:, 1] > 1)
+        rgba = np.where(outside[:, None], 0.0, rgba)
+    rgb = _srgb_to_linear(rgba[:, :3]) if srgb else rgba[:, :3]
+    return {"Color": np.asarray(rgb, F), "Alpha": np.asarray(rgba[:, 3], F)}
 
 
 def _euler(r) -> np.ndarray:
@@ -756,7 +807,7 @@ NODES: dict[str, Callable] = {
     "RGB_TO_BW": _rgb_to_bw, "SEPARATE": _separate, "COMBINE": _combine, "BLACKBODY": _blackbody,
     "TEX_COORD": _tex_coord, "MAPPING": _mapping, "TEX_NOISE": _tex_noise,
     "TEX_GRADIENT": _tex_gradient, "TEX_WHITE_NOISE": _tex_white_noise, "TEX_VORONOI": _tex_voronoi,
-    "TEX_WAVE": _tex_wave, "TEX_CHECKER": _tex_checker,
+    "TEX_WAVE": _tex_wave, "TEX_CHECKER": _tex_checker, "TEX_IMAGE": _tex_image, "UV_MAP": _uv_map,
     "PRINCIPLED_VOLUME": _principled, "VOLUME_SCATTER": _scatter, "VOLUME_ABSORPTION": _absorption,
     "VOLUME_COEFFICIENTS": _coefficients, "EMISSION": _emission, "ADD_SHADER": _add_shader,
     "MIX_SHADER": _mix_shader,

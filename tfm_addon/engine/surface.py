@@ -65,7 +65,9 @@ class Surface:
     ``roughness`` (Blender's, alpha = roughness²), ``ior`` of the specular layer (1: none; see
     ``effective_ior``), ``specular_tint``, ``weight`` of the reflecting closures (0: emission
     only), ``emission`` radiance (W/(sr m²), both sides), ``multiscatter`` (Multiscatter GGX),
-    ``constant_fresnel`` (the metal's Fresnel is its base colour at every angle: Glossy BSDF)."""
+    ``constant_fresnel`` (the metal's Fresnel is its base colour at every angle: Glossy BSDF);
+    ``base_texture``: a ``shading.ShaderGraph`` whose output is the base colour where it varies
+    over the surface (textures), evaluated per pixel (passes/surface_coords.py)."""
 
     base_color: RGB = (0.8, 0.8, 0.8)
     metallic: float = 0.0
@@ -76,6 +78,7 @@ class Surface:
     emission: RGB = (0.0, 0.0, 0.0)
     multiscatter: bool = True
     constant_fresnel: bool = False
+    base_texture: object = None
 
     @staticmethod
     def lambert(color: RGB) -> Surface:
@@ -93,7 +96,8 @@ class Surface:
 def mix(parts: list[tuple[float, Surface]]) -> tuple[Surface, bool]:
     """Closures added with weights (Mix and Add Shader): one Surface, and whether it is exact.
     The reflecting weights and the emissions add; the other inputs are their weight-averaged
-    means, exact when the parts agree on them (a mix of colours, or of a surface with emission)."""
+    means, exact when the parts agree on them (a mix of colours, or of a surface with emission);
+    a texture is kept where one part reflects."""
     parts = [(float(f), s) for f, s in parts if f > 0.0]
     if not parts:
         return Surface(weight=0.0), True
@@ -110,7 +114,10 @@ def mix(parts: list[tuple[float, Surface]]) -> tuple[Surface, bool]:
     shape = [(s.metallic, s.roughness, s.ior, s.specular_tint, s.multiscatter, s.constant_fresnel)
              for _, s in lit]
     exact = all(x == shape[0] for x in shape)
-    return Surface(base_color=mean(lambda s: s.base_color), metallic=mean(lambda s: s.metallic),
+    texture = lit[0][1].base_texture if len(lit) == 1 else None
+    exact = exact and (len(lit) == 1 or all(s.base_texture is None for _, s in lit))
+    return Surface(base_texture=texture, base_color=mean(lambda s: s.base_color),
+                   metallic=mean(lambda s: s.metallic),
                    roughness=mean(lambda s: s.roughness), ior=mean(lambda s: s.ior),
                    specular_tint=mean(lambda s: s.specular_tint), weight=total, emission=emission,
                    multiscatter=lit[0][1].multiscatter,

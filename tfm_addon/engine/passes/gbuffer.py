@@ -8,6 +8,7 @@ from ..scene import Camera
 from ..surface import table_blocks
 from .bindings import BLOCK, UNIT, pass_state
 from .solids import FORMAT, SolidsBuffer
+from .surface_textures import SurfaceTextures
 
 
 class GBuffer:
@@ -30,6 +31,7 @@ class GBuffer:
         self._vao_solids = None   # the SolidsBuffer the vertex array reads (held: compared by identity)
         self._solids = None       # the SolidsBuffer drawn: its material table is bound with the textures
         self._tables = [ctx.buffer(b) for b in table_blocks()]
+        self._textures = None     # SurfaceTextures, made for the first textured solids drawn
 
     def draw(self, gl: GLContext, camera: Camera, plane: ViewPlane, solids: SolidsBuffer) -> None:
         """Render ``solids`` seen by ``camera`` (``plane`` its pixel window, of this size)."""
@@ -52,6 +54,10 @@ class GBuffer:
                 self._vao_solids = solids
             self._vao.render(vertices=solids.vertex_count)
         pass_state(ctx)
+        if solids.textured and solids.coords_count:
+            if self._textures is None:
+                self._textures = SurfaceTextures(gl, self.size, self.depth)
+            self._textures.apply(gl, camera, solids, self.albedo_distance, self.normal_hit)
 
     def bind(self) -> None:
         self.albedo_distance.use(UNIT["u_gb0"])
@@ -66,6 +72,8 @@ class GBuffer:
             self._vao.release()
             self._vao, self._vao_solids = None, None
         self._solids = None
+        if self._textures is not None:
+            self._textures.release()
         for b in self._tables:
             b.release()
         self.fbo.release()

@@ -55,6 +55,25 @@ def _mesh_blocks(meshes: tuple[Mesh, ...], flags: list[float]) -> list[np.ndarra
     return rows
 
 
+COORDS_FORMAT = "3f 3f 2f"
+
+
+def texture_coordinates(meshes: list[Mesh]) -> np.ndarray:
+    """(3 * triangles, 8) float32 per corner of the textured meshes: world position, object-space
+    position, UV (0 without a UV map)."""
+    rows = []
+    for mesh in meshes:
+        if len(mesh.triangles) == 0:
+            continue
+        block = np.zeros((len(mesh.triangles), 3, 8), np.float32)
+        block[:, :, 0:3] = mesh.world_vertices()[mesh.triangles]
+        block[:, :, 3:6] = mesh.vertices[mesh.triangles]
+        if mesh.uv is not None:
+            block[:, :, 6:8] = mesh.uv
+        rows.append(block.reshape(-1, 8))
+    return np.concatenate(rows) if rows else np.zeros((0, 8), np.float32)
+
+
 KEEP_TRIANGLES = 100_000   # per mesh, world triangles kept on the CPU for light.solids_may_shadow
 
 
@@ -74,11 +93,18 @@ class SolidsBuffer:
             self.parts.append((tri.min(axis=(0, 1)), tri.max(axis=(0, 1)),
                                tri.copy() if len(tri) <= KEEP_TRIANGLES else None))
         data = np.concatenate(blocks) if blocks else np.zeros((0, 10), np.float32)
+        self.textured = [(k, s.base_texture) for k, s in enumerate(surfaces) if s.base_texture is not None]
+        coords = texture_coordinates([m for m in meshes
+                                      if m.shading.base_texture is not None and not m.holdout])
+        self.coords_count = len(coords)
+        self.coords_vbo = ctx.buffer(coords.tobytes()) if len(coords) else None
         self.vertex_count = len(data)
         self.bounds = (data[:, :3].min(axis=0), data[:, :3].max(axis=0)) if len(data) else None
         self.vbo = ctx.buffer(data.tobytes()) if len(data) else None
 
     def release(self) -> None:
         self.materials.release()
+        if self.coords_vbo is not None:
+            self.coords_vbo.release()
         if self.vbo is not None:
             self.vbo.release()
