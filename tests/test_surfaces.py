@@ -129,3 +129,12 @@ def test_checker_texture_per_pixel(renderer):
     bright = np.isclose(colours, [0.9, 0.7, 0.3], atol=2e-3).all(-1)
     dark = np.isclose(colours, [0.2, 0.2, 0.2], atol=2e-3).all(-1)
     assert (bright | dark).mean() > 0.9 and 0.3 < bright.mean() < 0.7
+
+
+def test_more_surfaces_than_the_table_holds_are_reported():
+    from tfm_addon.engine.surface import MAX_MATERIALS, table_note
+
+    meshes = [replace(plane_mesh((i, 0, 0), 0.5), surface=Surface(roughness=i / 1000.0))
+              for i in range(MAX_MATERIALS + 1)]
+    assert table_note(meshes[:MAX_MATERIALS]) == []
+    assert "129 distinct surfaces" in table_note(meshes)[0]

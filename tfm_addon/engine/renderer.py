@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import medium_attributes, shading, world_light
+from . import medium_attributes, shading, surface, world_light
 from .adaptive import ActivePixels
 from .camera import view_plane
 from .errors import RenderCancelled
@@ -889,7 +889,7 @@ AREA_NOTE = ("Area light '{name}' is rendered as a point at its centre with a co
 def _frame_notes(scene: Scene, lights, warnings: list[str]) -> list[str]:
     """The render report: the frame's ``warnings`` once each, then what the lights say (none
     lit, approximations, cones past the maps' reach)."""
-    warnings = list(warnings)
+    warnings = list(warnings) + surface.table_note(scene.camera_meshes)
     world = [light for light in scene.lights if light.from_world]
     if world and len(world) == len(scene.lights):
         warnings.append(f"The scene has no light of its own: the world lights it alone, from {len(world)} "

@@ -124,6 +124,15 @@ def mix(parts: list[tuple[float, Surface]]) -> tuple[Surface, bool]:
                    constant_fresnel=lit[0][1].constant_fresnel), exact
 
 
+def table_note(meshes) -> list[str]:
+    """The report's line when the camera sees more distinct surfaces than the table holds."""
+    count = len({m.shading for m in meshes if not m.holdout})
+    if count <= MAX_MATERIALS:
+        return []
+    return [f"{count} distinct surfaces are seen: the first {MAX_MATERIALS - 1} are shaded as set, the "
+            f"others all as one of them"]
+
+
 def material_table(surfaces: list[Surface]) -> bytes:
     """The uniform block of the frame's surfaces (std140: MAX_MATERIALS x 4 vec4)."""
     data = np.zeros((MAX_MATERIALS, 16), np.float32)
