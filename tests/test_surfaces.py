@@ -138,3 +138,28 @@ def test_more_surfaces_than_the_table_holds_are_reported():
               for i in range(MAX_MATERIALS + 1)]
     assert table_note(meshes[:MAX_MATERIALS]) == []
     assert "129 distinct surfaces" in table_note(meshes)[0]
+
+
+def test_ambient_light_is_the_directional_albedo(renderer):
+    """Uniform ambient light L: the surface's albedo toward the camera times L (the diffuse layer
+    under the specular one, plus the specular layer's energy-compensated albedo)."""
+    t = ggx_tables()
+    s = Surface()
+    v = _direction(VIEW_DEG, 0.0)
+    camera = Camera(matrix_world=look_at(10.0 * v, (0, 0, 0)), width_px=8, height_px=6,
+                    projection="ORTHO", ortho_scale=1.0, clip_end=100.0)
+    scene = Scene(camera=camera, lights=(), media=(), ambient=(0.5, 0.5, 0.5),
+                  meshes=(replace(plane_mesh((0, 0, 0), 40.0), surface=s),))
+    img = renderer.render(scene, RenderSettings(quality="CUSTOM")).combined[..., :3]
+    mu = math.cos(math.radians(VIEW_DEG))
+    e, eavg = _lut(t["E"], s.roughness, mu), np.interp(s.roughness, np.linspace(0, 1, 32), t["Eavg"])
+    f0 = f0_from_ior(s.ior)
+    zi = math.sqrt((s.ior - 1) / (s.ior + 1)) * 15
+    k0 = int(zi)
+    sv = (_lut(t["s_ior"][k0], s.roughness, mu) * (1 - (zi - k0))
+          + _lut(t["s_ior"][k0 + 1], s.roughness, mu) * (zi - k0))
+    fss = f0 + (1 - f0) * ((s.ior - 1) / (4.08567 + 1.00071 * s.ior) - f0) / (1 - f0)
+    fms = fss * eavg / (1 - fss * (1 - eavg))
+    spec = (e + fms * (1 - e)) * (f0 + (1 - f0) * sv)
+    want = 0.5 * (0.8 * (1 - spec) + spec)
+    np.testing.assert_allclose(img, want, rtol=5e-3)

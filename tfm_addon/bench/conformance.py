@@ -1013,6 +1013,36 @@ def _(tmpdir):
     volume_object(tmpdir, mat=mat)
 
 
+@row("surface_noise_ramp", "Ground: Noise Texture (Generated, scale 3) → Color Ramp → Principled Base "
+     "Color", coloured=True)
+def _(tmpdir):
+    base(ground=False)
+    ground, bsdf = surface_ground()
+    gnt = ground.node_tree
+    noise = gnt.nodes.new('ShaderNodeTexNoise')
+    noise.inputs["Scale"].default_value = 3.0
+    ramp = gnt.nodes.new('ShaderNodeValToRGB')
+    ramp.color_ramp.elements[0].color = (0.05, 0.15, 0.4, 1.0)
+    ramp.color_ramp.elements[1].color = (0.9, 0.8, 0.6, 1.0)
+    ramp.color_ramp.elements[0].position, ramp.color_ramp.elements[1].position = 0.35, 0.65
+    gnt.links.new(noise.outputs["Fac"], ramp.inputs["Fac"])
+    gnt.links.new(ramp.outputs["Color"], bsdf.inputs["Base Color"])
+
+
+@row("surface_image_generated", "Ground: Image Texture on Generated coordinates (Texture Coordinate) → "
+     "Principled Base Color, Closest interpolation", coloured=True)
+def _(tmpdir):
+    base(ground=False)
+    ground, bsdf = surface_ground()
+    gnt = ground.node_tree
+    tex = gnt.nodes.new('ShaderNodeTexImage')
+    tex.image = _test_image()
+    tex.interpolation = 'Closest'
+    coords = gnt.nodes.new('ShaderNodeTexCoord')
+    gnt.links.new(coords.outputs["Generated"], tex.inputs["Vector"])
+    gnt.links.new(tex.outputs["Color"], bsdf.inputs["Base Color"])
+
+
 @row("spot_grazing_floor", "Spot light low over a Diffuse floor (the light grazes it)")
 def _(tmpdir):
     base(lights=None, ground=False)
