@@ -155,6 +155,8 @@ def read_surface(material, notes: list[str] | None = None, texspace=None) -> Sur
         return None
     r = _Reader(material, texspace)
     surface = r.shader(out.inputs["Surface"])
+    if surface is not None and max(surface.emission) > 0.0:
+        r.note("its emission is seen but lights nothing around it (Cycles lights the scene with it)")
     if notes is not None:
         notes.extend(r.notes)
     return surface
