@@ -163,3 +163,21 @@ def test_ambient_light_is_the_directional_albedo(renderer):
     spec = (e + fms * (1 - e)) * (f0 + (1 - f0) * sv)
     want = 0.5 * (0.8 * (1 - spec) + spec)
     np.testing.assert_allclose(img, want, rtol=5e-3)
+
+
+def test_roughness_texture_per_pixel(renderer):
+    """A Checker Fac into Roughness (0.2 and 0.7) of a copper metal: each pixel is the BSDF of one
+    of the two roughnesses (12-bit steps in the G-buffer), both seen."""
+    checker = S.Node("TEX_CHECKER", (), (S.Input("Color1", "RGBA", (1.0, 1.0, 1.0)),
+                                         S.Input("Color2", "RGBA", (0.0, 0.0, 0.0)),
+                                         S.Input("Scale", "VALUE", 160.0)))
+    ranged = S.Node("MAP_RANGE", (("interpolation_type", "LINEAR"), ("clamp", True)), (
+        S.Input("Value", "VALUE", S.Link(0, "Fac")), S.Input("From Min", "VALUE", 0.0),
+        S.Input("From Max", "VALUE", 1.0), S.Input("To Min", "VALUE", 0.2), S.Input("To Max", "VALUE", 0.7)))
+    graph = S.ShaderGraph((checker, ranged), S.Link(1, "Result"), texspace=((0.0, 0.0, 0.0), (0.5, 0.5, 0.0)))
+    copper = Surface(base_color=(0.95, 0.64, 0.54), metallic=1.0)
+    img = _render(renderer, replace(copper, roughness_texture=graph), size=(32, 24))
+    smooth, rough = expected(replace(copper, roughness=0.2)), expected(replace(copper, roughness=0.7))
+    is_smooth = np.isclose(img, smooth, rtol=5e-3).all(-1)
+    is_rough = np.isclose(img, rough, rtol=5e-3).all(-1)
+    assert (is_smooth | is_rough).mean() > 0.9 and 0.3 < is_smooth.mean() < 0.7

@@ -1043,6 +1043,21 @@ def _(tmpdir):
     gnt.links.new(tex.outputs["Color"], bsdf.inputs["Base Color"])
 
 
+@row("surface_roughness_texture", "Ground: copper Principled BSDF, Checker Fac → Map Range → Roughness "
+     "(0.15 and 0.6), Metallic 1, at a grazing view", coloured=True)
+def _(tmpdir):
+    base(ground=False)
+    _grazing_view()
+    ground, bsdf = surface_ground(**{"Base Color": (0.95, 0.64, 0.54, 1.0), "Metallic": 1.0})
+    gnt = ground.node_tree
+    checker = gnt.nodes.new('ShaderNodeTexChecker')
+    checker.inputs["Scale"].default_value = 3.0
+    ranged = gnt.nodes.new('ShaderNodeMapRange')
+    ranged.inputs["To Min"].default_value, ranged.inputs["To Max"].default_value = 0.15, 0.6
+    gnt.links.new(checker.outputs["Fac"], ranged.inputs["Value"])
+    gnt.links.new(ranged.outputs["Result"], bsdf.inputs["Roughness"])
+
+
 @row("spot_grazing_floor", "Spot light low over a Diffuse floor (the light grazes it)")
 def _(tmpdir):
     base(lights=None, ground=False)

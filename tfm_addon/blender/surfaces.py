@@ -86,8 +86,10 @@ def _principled(r: _Reader, node) -> Surface:
     emission = tuple(c * strength for c in r.value(node, "Emission Color"))
     return Surface(base_color=tuple(max(c, 0.0) for c in r.value(node, "Base Color", varying=True)),
                    base_texture=r.textures.pop("Base Color", None),
-                   metallic=min(max(r.value(node, "Metallic"), 0.0), 1.0),
-                   roughness=min(max(r.value(node, "Roughness"), 0.0), 1.0),
+                   metallic=min(max(r.value(node, "Metallic", varying=True), 0.0), 1.0),
+                   metallic_texture=r.textures.pop("Metallic", None),
+                   roughness=min(max(r.value(node, "Roughness", varying=True), 0.0), 1.0),
+                   roughness_texture=r.textures.pop("Roughness", None),
                    ior=effective_ior(r.value(node, "IOR"), r.value(node, "Specular IOR Level")),
                    specular_tint=tuple(max(c, 0.0) for c in r.value(node, "Specular Tint")),
                    emission=emission if strength > 1e-5 else (0.0, 0.0, 0.0),
@@ -109,7 +111,8 @@ def _glossy(r: _Reader, node) -> Surface:
         r.note(f"the Anisotropy of '{node.name}' is not rendered")
     return Surface(base_color=tuple(max(c, 0.0) for c in r.value(node, "Color", varying=True)), metallic=1.0,
                    base_texture=r.textures.pop("Color", None),
-                   roughness=min(max(r.value(node, "Roughness"), 0.0), 1.0), ior=1.0,
+                   roughness=min(max(r.value(node, "Roughness", varying=True), 0.0), 1.0), ior=1.0,
+                   roughness_texture=r.textures.pop("Roughness", None),
                    multiscatter=node.distribution == 'MULTI_GGX', constant_fresnel=True)
 
 

@@ -66,8 +66,9 @@ class Surface:
     ``effective_ior``), ``specular_tint``, ``weight`` of the reflecting closures (0: emission
     only), ``emission`` radiance (W/(sr m²), both sides), ``multiscatter`` (Multiscatter GGX),
     ``constant_fresnel`` (the metal's Fresnel is its base colour at every angle: Glossy BSDF);
-    ``base_texture``: a ``shading.ShaderGraph`` whose output is the base colour where it varies
-    over the surface (textures), evaluated per pixel (passes/surface_coords.py)."""
+    ``base_texture``, ``roughness_texture``, ``metallic_texture``: ``shading.ShaderGraph``s whose
+    output is that input where it varies over the surface (textures), evaluated per pixel
+    (passes/surface_textures.py)."""
 
     base_color: RGB = (0.8, 0.8, 0.8)
     metallic: float = 0.0
@@ -79,6 +80,12 @@ class Surface:
     multiscatter: bool = True
     constant_fresnel: bool = False
     base_texture: object = None
+    roughness_texture: object = None
+    metallic_texture: object = None
+
+    @property
+    def textured(self) -> bool:
+        return any(t is not None for t in (self.base_texture, self.roughness_texture, self.metallic_texture))
 
     @staticmethod
     def lambert(color: RGB) -> Surface:
@@ -114,9 +121,10 @@ def mix(parts: list[tuple[float, Surface]]) -> tuple[Surface, bool]:
     shape = [(s.metallic, s.roughness, s.ior, s.specular_tint, s.multiscatter, s.constant_fresnel)
              for _, s in lit]
     exact = all(x == shape[0] for x in shape)
-    texture = lit[0][1].base_texture if len(lit) == 1 else None
-    exact = exact and (len(lit) == 1 or all(s.base_texture is None for _, s in lit))
-    return Surface(base_texture=texture, base_color=mean(lambda s: s.base_color),
+    one = lit[0][1] if len(lit) == 1 else Surface()
+    exact = exact and (len(lit) == 1 or not any(s.textured for _, s in lit))
+    return Surface(base_texture=one.base_texture, roughness_texture=one.roughness_texture,
+                   metallic_texture=one.metallic_texture, base_color=mean(lambda s: s.base_color),
                    metallic=mean(lambda s: s.metallic),
                    roughness=mean(lambda s: s.roughness), ior=mean(lambda s: s.ior),
                    specular_tint=mean(lambda s: s.specular_tint), weight=total, emission=emission,

@@ -13,8 +13,9 @@ from .surface_textures import SurfaceTextures
 
 class GBuffer:
     """Two RGBA32F textures the size of the pixel window: (base colour, distance along the view
-    ray in metres) and (world normal, the hit flag: 1 + 2 k where a surface of material k of the
-    solids' table is seen, 2 where a holdout is seen), with their
+    ray in metres) and (world normal as two octahedral floats, roughness and metallic packed in
+    one, the hit flag: 1 + 2 k where a surface of material k of the solids' table is seen, 2 where
+    a holdout is seen; shaders/gbuffer_pack.glsl), with their
     framebuffer and depth buffer. ``draw`` re-renders the contents for a view into the same GL
     objects, so that samples that only move the camera (antialiasing jitter) allocate nothing."""
 
@@ -50,7 +51,7 @@ class GBuffer:
                 if self._vao is not None:
                     self._vao.release()
                 self._vao = ctx.vertex_array(prog, [(solids.vbo, FORMAT, "in_position", "in_normal",
-                                                     "in_albedo", "in_hit")])
+                                                     "in_albedo", "in_hit", "in_rough_metal")])
                 self._vao_solids = solids
             self._vao.render(vertices=solids.vertex_count)
         pass_state(ctx)

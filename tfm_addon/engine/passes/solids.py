@@ -8,15 +8,16 @@ import numpy as np
 from ..scene import Mesh
 from ..surface import MAX_MATERIALS, material_table
 
-FORMAT = "3f 3f 3f 1f"
-POSITION_ONLY = "3f 28x"
+FORMAT = "3f 3f 3f 1f 2f"
+POSITION_ONLY = "3f 36x"
+WIDTH = 12          # floats per vertex
 
 
 def solids_vertices(meshes: tuple[Mesh, ...]) -> np.ndarray:
-    """(3 * triangles, 10) float32: position, face normal, base colour, hit flag per vertex,
-    world space (``hit_flags``)."""
+    """(3 * triangles, 12) float32: position, face normal, base colour, hit flag (``hit_flags``),
+    roughness and metallic per vertex, world space."""
     rows = _mesh_blocks(meshes, hit_flags(meshes)[0])
-    return np.concatenate(rows) if rows else np.zeros((0, 10), np.float32)
+    return np.concatenate(rows) if rows else np.zeros((0, WIDTH), np.float32)
 
 
 def hit_flags(meshes: tuple[Mesh, ...]) -> tuple[list[float], list]:
@@ -46,12 +47,14 @@ def _mesh_blocks(meshes: tuple[Mesh, ...], flags: list[float]) -> list[np.ndarra
         length = np.linalg.norm(n, axis=1, keepdims=True)
         keep = length[:, 0] > 0
         v, n = v[keep], n[keep] / length[keep]
-        block = np.empty((len(v), 3, 10), dtype=np.float32)
+        block = np.empty((len(v), 3, WIDTH), dtype=np.float32)
         block[:, :, 0:3] = v
         block[:, :, 3:6] = n[:, None, :]
         block[:, :, 6:9] = np.asarray(mesh.shading.base_color, dtype=np.float32)
         block[:, :, 9] = flag
-        rows.append(block.reshape(-1, 10))
+        block[:, :, 10] = mesh.shading.roughness
+        block[:, :, 11] = mesh.shading.metallic
+        rows.append(block.reshape(-1, WIDTH))
     return rows
 
 
@@ -92,10 +95,9 @@ class SolidsBuffer:
             tri = block[:, :3].reshape(-1, 3, 3)
             self.parts.append((tri.min(axis=(0, 1)), tri.max(axis=(0, 1)),
                                tri.copy() if len(tri) <= KEEP_TRIANGLES else None))
-        data = np.concatenate(blocks) if blocks else np.zeros((0, 10), np.float32)
-        self.textured = [(k, s.base_texture) for k, s in enumerate(surfaces) if s.base_texture is not None]
-        coords = texture_coordinates([m for m in meshes
-                                      if m.shading.base_texture is not None and not m.holdout])
+        data = np.concatenate(blocks) if blocks else np.zeros((0, WIDTH), np.float32)
+        self.textured = [(k, s) for k, s in enumerate(surfaces) if s.textured]
+        coords = texture_coordinates([m for m in meshes if m.shading.textured and not m.holdout])
         self.coords_count = len(coords)
         self.coords_vbo = ctx.buffer(coords.tobytes()) if len(coords) else None
         self.vertex_count = len(data)

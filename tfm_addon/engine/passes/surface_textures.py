@@ -1,7 +1,7 @@
-"""Textured surfaces: the base colour of each pixel where the G-buffer sees a surface whose base
-colour is a node graph (Image Texture on UVs, procedural textures on Generated or Object
-coordinates, the colour nodes after them), evaluated on the CPU by ``shading.evaluate_value`` at
-that pixel's point and written into the G-buffer's base colour.
+"""Textured surfaces: the base colour, roughness and metallic of each pixel where the G-buffer sees
+a surface whose input is a node graph (Image Texture on UVs, procedural textures on Generated or
+Object coordinates, the colour nodes after them), evaluated on the CPU by
+``shading.evaluate_value`` at that pixel's point and written into the G-buffer.
 
 Each antialiasing sample evaluates its own pixels' points, so a texture is point-sampled per
 sample and its edges are antialiased by the samples, as in Cycles. The cost is one read-back of
@@ -20,6 +20,12 @@ from .bindings import pass_state
 from .solids import COORDS_FORMAT, SolidsBuffer
 
 
+def pack_rough_metal(rough, metal) -> np.ndarray:
+    """Roughness and metallic in one float, as gbuffer_pack.glsl packs them."""
+    q = np.floor(np.clip(np.stack([rough, metal]), 0.0, 1.0) * 4095.0 + 0.5)
+    return (q[0] + 4096.0 * q[1]).astype(np.float32)
+
+
 class SurfaceTextures:
     """The targets of the texture-coordinate pass of one G-buffer (its size and depth buffer)."""
 
@@ -33,8 +39,9 @@ class SurfaceTextures:
 
     def apply(self, gl: GLContext, camera: Camera, solids: SolidsBuffer, albedo_distance,
               normal_hit) -> None:
-        """Draw the textured surfaces' coordinates over the G-buffer's depth, evaluate their base
-        colour per pixel and write it into ``albedo_distance``."""
+        """Draw the textured surfaces' coordinates over the G-buffer's depth, evaluate their
+        textured inputs per pixel and write them into ``albedo_distance`` (base colour) and
+        ``normal_hit`` (roughness and metallic, packed as gbuffer_pack.glsl packs them)."""
         ctx = gl.ctx
         prog = gl.program("surface_coords.vert", "surface_coords.frag")
         set_matrix(prog, "u_camera_clip", clip_matrix(camera))
@@ -54,20 +61,32 @@ class SurfaceTextures:
         ctx.depth_func = "<"
         pass_state(ctx)
         w, h = albedo_distance.size
-        flags = np.frombuffer(normal_hit.read(), np.float32).reshape(h, w, 4)[..., 3]
+        normal = np.frombuffer(normal_hit.read(), np.float32).reshape(h, w, 4).copy()
+        flags = normal[..., 3]
         object_u = np.frombuffer(self.object_u.read(), np.float32).reshape(h, w, 4)
         v = np.frombuffer(self.v.read(), np.float32).reshape(h, w, 4)[..., 0]
         base = np.frombuffer(albedo_distance.read(), np.float32).reshape(h, w, 4).copy()
-        for k, graph in solids.textured:
+        packed = False
+        for k, surface in solids.textured:
             mask = np.abs(flags - (1.0 + 2.0 * k)) < 0.5
             n = int(np.count_nonzero(mask))
             if n == 0:
                 continue
             position = object_u[mask][:, :3].astype(np.float64)
             uv = np.stack([object_u[mask][:, 3], v[mask]], -1).astype(np.float64)
-            color = shading.evaluate_value(graph, "RGBA", n, position=position, uv=uv)
-            base[mask, :3] = np.maximum(color, 0.0)
+            at = {"n": n, "position": position, "uv": uv}
+            if surface.base_texture is not None:
+                base[mask, :3] = np.maximum(shading.evaluate_value(surface.base_texture, "RGBA", **at), 0.0)
+            if surface.roughness_texture is not None or surface.metallic_texture is not None:
+                rough, metal = (np.full(n, constant) if graph is None
+                                else shading.evaluate_value(graph, "VALUE", **at)
+                                for graph, constant in ((surface.roughness_texture, surface.roughness),
+                                                        (surface.metallic_texture, surface.metallic)))
+                normal[mask, 2] = pack_rough_metal(rough, metal)
+                packed = True
         albedo_distance.write(base.tobytes())
+        if packed:
+            normal_hit.write(normal.tobytes())
 
     def release(self) -> None:
         if self._vao is not None:

@@ -11,7 +11,7 @@
 #include "surface.glsl"
 
 uniform sampler2D u_gb0;       // base colour, distance
-uniform sampler2D u_gb1;       // normal, hit flag (surface.glsl)
+uniform sampler2D u_gb1;       // normal, roughness and metallic, hit flag (gbuffer_pack.glsl)
 uniform mat4 u_camera_to_world;
 uniform vec2 u_plane0;         // camera-space x, y of the window's lower-left corner (unit depth)
 uniform float u_pixel_size;    // at unit depth (perspective) or in metres (orthographic)
@@ -113,10 +113,10 @@ void main() {
     float phase_g = u_g;
 
     if (hit && abs(g1.w - 2.0) > 0.5) {      // a surface (a holdout has no radiance)
-        vec3 n = normalize(g1.xyz);
+        vec3 n = octahedral_decode(g1.xy);
         if (dot(n, d) > 0.0) n = -n;
         vec3 P = o + d * g0.w;
-        SurfacePoint sp = surface_point(g1.w, g0.rgb);
+        SurfacePoint sp = surface_point(g1.w, g0.rgb, unpack_rough_metal(g1.z));
         Lobes lobes = surface_lobes(sp, dot(n, -d));
 #if FIRST_PASS
         surface += surface_albedo(sp, lobes) * u_ambient + sp.emission;

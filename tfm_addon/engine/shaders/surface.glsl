@@ -3,9 +3,12 @@
 // diffuse under it, each GGX lobe energy-compensated when it is Multiscatter GGX.
 // The G-buffer's hit flag names the pixel's material: 1 + 2 k for material k, 2 a holdout.
 
+#include "gbuffer_pack.glsl"
+
 #define MAX_MATERIALS 128
 layout(std140) uniform Materials {
     vec4 u_material[4 * MAX_MATERIALS];    // base, weight | rough, metal, ior, multi | tint, const F | emission
+                                           // (base, rough and metal are read from the G-buffer)
 };
 // Cycles' microfacet tables (surface.ggx_tables), four floats a vec4.
 layout(std140) uniform GgxFresnel {
@@ -31,16 +34,16 @@ int material_index(float hit_flag) {
     return clamp(int(hit_flag + 0.5) / 2, 0, MAX_MATERIALS - 1);
 }
 
-SurfacePoint surface_point(float hit_flag, vec3 base) {
+SurfacePoint surface_point(float hit_flag, vec3 base, vec2 rough_metal) {
     int k = 4 * material_index(hit_flag);
     vec4 a = u_material[k];
     vec4 b = u_material[k + 1];
     vec4 c = u_material[k + 2];
     SurfacePoint s;
-    s.base = base;        // the G-buffer's (the material's colour, or its texture)
+    s.base = base;        // the G-buffer's (the material's values, or its textures')
     s.weight = a.w;
-    s.rough = clamp(b.x, 0.0, 1.0);
-    s.metal = clamp(b.y, 0.0, 1.0);
+    s.rough = rough_metal.x;
+    s.metal = rough_metal.y;
     s.ior = b.z;
     s.multi = b.w > 0.5;
     s.tint = c.rgb;
