@@ -291,3 +291,8 @@ def compile_socket(socket, texspace=None) -> ShaderGraph:
         link = value.value if isinstance(value.value, Link) else None
     kw = {} if texspace is None else {"texspace": tuple(tuple(float(x) for x in v) for v in texspace)}
     return ShaderGraph(tuple(c.nodes), link, tuple(c.notes), **kw)
+
+
+def source(socket):
+    """(node, output socket) feeding ``socket``, through reroutes and muted nodes, or (None, None)."""
+    return _Compiler().source(socket)

@@ -64,8 +64,7 @@ class _Reader:
 
     def shader(self, socket) -> Surface | None:
         """The surface the shader feeding ``socket`` gives (None: no shader)."""
-        c = node_graph._Compiler()
-        node, _ = c.source(socket)
+        node, _ = node_graph.source(socket)
         if node is None:
             return None
         read = SHADERS.get(node.bl_idname)
