@@ -33,7 +33,7 @@ def image_graph(size: int = 256) -> S.ShaderGraph:
     """Image Texture (UV map, linear interpolation, repeat) of a size² sRGB image."""
     rng = np.random.default_rng(0)
     pixels = np.concatenate([rng.random((size, size, 3)), np.ones((size, size, 1))], -1).astype(np.float32)
-    S.IMAGES["bench"] = (pixels, True)
+    S.register_image("bench", pixels, True)
     node = S.Node("TEX_IMAGE", (("image", "bench"), ("interpolation", "Linear"), ("extension", "REPEAT")))
     return S.ShaderGraph((node,), L(0, "Color", "RGBA"))
 

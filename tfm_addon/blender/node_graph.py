@@ -115,7 +115,7 @@ def image_key(image) -> str:
             px = np.concatenate([px[..., :3] if image.channels >= 3 else np.repeat(px[..., :1], 3, -1),
                                  np.ones((h, w, 1), np.float32)], -1)
         srgb = not image.is_float and image.colorspace_settings.name == 'sRGB'
-        shading.IMAGES[key] = (px, srgb)
+        shading.register_image(key, px, srgb)
     return key
 
 

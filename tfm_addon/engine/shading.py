@@ -596,8 +596,17 @@ def _uv_map(node, ins, ev):
 
 # Images the graphs read (Image Texture), by the key their node holds: (pixels (h, w, 4) float32,
 # bottom row first; whether they are sRGB-encoded bytes, decoded after interpolation as Cycles
-# does). Registered once per content by the Blender side (blender/surfaces.py).
-IMAGES: dict[str, tuple[np.ndarray, bool]] = {}
+# does). Registered once per content by the Blender side (blender/node_graph.py), the last
+# IMAGES_KEPT kept.
+IMAGES: OrderedDict[str, tuple[np.ndarray, bool]] = OrderedDict()
+IMAGES_KEPT = 32
+
+
+def register_image(key: str, pixels: np.ndarray, srgb: bool) -> None:
+    IMAGES[key] = (pixels, srgb)
+    IMAGES.move_to_end(key)
+    while len(IMAGES) > IMAGES_KEPT:
+        IMAGES.popitem(last=False)
 
 
 def _srgb_to_linear(c):
