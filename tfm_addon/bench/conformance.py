@@ -1058,6 +1058,21 @@ def _(tmpdir):
     gnt.links.new(ranged.outputs["Result"], bsdf.inputs["Roughness"])
 
 
+@row("surface_smooth_sphere", "A smooth-shaded UV sphere (Shade Smooth), Principled BSDF red, Roughness "
+     "0.3, on the ground", coloured=True)
+def _(tmpdir):
+    import bpy
+
+    base()
+    bpy.ops.mesh.primitive_uv_sphere_add(radius=0.9, location=(0.0, 0.0, -0.35))
+    bpy.ops.object.shade_smooth()
+    mat = bpy.data.materials.new("Ball")
+    bsdf = mat.node_tree.nodes["Principled BSDF"]
+    bsdf.inputs["Base Color"].default_value = (0.8, 0.1, 0.05, 1.0)
+    bsdf.inputs["Roughness"].default_value = 0.3
+    bpy.context.object.data.materials.append(mat)
+
+
 @row("spot_grazing_floor", "Spot light low over a Diffuse floor (the light grazes it)")
 def _(tmpdir):
     base(lights=None, ground=False)

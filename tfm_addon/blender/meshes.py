@@ -10,10 +10,11 @@ from . import surfaces
 MESH_TYPES = {'MESH', 'CURVE', 'SURFACE', 'FONT', 'META'}
 
 
-def triangles(evaluated_object) -> tuple[np.ndarray, np.ndarray, np.ndarray | None] | None:
-    """Vertices (n, 3) float32 in object space, triangles (m, 3) int32 and the active UV map per
-    triangle corner (m, 3, 2) float32 (None without one) of an evaluated object, or None when it
-    has no faces."""
+def triangles(evaluated_object) -> tuple | None:
+    """Vertices (n, 3) float32 in object space, triangles (m, 3) int32, the active UV map per
+    triangle corner (m, 3, 2) float32 (None without one) and the normals per triangle corner
+    (m, 3, 3) float32 of a smooth-shaded mesh (None where every face is flat) of an evaluated
+    object, or None when it has no faces."""
     mesh = evaluated_object.to_mesh()
     try:
         if mesh is None or len(mesh.polygons) == 0:
@@ -33,7 +34,15 @@ def triangles(evaluated_object) -> tuple[np.ndarray, np.ndarray, np.ndarray | No
             mesh.uv_layers.active.data.foreach_get("uv", data)
             uv = data.reshape(-1, 2)[loops].reshape(-1, 3, 2)
             uv.setflags(write=False)
-        return vertices.reshape(-1, 3), tris.reshape(-1, 3), uv
+        normals = None
+        if mesh.normals_domain != 'FACE':
+            loops = np.empty(len(mesh.loop_triangles) * 3, dtype=np.int32)
+            mesh.loop_triangles.foreach_get("loops", loops)
+            data = np.empty(len(mesh.loops) * 3, dtype=np.float32)
+            mesh.corner_normals.foreach_get("vector", data)
+            normals = data.reshape(-1, 3)[loops].reshape(-1, 3, 3)
+            normals.setflags(write=False)
+        return vertices.reshape(-1, 3), tris.reshape(-1, 3), uv, normals
     finally:
         evaluated_object.to_mesh_clear()
 

@@ -399,7 +399,8 @@ class Medium:
 class Mesh:
     """A solid object: ``vertices`` (n, 3) float in object space, ``triangles`` (m, 3) int vertex
     indices, placed by ``matrix_world``; ``color`` is the diffuse albedo, ``surface`` its shading
-    (engine/surface.py; None: a Lambertian surface of albedo ``color``), ``uv`` its UV map.
+    (engine/surface.py; None: a Lambertian surface of albedo ``color``), ``uv`` its UV map,
+    ``normals`` its corner normals where it is smooth-shaded (None: the faces' normals).
 
     Visibility, as Cycles' object settings: ``visible_camera`` False hides it from the camera
     (it still casts shadows); ``cast_shadow`` False keeps it out of the shadow maps (no shadow
@@ -417,6 +418,7 @@ class Mesh:
     holdout: bool = False
     surface: Surface | None = None
     uv: np.ndarray | None = None      # (m, 3, 2) float32: each triangle corner's UV (textures)
+    normals: np.ndarray | None = None  # (m, 3, 3) float32: object-space corner normals (smooth shading)
 
     def __post_init__(self):
         v = np.ascontiguousarray(self.vertices, dtype=np.float32).reshape(-1, 3)
@@ -431,7 +433,8 @@ class Mesh:
     def key(self) -> str:
         """What its vertex buffer holds (the visibility flags choose the sets it is in)."""
         return _digest(self.vertices, self.triangles, self.matrix_world, self.color, self.holdout,
-                       repr(self.surface), self.uv if self.uv is not None else ())
+                       repr(self.surface), self.uv if self.uv is not None else (),
+                       self.normals if self.normals is not None else ())
 
     @property
     def shading(self) -> Surface:

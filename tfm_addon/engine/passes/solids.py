@@ -14,7 +14,8 @@ WIDTH = 12          # floats per vertex
 
 
 def solids_vertices(meshes: tuple[Mesh, ...]) -> np.ndarray:
-    """(3 * triangles, 12) float32: position, face normal, base colour, hit flag (``hit_flags``),
+    """(3 * triangles, 12) float32: position, normal (the face's, or the corner's of a smooth-shaded
+    mesh), base colour, hit flag (``hit_flags``),
     roughness and metallic per vertex, world space."""
     rows = _mesh_blocks(meshes, hit_flags(meshes)[0])
     return np.concatenate(rows) if rows else np.zeros((0, WIDTH), np.float32)
@@ -36,6 +37,13 @@ def hit_flags(meshes: tuple[Mesh, ...]) -> tuple[list[float], list]:
     return flags, list(table)
 
 
+def _world_normals(mesh: Mesh, keep: np.ndarray) -> np.ndarray:
+    """The mesh's corner normals of the triangles kept, in world space (the inverse transpose of
+    its matrix), unit length."""
+    n = mesh.normals[keep].astype(np.float64) @ np.linalg.inv(mesh.matrix_world[:3, :3])
+    return n / np.maximum(np.linalg.norm(n, axis=-1, keepdims=True), 1e-30)
+
+
 def _mesh_blocks(meshes: tuple[Mesh, ...], flags: list[float]) -> list[np.ndarray]:
     """solids_vertices' rows of each mesh that has triangles (degenerate ones dropped)."""
     rows = []
@@ -49,7 +57,7 @@ def _mesh_blocks(meshes: tuple[Mesh, ...], flags: list[float]) -> list[np.ndarra
         v, n = v[keep], n[keep] / length[keep]
         block = np.empty((len(v), 3, WIDTH), dtype=np.float32)
         block[:, :, 0:3] = v
-        block[:, :, 3:6] = n[:, None, :]
+        block[:, :, 3:6] = n[:, None, :] if mesh.normals is None else _world_normals(mesh, keep)
         block[:, :, 6:9] = np.asarray(mesh.shading.base_color, dtype=np.float32)
         block[:, :, 9] = flag
         block[:, :, 10] = mesh.shading.roughness
