@@ -147,19 +147,22 @@ def _cube(name, material, location):
     return ob
 
 
-def test_texture_driven_surface_is_grey_with_one_warning(blank):
-    materials = _mod("materials")
+def test_texture_driven_surface_is_a_texture_and_an_unread_one_is_named_once(blank):
     mat, nt, out = _material()
     bsdf = nt.nodes.new('ShaderNodeBsdfPrincipled')
     noise = nt.nodes.new('ShaderNodeTexNoise')
     nt.links.new(noise.outputs["Color"], bsdf.inputs["Base Color"])
+    brick = nt.nodes.new('ShaderNodeTexBrick')
+    nt.links.new(brick.outputs["Fac"], bsdf.inputs["Roughness"])
     nt.links.new(bsdf.outputs[0], out.inputs["Surface"])
     for i in range(3):
         _cube(f"Textured {i}", mat, (3.0 * i, 0, 0))
     ex = _mod("extract").extract(bpy.context.evaluated_depsgraph_get())
-    assert [m.color for m in ex.meshes] == [materials.FALLBACK_GREY] * 3
-    notes = [w for w in ex.all_warnings if "Noise Texture" in w]
-    assert len(notes) == 1 and "grey" in notes[0], ex.all_warnings
+    kinds = [[n.kind for n in m.surface.base_texture.nodes] for m in ex.meshes]
+    assert kinds == [["TEX_NOISE"]] * 3
+    assert not [w for w in ex.all_warnings if "Noise Texture" in w], ex.all_warnings
+    notes = [w for w in ex.all_warnings if "Brick Texture" in w]
+    assert len(notes) == 1 and "Roughness" in notes[0], ex.all_warnings
 
 
 def test_surface_and_volume_material_is_named_once(blank):

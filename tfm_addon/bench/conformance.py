@@ -1091,6 +1091,204 @@ def _(tmpdir):
     volume_object(tmpdir, name="Fire", mat=mat)
 
 
+# Surfaces: the ground's shader, seen low over it (the view grazes the far ground) --------------
+
+def _grazing_view() -> None:
+    import bpy
+
+    cam = bpy.context.scene.camera
+    cam.location = (0.0, -6.0, -0.65)
+    _aim(cam, (0.0, 0.0, -1.0))
+
+
+def surface_ground(shader: str | None = None, **inputs):
+    """The ground, 8 m, with a new material (Blender's default Principled BSDF), its shader
+    replaced by ``shader`` (a node type) when given; ``inputs`` set by socket name: (mat, node)."""
+    import bpy
+
+    bpy.ops.mesh.primitive_plane_add(size=8.0, location=(0.0, 0.0, -1.25))
+    mat = bpy.data.materials.new("Ground")
+    nt = mat.node_tree
+    node = nt.nodes["Principled BSDF"]
+    if shader is not None:
+        nt.nodes.remove(node)
+        node = nt.nodes.new(shader)
+        nt.links.new(node.outputs[0], nt.nodes["Material Output"].inputs["Surface"])
+    for k, v in inputs.items():
+        node.inputs[k].default_value = v
+    bpy.context.object.data.materials.append(mat)
+    return mat, node
+
+
+@row("surface_principled_default", "Ground: Blender's default Principled BSDF at a grazing view, point light")
+def _(tmpdir):
+    base(ground=False)
+    _grazing_view()
+    surface_ground()
+
+
+@row("surface_principled_metal", "Ground: Principled BSDF Metallic 1, Roughness 0.3, copper colour, under "
+     "the smoke", coloured=True)
+def _(tmpdir):
+    mat, nt, out = material()
+    principled(nt, out)
+    base(ground=False)
+    _grazing_view()
+    surface_ground(**{"Base Color": (0.95, 0.64, 0.54, 1.0), "Metallic": 1.0, "Roughness": 0.3})
+    volume_object(tmpdir, mat=mat)
+
+
+@row("surface_principled_specular", "Ground: Principled BSDF blue, Roughness 0.2, Specular IOR Level 1, "
+     "Specular Tint orange, plain GGX", coloured=True)
+def _(tmpdir):
+    base(ground=False)
+    _grazing_view()
+    _, node = surface_ground(**{"Base Color": (0.1, 0.3, 0.8, 1.0), "Roughness": 0.2,
+                                "Specular IOR Level": 1.0, "Specular Tint": (1.0, 0.7, 0.4, 1.0)})
+    node.distribution = 'GGX'
+
+
+@row("surface_glossy", "Ground: Glossy BSDF (0.8, 0.7, 0.5), Roughness 0.3", coloured=True)
+def _(tmpdir):
+    base(ground=False)
+    _grazing_view()
+    surface_ground('ShaderNodeBsdfGlossy', Color=(0.8, 0.7, 0.5, 1.0), Roughness=0.3)
+
+
+@row("surface_mix_shader", "Ground: Mix Shader 0.3 of two Principled BSDFs (red, green) from an RGB node",
+     coloured=True)
+def _(tmpdir):
+    base(ground=False)
+    _grazing_view()
+    mat, mix = surface_ground('ShaderNodeMixShader', Fac=0.3)
+    nt = mat.node_tree
+    rgb = nt.nodes.new('ShaderNodeRGB')
+    rgb.outputs[0].default_value = (0.8, 0.1, 0.1, 1.0)
+    for i, colour in ((1, None), (2, (0.1, 0.7, 0.2, 1.0))):
+        p = nt.nodes.new('ShaderNodeBsdfPrincipled')
+        if colour is None:
+            nt.links.new(rgb.outputs[0], p.inputs["Base Color"])
+        else:
+            p.inputs["Base Color"].default_value = colour
+        nt.links.new(p.outputs[0], mix.inputs[i])
+
+
+def _test_image(width: int = 32, height: int = 16):
+    """An 8-bit sRGB image made by code: a warm-to-cool ramp across, dark stripes along."""
+    import bpy
+
+    img = bpy.data.images.new("Tiles", width, height)
+    u = (np.arange(width) + 0.5) / width
+    rgb = np.stack([0.9 - 0.7 * u, 0.3 + 0.3 * u, 0.1 + 0.8 * u], -1)[None].repeat(height, 0)
+    rgb[::4] *= 0.25
+    px = np.concatenate([rgb, np.ones((height, width, 1))], -1).astype(np.float32)
+    img.pixels.foreach_set(px.ravel())
+    return img
+
+
+@row("surface_checker_smoke", "Ground: Checker Texture (Generated coordinates) → Principled Base Color, "
+     "behind the smoke", coloured=True)
+def _(tmpdir):
+    mat, nt, out = material()
+    principled(nt, out)
+    base(ground=False)
+    ground, bsdf = surface_ground()
+    checker = ground.node_tree.nodes.new('ShaderNodeTexChecker')
+    checker.inputs["Scale"].default_value = 4.0
+    checker.inputs["Color1"].default_value = (0.9, 0.7, 0.3, 1.0)
+    ground.node_tree.links.new(checker.outputs["Color"], bsdf.inputs["Base Color"])
+    volume_object(tmpdir, mat=mat)
+
+
+@row("surface_image_smoke", "Ground: Image Texture (UV map, 8-bit sRGB) → Color Ramp-free Mix (Multiply) → "
+     "Diffuse, behind the smoke", coloured=True)
+def _(tmpdir):
+    mat, nt, out = material()
+    principled(nt, out)
+    base(ground=False)
+    ground, bsdf = surface_ground('ShaderNodeBsdfDiffuse')
+    gnt = ground.node_tree
+    tex = gnt.nodes.new('ShaderNodeTexImage')
+    tex.image = _test_image()
+    mix = gnt.nodes.new('ShaderNodeMix')
+    mix.data_type, mix.blend_type = 'RGBA', 'MULTIPLY'
+    mix.inputs["Factor"].default_value = 1.0
+    socket(mix.inputs, "B_Color").default_value = (1.0, 0.9, 0.8, 1.0)
+    gnt.links.new(tex.outputs["Color"], socket(mix.inputs, "A_Color"))
+    gnt.links.new(socket(mix.outputs, "Result_Color"), bsdf.inputs["Color"])
+    volume_object(tmpdir, mat=mat)
+
+
+@row("surface_noise_ramp", "Ground: Noise Texture (Generated, scale 3) → Color Ramp → Principled Base "
+     "Color", coloured=True)
+def _(tmpdir):
+    base(ground=False)
+    ground, bsdf = surface_ground()
+    gnt = ground.node_tree
+    noise = gnt.nodes.new('ShaderNodeTexNoise')
+    noise.inputs["Scale"].default_value = 3.0
+    ramp = gnt.nodes.new('ShaderNodeValToRGB')
+    ramp.color_ramp.elements[0].color = (0.05, 0.15, 0.4, 1.0)
+    ramp.color_ramp.elements[1].color = (0.9, 0.8, 0.6, 1.0)
+    ramp.color_ramp.elements[0].position, ramp.color_ramp.elements[1].position = 0.35, 0.65
+    gnt.links.new(noise.outputs["Fac"], ramp.inputs["Fac"])
+    gnt.links.new(ramp.outputs["Color"], bsdf.inputs["Base Color"])
+
+
+@row("surface_image_generated", "Ground: Image Texture on Generated coordinates (Texture Coordinate) → "
+     "Principled Base Color, Closest interpolation", coloured=True)
+def _(tmpdir):
+    base(ground=False)
+    ground, bsdf = surface_ground()
+    gnt = ground.node_tree
+    tex = gnt.nodes.new('ShaderNodeTexImage')
+    tex.image = _test_image()
+    tex.interpolation = 'Closest'
+    coords = gnt.nodes.new('ShaderNodeTexCoord')
+    gnt.links.new(coords.outputs["Generated"], tex.inputs["Vector"])
+    gnt.links.new(tex.outputs["Color"], bsdf.inputs["Base Color"])
+
+
+@row("surface_roughness_texture", "Ground: copper Principled BSDF, Checker Fac → Map Range → Roughness "
+     "(0.15 and 0.6), Metallic 1, at a grazing view", coloured=True)
+def _(tmpdir):
+    base(ground=False)
+    _grazing_view()
+    ground, bsdf = surface_ground(**{"Base Color": (0.95, 0.64, 0.54, 1.0), "Metallic": 1.0})
+    gnt = ground.node_tree
+    checker = gnt.nodes.new('ShaderNodeTexChecker')
+    checker.inputs["Scale"].default_value = 3.0
+    ranged = gnt.nodes.new('ShaderNodeMapRange')
+    ranged.inputs["To Min"].default_value, ranged.inputs["To Max"].default_value = 0.15, 0.6
+    gnt.links.new(checker.outputs["Fac"], ranged.inputs["Value"])
+    gnt.links.new(ranged.outputs["Result"], bsdf.inputs["Roughness"])
+
+
+@row("surface_smooth_sphere", "A smooth-shaded UV sphere (Shade Smooth), Principled BSDF red, Roughness "
+     "0.3, on the ground", coloured=True)
+def _(tmpdir):
+    import bpy
+
+    base()
+    bpy.ops.mesh.primitive_uv_sphere_add(radius=0.9, location=(0.0, 0.0, -0.35))
+    bpy.ops.object.shade_smooth()
+    mat = bpy.data.materials.new("Ball")
+    bsdf = mat.node_tree.nodes["Principled BSDF"]
+    bsdf.inputs["Base Color"].default_value = (0.8, 0.1, 0.05, 1.0)
+    bsdf.inputs["Roughness"].default_value = 0.3
+    bpy.context.object.data.materials.append(mat)
+
+
+@row("spot_grazing_floor", "Spot light low over a Diffuse floor (the light grazes it)")
+def _(tmpdir):
+    base(lights=None, ground=False)
+    _grazing_view()
+    surface_ground('ShaderNodeBsdfDiffuse', Color=(0.8, 0.8, 0.8, 1.0))
+    spot = light('SPOT', (-3.0, 1.0, -0.85), energy=2000.0)
+    _aim(spot, (1.5, 1.0, -1.25))
+    spot.data.spot_size = 1.2
+
+
 ROW_BY_ID = {r.id: r for r in ROWS}
 
 

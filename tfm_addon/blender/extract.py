@@ -499,14 +499,17 @@ def _walk_instances(depsgraph, parts: Change, cache: GridCache,
             mesh = arrays.get(instance)
             if mesh is None:
                 continue
-            vertices, tris = mesh
+            vertices, tris, uv, normals = mesh
             flags = meshes.visibility(instance, depsgraph.view_layer)
             if flags["visible_camera"] and materials.hidden_from_camera(material):
                 flags["visible_camera"] = False
             seen = colour_notes if flags["visible_camera"] else None   # an unseen colour needs no note
+            shading = meshes.shading(ob, seen)
+            textured = shading["surface"] is not None and shading["surface"].base_texture is not None
             solids.append(kept.solid(Mesh(vertices=vertices, triangles=tris,
                                           matrix_world=np.array(instance.matrix_world),
-                                          color=meshes.diffuse_color(ob, seen), name=_label(instance),
+                                          **shading, uv=uv if textured else None, normals=normals,
+                                          name=_label(instance),
                                           **flags)))
 
     notes[Change.SOLIDS].extend(dict.fromkeys(colour_notes))   # once per material

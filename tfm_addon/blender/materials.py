@@ -23,8 +23,7 @@ multiply, add, subtract, divide by or multiply-add constants (how artists scale 
 Emission Strength or Density). A grid a material names but the volume lacks is ignored, as in
 Cycles. Grid values below zero read as zero.
 
-Surfaces: the base colour of a Principled BSDF or the colour of a Diffuse BSDF; any other
-surface, or a colour driven by a node (a texture), renders as ``FALLBACK_GREY`` with a warning.
+Surfaces are read by ``blender/surfaces.py``; this module says which shaders an output has.
 """
 
 from __future__ import annotations
@@ -35,8 +34,6 @@ from dataclasses import dataclass, field, replace
 
 RGB = tuple[float, float, float]
 
-# Albedo of a surface whose colour the engine cannot read (a texture, an unsupported shader).
-FALLBACK_GREY: RGB = (0.5, 0.5, 0.5)
 
 
 class Unreadable(Exception):
@@ -490,31 +487,6 @@ def has_surface_and_volume(material) -> bool:
     """Whether the material has both a surface and a volume shader."""
     out = output_node(material)
     return out is not None and out.inputs["Volume"].is_linked and out.inputs["Surface"].is_linked
-
-
-_SURFACE_COLOR_SOCKETS = {'ShaderNodeBsdfPrincipled': "Base Color", 'ShaderNodeBsdfDiffuse': "Color"}
-
-
-def surface_color(material, notes: list[str] | None = None) -> RGB | None:
-    """Diffuse colour of a material's surface shader; None when it has no node surface (the
-    caller uses the object's colour). A surface the engine cannot read (another shader, a colour
-    driven by a node such as a texture) gives FALLBACK_GREY and a line in ``notes``."""
-    out = output_node(material)
-    if out is None:
-        return None
-    try:
-        node = _linked_node(out.inputs["Surface"])
-        if node is None:
-            return None
-        socket = _SURFACE_COLOR_SOCKETS.get(node.bl_idname)
-        if socket is None:
-            raise Unreadable(f"its surface shader '{node.name}' ({node.bl_label}) is not read")
-        return _rgb(node.inputs[socket])
-    except Unreadable as ex:
-        if notes is not None:
-            notes.append(f"Material '{material.name}': {ex}; rendered as a diffuse grey "
-                         f"{FALLBACK_GREY[0]:g}")
-        return FALLBACK_GREY
 
 
 def hidden_from_camera(material) -> bool:

@@ -9,6 +9,10 @@ Colour ramps and float curves are baked into 256-entry tables as Cycles bakes th
 
 from __future__ import annotations
 
+import numpy as np
+
+from ..engine import shading
+from ..engine.scene import _digest as digest
 from ..engine.shading import Input, Link, Node, ShaderGraph
 from .materials import output_node
 
@@ -78,6 +82,10 @@ KINDS = {
     'ShaderNodeTexWave': ("TEX_WAVE", _props("wave_type", "bands_direction", "rings_direction",
                                              "wave_profile")),
     'ShaderNodeTexChecker': ("TEX_CHECKER", None),
+    'ShaderNodeTexImage': ("TEX_IMAGE", lambda n: (("image", image_key(n.image)),
+                                                   ("interpolation", n.interpolation),
+                                                   ("extension", n.extension))),
+    'ShaderNodeUVMap': ("UV_MAP", None),
     'ShaderNodeVolumePrincipled': ("PRINCIPLED_VOLUME",
                                    _strings("Density Attribute", "Color Attribute", "Temperature Attribute")),
     'ShaderNodeVolumeScatter': ("VOLUME_SCATTER", None),
@@ -90,9 +98,35 @@ KINDS = {
 }
 
 
-def _unsupported_setting(node) -> str | None:
+SURFACE_ONLY = {'ShaderNodeTexImage', 'ShaderNodeUVMap'}   # they read UV coordinates
+
+
+def image_key(image) -> str:
+    """An image's content key (name, size, dirty flag, file); its pixels are read once per key into
+    ``shading.IMAGES``."""
+    if image is None:
+        return ""
+    key = digest("image", image.name, tuple(image.size), bool(image.is_dirty), image.filepath)
+    if key not in shading.IMAGES:
+        w, h = image.size
+        px = np.empty(w * h * image.channels, np.float32)
+        image.pixels.foreach_get(px)
+        px = px.reshape(h, w, image.channels)
+        if image.channels != 4:
+            px = np.concatenate([px[..., :3] if image.channels >= 3 else np.repeat(px[..., :1], 3, -1),
+                                 np.ones((h, w, 1), np.float32)], -1)
+        srgb = not image.is_float and image.colorspace_settings.name == 'sRGB'
+        shading.register_image(key, px, srgb)
+    return key
+
+
+def _unsupported_setting(node, surface: bool = False) -> str | None:
     """Why a node of a known type cannot be evaluated as set, or None."""
     kind = node.bl_idname
+    if kind in SURFACE_ONLY and not surface:
+        return "in a volume"
+    if kind == 'ShaderNodeTexImage' and (node.image is None or node.projection != 'FLAT'):
+        return "without an image" if node.image is None else f"with {node.projection.lower()} projection"
     if kind == 'ShaderNodeAttribute' and node.attribute_type != 'GEOMETRY':
         return f"of type {node.attribute_type}"
     if kind == 'ShaderNodeVectorMath' and node.operation in ('REFRACT',):
@@ -154,7 +188,8 @@ def _constant(socket):
 
 
 class _Compiler:
-    def __init__(self):
+    def __init__(self, surface: bool = False):
+        self.surface = surface       # a surface's graph: UV coordinates exist
         self.nodes: list[Node] = []
         self.index: dict = {}        # Blender node -> its number in ``nodes``
         self.notes: dict[str, None] = {}
@@ -188,9 +223,12 @@ class _Compiler:
             self.notes.setdefault(f"node '{node.name}' ({node.bl_label}) is not read by the engine; "
                                   f"'{socket.name}' of '{socket.node.name}' reads its own value", None)
             return Input(name, kind, 0.0 if kind == 'SHADER' else _constant(socket))
-        if node.bl_idname == 'ShaderNodeTexCoord' and out.identifier not in ("Object", "Generated"):
+        known = ("Object", "Generated", "UV") if self.surface else ("Object", "Generated")
+        if node.bl_idname == 'ShaderNodeTexCoord' and out.identifier not in known:
+            where = 'on a surface' if self.surface else 'in a volume'
             self.notes.setdefault(f"the {out.name} output of '{node.name}' (Texture Coordinate) has no "
-                                  f"meaning in a volume here; '{socket.name}' reads its own value", None)
+                                  f"meaning {where} here; '{socket.name}' "
+                                  f"reads its own value", None)
             return Input(name, kind, _constant(socket))
         return Input(name, kind, Link(index, _output_name(node, out), out.type))
 
@@ -199,7 +237,7 @@ class _Compiler:
         if key in self.index:
             return self.index[key]
         row = KINDS.get(node.bl_idname)
-        why = _unsupported_setting(node) if row is not None else None
+        why = _unsupported_setting(node, self.surface) if row is not None else None
         if row is None or why:
             if why:
                 self.notes.setdefault(f"node '{node.name}' ({node.bl_label}) {why} is not read by the "
@@ -241,3 +279,22 @@ def compile_volume(material, texspace=None, output: str = "Volume") -> ShaderGra
     link = None if index is None else Link(index, _output_name(node, socket), socket.type)
     kw = {} if texspace is None else {"texspace": tuple(tuple(float(x) for x in v) for v in texspace)}
     return ShaderGraph(tuple(c.nodes), link, tuple(c.notes), **kw)
+
+
+def compile_socket(socket, texspace=None) -> ShaderGraph:
+    """The graph feeding an input ``socket`` (of a surface shader): its output is the Link to the
+    value (None when unlinked or unreadable: the socket reads its own value), evaluated by
+    ``shading.evaluate_value``."""
+    c = _Compiler(surface=True)
+    link = None
+    node, out = c.source(socket)
+    if node is not None:
+        value = c.input(socket.name, socket)
+        link = value.value if isinstance(value.value, Link) else None
+    kw = {} if texspace is None else {"texspace": tuple(tuple(float(x) for x in v) for v in texspace)}
+    return ShaderGraph(tuple(c.nodes), link, tuple(c.notes), **kw)
+
+
+def source(socket):
+    """(node, output socket) feeding ``socket``, through reroutes and muted nodes, or (None, None)."""
+    return _Compiler().source(socket)

@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import medium_attributes, shading, world_light
+from . import medium_attributes, shading, surface, world_light
 from .adaptive import ActivePixels
 from .camera import view_plane
 from .errors import RenderCancelled
@@ -940,8 +940,8 @@ def _slot_key(slot: MediumSlot) -> tuple:
 
 def _frame_notes(scene: Scene, lights, warnings: list[str]) -> list[str]:
     """The render report: the frame's ``warnings`` once each, then what the lights say (none
-    lit, cones past the maps' reach)."""
-    warnings = list(warnings)
+    lit, approximations, cones past the maps' reach)."""
+    warnings = list(warnings) + surface.table_note(scene.camera_meshes)
     world = [light for light in scene.lights if light.from_world]
     if world and len(world) == len(scene.lights):
         warnings.append(f"The scene has no light of its own: the world lights it alone, from {len(world)} "

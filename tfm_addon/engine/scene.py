@@ -20,6 +20,7 @@ from typing import Literal
 import numpy as np
 
 from .camera_effects import Motion
+from .surface import Surface
 
 RGB = tuple[float, float, float]
 
@@ -428,8 +429,10 @@ class Medium:
 
 @dataclass(frozen=True, eq=False)
 class Mesh:
-    """A solid diffuse object: ``vertices`` (n, 3) float in object space, ``triangles`` (m, 3)
-    int vertex indices, placed by ``matrix_world``; ``color`` is the diffuse albedo.
+    """A solid object: ``vertices`` (n, 3) float in object space, ``triangles`` (m, 3) int vertex
+    indices, placed by ``matrix_world``; ``color`` is the diffuse albedo, ``surface`` its shading
+    (engine/surface.py; None: a Lambertian surface of albedo ``color``), ``uv`` its UV map,
+    ``normals`` its corner normals where it is smooth-shaded (None: the faces' normals).
 
     Visibility, as Cycles' object settings: ``visible_camera`` False hides it from the camera
     (it still casts shadows); ``cast_shadow`` False keeps it out of the shadow maps (no shadow
@@ -445,6 +448,9 @@ class Mesh:
     visible_camera: bool = True
     cast_shadow: bool = True
     holdout: bool = False
+    surface: Surface | None = None
+    uv: np.ndarray | None = None      # (m, 3, 2) float32: each triangle corner's UV (textures)
+    normals: np.ndarray | None = None  # (m, 3, 3) float32: object-space corner normals (smooth shading)
 
     def __post_init__(self):
         v = np.ascontiguousarray(self.vertices, dtype=np.float32).reshape(-1, 3)
@@ -458,7 +464,14 @@ class Mesh:
     @cached_property
     def key(self) -> str:
         """What its vertex buffer holds (the visibility flags choose the sets it is in)."""
-        return _digest(self.vertices, self.triangles, self.matrix_world, self.color, self.holdout)
+        return _digest(self.vertices, self.triangles, self.matrix_world, self.color, self.holdout,
+                       repr(self.surface), self.uv if self.uv is not None else (),
+                       self.normals if self.normals is not None else ())
+
+    @property
+    def shading(self) -> Surface:
+        """The surface the renderer shades (a Lambertian ``color`` when ``surface`` is None)."""
+        return self.surface if self.surface is not None else Surface.lambert(self.color)
 
     @cached_property
     def shape_key(self) -> str:

@@ -117,7 +117,8 @@ class ShaderGraph:
     @cached_property
     def reads_position(self) -> bool:
         """Whether the graph needs the voxels' positions (texture coordinates, textures)."""
-        return any(node.kind == "TEX_COORD" or node.kind.startswith("TEX_") for node in self.nodes)
+        return any(node.kind in ("TEX_COORD", "UV_MAP") or node.kind.startswith("TEX_")
+                   for node in self.nodes)
 
 
 VOLUME_INFO = {"Color": "color", "Density": "density", "Flame": "flame", "Temperature": "temperature"}
@@ -158,6 +159,7 @@ class _Evaluation:
                  position: np.ndarray | None):
         self.graph, self.grids, self.n, self.position = graph, grids, n, position
         self.memo: dict[int, dict] = {}
+        self.uv: np.ndarray | None = None     # (n, 2) UV coordinates of surface points
         self.current = -1           # the node being evaluated
 
     def reads(self, output: str) -> bool:
@@ -229,6 +231,17 @@ def evaluate(graph: ShaderGraph, grids: Mapping[str, np.ndarray], n: int,
     mean_s = _mean3(s)
     g = np.where(mean_s > 0.0, np.broadcast_to(c.g_weighted, (n,)) / np.maximum(mean_s, 1e-30), 0.0)
     return VolumeFields(s, a, e, np.clip(g, -0.99, 0.99))
+
+
+def evaluate_value(graph: ShaderGraph, kind: str, n: int, position: np.ndarray | None = None,
+                   uv: np.ndarray | None = None):
+    """The value ``graph.output`` links to, as socket type ``kind`` (VALUE: (n,), RGBA or VECTOR:
+    (n, 3)), at ``n`` points of a surface: ``position`` (n, 3) in object space, ``uv`` (n, 2)."""
+    ev = _Evaluation(graph, {}, n, position)
+    ev.uv = uv
+    value = ev.input(Input("value", kind, graph.output))
+    shape = (n, 3) if kind in ("RGBA", "VECTOR") else (n,)
+    return np.broadcast_to(np.asarray(value, F), shape)
 
 
 # ---- value nodes --------------------------------------------------------------------------------
@@ -567,11 +580,70 @@ def _blackbody(node, ins, ev):
 
 
 def _tex_coord(node, ins, ev):
+    out = {}
+    if ev.uv is not None:
+        out["UV"] = np.concatenate([ev.uv, np.zeros((len(ev.uv), 1))], axis=-1)
     if ev.position is None:
-        return {}
+        return out
     lo, size = (np.asarray(x, np.float64) for x in ev.graph.texspace)
     generated = (ev.position - (lo - size)) / np.where(size != 0.0, 2.0 * size, 1.0)
-    return {"Object": ev.position, "Generated": generated}
+    return {**out, "Object": ev.position, "Generated": generated}
+
+
+def _uv_map(node, ins, ev):
+    return {"UV": _tex_coord(node, ins, ev).get("UV", np.zeros(3, F))}
+
+
+# Images the graphs read (Image Texture), by the key their node holds: (pixels (h, w, 4) float32,
+# bottom row first; whether they are sRGB-encoded bytes, decoded after interpolation as Cycles
+# does). Registered once per content by the Blender side (blender/node_graph.py), the last
+# IMAGES_KEPT kept.
+IMAGES: OrderedDict[str, tuple[np.ndarray, bool]] = OrderedDict()
+IMAGES_KEPT = 32
+
+
+def register_image(key: str, pixels: np.ndarray, srgb: bool) -> None:
+    IMAGES[key] = (pixels, srgb)
+    IMAGES.move_to_end(key)
+    while len(IMAGES) > IMAGES_KEPT:
+        IMAGES.popitem(last=False)
+
+
+def _srgb_to_linear(c):
+    c = np.asarray(c, np.float64)
+    return np.where(c <= 0.04045, c / 12.92, ((np.maximum(c, 0.04045) + 0.055) / 1.055) ** 2.4)
+
+
+def _tex_image(node, ins, ev):
+    entry = IMAGES.get(node.param("image", ""))
+    v = ins.get("Vector")
+    if v is None:        # unlinked: the active UV map
+        v = _tex_coord(node, {}, ev).get("UV", np.zeros(3, F))
+    if entry is None:
+        return {"Color": np.array([1.0, 0.0, 1.0], F), "Alpha": np.ones((), F)}   # Cycles' missing image
+    pixels, srgb = entry
+    h, w = pixels.shape[:2]
+    uv = np.broadcast_to(np.asarray(v, np.float64), (ev.n, 3))[:, :2]
+    x, y = uv[:, 0] * w - 0.5, uv[:, 1] * h - 0.5
+    extend = node.param("extension", "REPEAT")
+
+    def wrap(i, n):
+        return np.mod(i, n) if extend == "REPEAT" else np.clip(i, 0, n - 1)
+
+    if node.param("interpolation", "Linear") == "Closest":
+        xi, yi = np.floor(x + 0.5).astype(np.int64), np.floor(y + 0.5).astype(np.int64)
+        rgba = pixels[wrap(yi, h), wrap(xi, w)]
+    else:
+        x0, y0 = np.floor(x).astype(np.int64), np.floor(y).astype(np.int64)
+        tx, ty = (x - x0)[:, None], (y - y0)[:, None]
+        xa, xb, ya, yb = wrap(x0, w), wrap(x0 + 1, w), wrap(y0, h), wrap(y0 + 1, h)
+        rgba = ((pixels[ya, xa] * (1 - tx) + pixels[ya, xb] * tx) * (1 - ty)
+                + (pixels[yb, xa] * (1 - tx) + pixels[yb, xb] * tx) * ty)
+    if extend == "CLIP":
+        outside = (uv[:, 0] < 0) | (uv[:, 0] > 1) | (uv[:, 1] < 0) | (uv[:, 1] > 1)
+        rgba = np.where(outside[:, None], 0.0, rgba)
+    rgb = _srgb_to_linear(rgba[:, :3]) if srgb else rgba[:, :3]
+    return {"Color": np.asarray(rgb, F), "Alpha": np.asarray(rgba[:, 3], F)}
 
 
 def _euler(r) -> np.ndarray:
@@ -749,7 +821,7 @@ NODES: dict[str, Callable] = {
     "RGB_TO_BW": _rgb_to_bw, "SEPARATE": _separate, "COMBINE": _combine, "BLACKBODY": _blackbody,
     "TEX_COORD": _tex_coord, "MAPPING": _mapping, "TEX_NOISE": _tex_noise,
     "TEX_GRADIENT": _tex_gradient, "TEX_WHITE_NOISE": _tex_white_noise, "TEX_VORONOI": _tex_voronoi,
-    "TEX_WAVE": _tex_wave, "TEX_CHECKER": _tex_checker,
+    "TEX_WAVE": _tex_wave, "TEX_CHECKER": _tex_checker, "TEX_IMAGE": _tex_image, "UV_MAP": _uv_map,
     "PRINCIPLED_VOLUME": _principled, "VOLUME_SCATTER": _scatter, "VOLUME_ABSORPTION": _absorption,
     "VOLUME_COEFFICIENTS": _coefficients, "EMISSION": _emission, "BACKGROUND": _background,
     "ADD_SHADER": _add_shader,

@@ -18,6 +18,8 @@ UNIT = {"u_gb0": 0, "u_gb1": 1, "u_density": 2, "u_shadow": 3, "u_gobo": 4, "u_k
         "u_glow": 17, "u_fire": 18,
         # the probe pass reads no G-buffer: its points take the G-buffer's unit
         "u_points": 0}
+# Uniform blocks: the solids' material table and the microfacet tables (shaders/surface.glsl).
+BLOCK = {"Materials": 0, "GgxFresnel": 1, "GgxAlbedo": 2}
 
 # The density texture's format: (moderngl dtype, numpy type); values are stored divided by the
 # grid's maximum (``MediumGPU.density_scale``) so that half floats never overflow and the
@@ -72,6 +74,9 @@ def bind_units(prog) -> None:
     for name, unit in UNIT.items():
         if prog.get(name, None) is not None:   # a dict look-up (`in` walks every member)
             prog[name].value = unit
+    for name, binding in BLOCK.items():
+        if prog.get(name, None) is not None:
+            prog[name].binding = binding
 
 
 class MediumGPU:

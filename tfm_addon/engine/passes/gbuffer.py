@@ -5,13 +5,17 @@ from __future__ import annotations
 from ..camera import ViewPlane, camera_to_world, clip_matrix
 from ..gl_context import GLContext, set_matrix, set_uniforms
 from ..scene import Camera
-from .bindings import UNIT, pass_state
+from ..surface import table_blocks
+from .bindings import BLOCK, UNIT, pass_state
 from .solids import FORMAT, SolidsBuffer
+from .surface_textures import SurfaceTextures
 
 
 class GBuffer:
-    """Two RGBA32F textures the size of the pixel window: (albedo, distance along the view ray
-    in metres) and (world normal, 1 where a solid is seen, 2 where a holdout is seen), with their
+    """Two RGBA32F textures the size of the pixel window: (base colour, distance along the view
+    ray in metres) and (world normal as two octahedral floats, roughness and metallic packed in
+    one, the hit flag: 1 + 2 k where a surface of material k of the solids' table is seen, 2 where
+    a holdout is seen; shaders/gbuffer_pack.glsl), with their
     framebuffer and depth buffer. ``draw`` re-renders the contents for a view into the same GL
     objects, so that samples that only move the camera (antialiasing jitter) allocate nothing."""
 
@@ -26,6 +30,9 @@ class GBuffer:
         self.fbo = ctx.framebuffer([self.albedo_distance, self.normal_hit], self.depth)
         self._vao = None
         self._vao_solids = None   # the SolidsBuffer the vertex array reads (held: compared by identity)
+        self._solids = None       # the SolidsBuffer drawn: its material table is bound with the textures
+        self._tables = [ctx.buffer(b) for b in table_blocks()]
+        self._textures = None     # SurfaceTextures, made for the first textured solids drawn
 
     def draw(self, gl: GLContext, camera: Camera, plane: ViewPlane, solids: SolidsBuffer) -> None:
         """Render ``solids`` seen by ``camera`` (``plane`` its pixel window, of this size)."""
@@ -33,6 +40,7 @@ class GBuffer:
         self.fbo.use()
         pass_state(ctx, depth_test=True)
         self.fbo.clear(0, 0, 0, 0, depth=1.0)
+        self._solids = solids
         if solids.vertex_count:
             prog = gl.program("gbuffer.vert", "gbuffer.frag")
             c2w = camera_to_world(camera)
@@ -43,19 +51,32 @@ class GBuffer:
                 if self._vao is not None:
                     self._vao.release()
                 self._vao = ctx.vertex_array(prog, [(solids.vbo, FORMAT, "in_position", "in_normal",
-                                                     "in_albedo", "in_holdout")])
+                                                     "in_albedo", "in_hit", "in_rough_metal")])
                 self._vao_solids = solids
             self._vao.render(vertices=solids.vertex_count)
         pass_state(ctx)
+        if solids.textured and solids.coords_count:
+            if self._textures is None:
+                self._textures = SurfaceTextures(gl, self.size, self.depth)
+            self._textures.apply(gl, camera, solids, self.albedo_distance, self.normal_hit)
 
     def bind(self) -> None:
         self.albedo_distance.use(UNIT["u_gb0"])
         self.normal_hit.use(UNIT["u_gb1"])
+        if self._solids is not None:
+            self._solids.materials.bind_to_uniform_block(BLOCK["Materials"])
+        self._tables[0].bind_to_uniform_block(BLOCK["GgxFresnel"])
+        self._tables[1].bind_to_uniform_block(BLOCK["GgxAlbedo"])
 
     def release(self) -> None:
         if self._vao is not None:
             self._vao.release()
             self._vao, self._vao_solids = None, None
+        self._solids = None
+        if self._textures is not None:
+            self._textures.release()
+        for b in self._tables:
+            b.release()
         self.fbo.release()
         self.depth.release()
         self.albedo_distance.release()

@@ -7,11 +7,11 @@ uniform int u_film_transparent;
 uniform vec3 u_world;             // radiance seen behind everything (opaque film)
 
 // scatter, the solids' radiance before the medium (surface), the view transmittance t, and the
-// G-buffer's hit flag (1 solid, 2 holdout).
+// G-buffer's hit flag (2 holdout, else odd: a solid).
 vec4 combined_pixel(vec3 scatter, vec3 surface, vec3 t, float hit_flag) {
     vec3 rgb = scatter + t * surface;
-    bool hit = hit_flag > 0.5 && hit_flag < 1.5;
-    bool holdout = hit_flag > 1.5;
+    bool holdout = abs(hit_flag - 2.0) < 0.5;
+    bool hit = hit_flag > 0.5 && !holdout;
     float alpha = hit ? 1.0 : 1.0 - (t.r + t.g + t.b) / 3.0;
     if (u_film_transparent == 0 && !holdout) {
         if (!hit) rgb += t * u_world;

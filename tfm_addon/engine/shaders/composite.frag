@@ -6,7 +6,7 @@
 #define SAMPLE_SUMS 1
 #endif
 #include "compose.glsl"
-uniform sampler2D u_gb1;          // normal, hit (1 solid, 2 holdout)
+uniform sampler2D u_gb1;          // normal, hit (2 holdout, else odd: a solid)
 uniform sampler2D u_scatter;
 uniform sampler2D u_surface;
 uniform sampler2D u_transmittance;

@@ -9,9 +9,10 @@
 #include "transmittance.glsl"
 #include "emission.glsl"
 #include "fire_light.glsl"
+#include "surface.glsl"
 
-uniform sampler2D u_gb0;       // albedo, distance
-uniform sampler2D u_gb1;       // normal, hit
+uniform sampler2D u_gb0;       // base colour, distance
+uniform sampler2D u_gb1;       // normal, roughness and metallic, hit flag (gbuffer_pack.glsl)
 uniform mat4 u_camera_to_world;
 uniform vec2 u_plane0;         // camera-space x, y of the window's lower-left corner (unit depth)
 uniform float u_pixel_size;    // at unit depth (perspective) or in metres (orthographic)
@@ -119,40 +120,49 @@ void main() {
     vec3 transmittance = vec3(1.0);
     float phase_g = u_g;
 
-    if (hit) {
-        vec3 albedo = g0.rgb;
-        vec3 n = normalize(g1.xyz);
+    if (hit && abs(g1.w - 2.0) > 0.5) {      // a surface (a holdout has no radiance)
+        vec3 n = octahedral_decode(g1.xy);
         if (dot(n, d) > 0.0) n = -n;
         vec3 P = o + d * g0.w;
+        SurfacePoint sp = surface_point(g1.w, g0.rgb, unpack_rough_metal(g1.z));
+        Lobes lobes = surface_lobes(sp, dot(n, -d));
 #if FIRST_PASS
-        surface += albedo * u_ambient_surface;
+        surface += surface_albedo(sp, lobes) * u_ambient_surface + sp.emission;
 #if FIRE_LIGHT
-        surface += albedo / PI * fire_irradiance(P, n);
+        surface += surface_albedo(sp, lobes) / PI * fire_irradiance(P, n);
 #endif
 #endif
 #if HAS_LIGHT
         vec3 qP = light_space(P);
-        float ndl = dot(n, toward_light(P, qP, light_distance(qP)));
+        vec3 L = toward_light(P, qP, light_distance(qP));
 #if FACE_WORLD_SOFT
-        ndl = 1.0;      // world_sun_arriving weighs each direction of its cone by its own cosine
-#endif
-        if (ndl > 0.0) {
-            float r;
-            g_bias_texels = 3.0;    // the solid's own shadow-map texels must not shadow it
-#if FACE_WORLD_SOFT
-            surface += albedo / PI * world_sun_arriving(P, qP, mat3(u_world_to_light) * n, step_at)
-                       * u_light_targets.y;
+        // A world sun lights the surface from its whole cone (world_sun_arriving: each direction
+        // weighted by its own cosine), through the BSDF's value at the cone's axis (the diffuse
+        // albedo where the axis is below the surface).
+        float ndl_axis = dot(n, L);
+        vec3 brdf = ndl_axis > 0.05 ? surface_bsdf_cos(sp, lobes, n, -d, L) / ndl_axis
+                                    : surface_albedo(sp, lobes) / PI;
+        g_bias_texels = 3.0;
+        surface += brdf * world_sun_arriving(P, qP, mat3(u_world_to_light) * n, step_at)
+                   * u_light_targets.y;
+        g_bias_texels = 0.0;
 #else
+        vec3 f = surface_bsdf_cos(sp, lobes, n, -d, L);
+        if (any(greaterThan(f, vec3(0.0)))) {
+            float r;
+            // The solid's own shadow-map texels must not shadow it: 3 footprints, and as many
+            // as its depth changes across one where the light grazes it (slope-scaled).
+            g_bias_texels = surface_bias_texels(dot(n, L));
 #if SOFT_SHADOW
             g_soft_normal = mat3(u_world_to_light) * n;     // its plane, for the soft shadow's taps
 #endif
-            surface += albedo / PI * ndl * light_arriving(P, qP, r) * u_light_targets.y;
-#endif
+            surface += f * light_arriving(P, qP, r) * u_light_targets.y;
             g_bias_texels = 0.0;
 #if SOFT_SHADOW
             g_soft_normal = vec3(0.0);
 #endif
         }
+#endif
 #endif
     }
 
