@@ -39,6 +39,7 @@ class TFM_PT_render(_TFMPanel, bpy.types.Panel):
         custom.prop(tfm, "view_steps")
         custom.prop(tfm, "light_steps")
         custom.prop(tfm, "sampling")
+        col.prop(tfm, "volume_bounces")
         col.prop(tfm, "ambient")
         world_col = col.column()
         world_col.active = tfm.ambient

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .. import multiple_scattering
 from ..camera import ViewPlane, camera_to_world
 from ..gl_context import GLContext, set_matrix, set_uniforms
 from ..scene import Camera, Medium, RenderSettings
@@ -157,6 +158,9 @@ def run_light_pass(gl: GLContext, *, camera: Camera, plane: ViewPlane, medium: M
         defines.update(tfm.defines(settings.tfm_filter))
     if medium_kind == MEDIUM_GRID:
         defines.update(medium_gpu.defines())
+    octaves = multiple_scattering.for_settings(settings)
+    if light is not None and medium_kind != MEDIUM_NONE and octaves.count > 1:
+        defines["OCTAVES"] = octaves.count
     prog = gl.program("fullscreen.vert", "scatter.frag", defines)
     # The first pass writes the targets ScatteringTargets.begin bound, the others add into them.
     pass_state(gl.ctx, blend=not first or sums is not None)
@@ -173,6 +177,8 @@ def run_light_pass(gl: GLContext, *, camera: Camera, plane: ViewPlane, medium: M
         frame, intensity, shadow, gobo = light[:4]
         bind_light(prog, frame, intensity, settings.map_resolution, shadow, gobo)
         set_uniforms(prog, u_light_targets=tuple(light[4]) if len(light) > 4 else (1.0, 1.0))
+    if "OCTAVES" in defines:
+        multiple_scattering.bind(prog, octaves)
     if tfm is not None:
         tfm.bind(prog, medium.sigma_t if tfm_sigma_t is None else tfm_sigma_t)
     if emits or colored:
