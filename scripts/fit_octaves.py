@@ -4,7 +4,8 @@ against the Cycles references with bounces (scripts/make_bounce_refs.py).
     .venv/bin/python scripts/fit_octaves.py [--bounces 1 2 4 16 128] [--json out.json]
 
 An octave sum is linear in its octaves: the image with octaves (N, a, b) is the single-scattering
-image plus b^n times the image of one octave whose light transmittance is T^(a^n), n = 1..N-1.
+image plus (b albedo)^n times the image of one octave of contribution 1 whose light transmittance is
+T^(a^n), n = 1..N-1 (the octave image holds one factor of the medium's albedo already).
 So each medium is rendered by TFM (the add-on's defaults, through Blender) once in single
 scattering and once per exponent a^n on the grid below, and every candidate (N, a, b) is composed
 from those images and compared with Cycles, without rendering it. The fit minimises, over the
@@ -29,7 +30,7 @@ if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
 A_GRID = (0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9)
-B_GRID = tuple(np.round(np.arange(0.3, 0.96, 0.05), 2))
+B_GRID = tuple(np.round(np.arange(0.2, 1.01, 0.05), 2))
 MAX_OCTAVES = 10
 
 
@@ -67,10 +68,10 @@ def octave_images(medium: str, tmp: str) -> tuple[np.ndarray, dict[float, np.nda
     return single, octave
 
 
-def compose(single, octave, count: int, a: float, b: float) -> np.ndarray:
+def compose(single, octave, albedo: float, count: int, a: float, b: float) -> np.ndarray:
     image = single.copy()
     for n in range(1, count):
-        image += b ** n * octave[round(a ** n, 6)]
+        image += b ** n * albedo ** (n - 1) * octave[round(a ** n, 6)]
     return image
 
 
@@ -89,23 +90,40 @@ def main(argv: list[str] | None = None) -> int:
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--bounces", type=int, nargs="+", default=[1, 2, 4, 16, 128])
     parser.add_argument("--json", type=Path, default=None, help="write the fit and its errors here")
+    parser.add_argument("--cache", type=Path, default=None,
+                        help="an .npz that keeps the TFM octave images between runs (not the references)")
     args = parser.parse_args(argv)
 
     import tfm_addon
     from tfm_addon.bench import bounces as bn
 
-    tfm_addon.register()
-    try:
-        with tempfile.TemporaryDirectory(prefix="tfm_fit_") as tmp:
-            images = {m: octave_images(m, tmp) for m in (*bn.FIT, *bn.HELD_OUT)}
-    finally:
-        tfm_addon.unregister()
+    media = [m for m in (*bn.FIT, *bn.HELD_OUT)
+             if all(bn.reference_path(m, n).exists() for n in args.bounces)]
+    images = {}
+    if args.cache and args.cache.exists():
+        with np.load(args.cache) as z:
+            for m in media:
+                if f"{m}/single" in z.files:
+                    keys = [k for k in z.files if k.startswith(f"{m}/") and k != f"{m}/single"]
+                    images[m] = (z[f"{m}/single"], {float(k.split("/")[1]): z[k] for k in keys})
+    missing = [m for m in media if m not in images]
+    if missing:
+        tfm_addon.register()
+        try:
+            with tempfile.TemporaryDirectory(prefix="tfm_fit_") as tmp:
+                images.update({m: octave_images(m, tmp) for m in missing})
+        finally:
+            tfm_addon.unregister()
+        if args.cache:
+            np.savez(args.cache, **{f"{m}/single": s for m, (s, _) in images.items()},
+                     **{f"{m}/{a}": o for m, (_, octs) in images.items() for a, o in octs.items()})
     result = {}
     for n in args.bounces:
         refs = {m: bn.load_reference(m, n)[0].astype(np.float64) for m in images}
         best = None
         for count, a, b in itertools.product(range(2, MAX_OCTAVES + 1), A_GRID, B_GRID):
-            figures = [error(compose(*images[m], count, a, float(b)), refs[m]) for m in bn.FIT]
+            figures = [error(compose(*images[m], bn.MEDIA[m][2], count, a, float(b)), refs[m])
+                       for m in bn.FIT]
             value = loss(figures)
             if best is None or value < best[0]:
                 best = (value, count, a, float(b))
@@ -113,7 +131,7 @@ def main(argv: list[str] | None = None) -> int:
         per_medium = {}
         for m in images:
             ss = error(images[m][0], refs[m])
-            ms_ = error(compose(*images[m], count, a, b), refs[m])
+            ms_ = error(compose(*images[m], bn.MEDIA[m][2], count, a, b), refs[m])
             per_medium[m] = {"fitted_on": m in bn.FIT, "single": ss, "octaves": ms_}
             print(f"{n:4d} bounces {m:16s} {'fit ' if m in bn.FIT else 'held'}  single: SSIM {ss[0]:.4f} "
                   f"brightness {ss[1]:.3f}   octaves: SSIM {ms_[0]:.4f} brightness {ms_[1]:.3f}", flush=True)

@@ -58,25 +58,25 @@ def _fog(tmpdir: str, *, density: float, color: float, light: str = 'POINT') -> 
     cf.cube_medium(mat)
 
 
-# name: (builder, title). Densities are Principled Volume Density (the puff's grid peaks at 2.5,
-# the noise cloud's Map Range at the density given); colour is the scattering albedo.
-MEDIA: dict[str, tuple[Callable[[str], None], str]] = {
+# name: (builder, title, albedo). Densities are Principled Volume Density (the puff's grid peaks
+# at 2.5, the noise cloud's Map Range at the density given); Color is the scattering albedo.
+MEDIA: dict[str, tuple[Callable[[str], None], str, float]] = {
     "thin_smoke": (lambda d: _puff(d, density=0.4, color=0.8),
-                   "smoke puff, Density 0.4, Color 0.8 (optical depth through the middle ~1)"),
+                   "smoke puff, Density 0.4, Color 0.8 (optical depth through the middle ~1)", 0.8),
     "thick_smoke": (lambda d: _puff(d, density=4.0, color=0.8),
-                    "smoke puff, Density 4, Color 0.8 (optical depth ~10)"),
+                    "smoke puff, Density 4, Color 0.8 (optical depth ~10)", 0.8),
     "cloud": (lambda d: _noise_cloud(d, density=3.0, color=1.0),
-              "noise cloud (Noise Texture → Map Range 0–3), white (albedo 1)"),
-    "fog_box": (lambda d: _fog(d, density=0.8, color=0.9), "2 m fog box, Density 0.8, Color 0.9"),
+              "noise cloud (Noise Texture → Map Range 0–3), white (albedo 1)", 1.0),
+    "fog_box": (lambda d: _fog(d, density=0.8, color=0.9), "2 m fog box, Density 0.8, Color 0.9", 0.9),
     # held out
     "white_smoke": (lambda d: _puff(d, density=1.5, color=1.0),
-                    "smoke puff, Density 1.5, white (albedo 1), point light"),
+                    "smoke puff, Density 1.5, white (albedo 1), point light", 1.0),
     "dense_cloud_sun": (lambda d: _noise_cloud(d, density=8.0, color=1.0, light='SUN'),
-                        "noise cloud, Map Range 0–8, white, lit by a sun"),
+                        "noise cloud, Map Range 0–8, white, lit by a sun", 1.0),
     "grey_smoke_spot": (lambda d: _puff(d, density=2.0, color=0.6, light='SPOT'),
-                        "smoke puff, Density 2, Color 0.6, spot light"),
+                        "smoke puff, Density 2, Color 0.6, spot light", 0.6),
     "fog_sun": (lambda d: _fog(d, density=1.5, color=1.0, light='SUN'),
-                "2 m fog box, Density 1.5, white, lit by a sun"),
+                "2 m fog box, Density 1.5, white, lit by a sun", 1.0),
 }
 FIT = ("thin_smoke", "thick_smoke", "cloud", "fog_box")
 HELD_OUT = ("white_smoke", "dense_cloud_sun", "grey_smoke_spot", "fog_sun")

@@ -3,7 +3,9 @@ volumetric", SIGGRAPH 2013 talk), read from the single-scattering maps.
 
 Octave n (0 = single scattering) re-evaluates the light scattered at each view sample with the
 light's transmittance raised to a^n (T^(a^n) = exp(a^n ln T): the same map, one more power), its
-contribution scaled by b^n and the phase anisotropy by c^n; the octaves add up. Light that
+contribution scaled by (b albedo)^n (albedo = sigma_s / sigma_t of the medium there: light
+scattered n more times kept that share each time) and the phase anisotropy by c^n; the octaves
+add up. Light that
 scattered many times has travelled through less medium on average, spreads forward less and is
 brighter in the shadowed parts of the medium: the octaves stand in for it with no new map.
 
@@ -20,7 +22,7 @@ from dataclasses import dataclass
 @dataclass(frozen=True)
 class Octaves:
     """``count`` octaves (1: single scattering); octave n scales the light transmittance's
-    optical depth by ``a``^n, the contribution by ``b``^n and the anisotropy by ``c``^n."""
+    optical depth by ``a``^n, the contribution by (``b`` albedo)^n and the anisotropy by ``c``^n."""
 
     count: int = 1
     a: float = 1.0

@@ -279,9 +279,11 @@ void main() {
                 if (any(greaterThan(li, vec3(0.0)))) {
                     float c = -dot(light_travel(q, r), dq);
                     vec3 ssp = vec3(0.0);
-                    for (int m = 0; m < N_MEDIA; ++m)
-                        ssp += u_med_sigma_s[m] * (m == 0 ? tint0 : vec3(1.0)) * D[m]
-                               * octave_phase(t_light, c, u_med_g[m]);
+                    for (int m = 0; m < N_MEDIA; ++m) {
+                        vec3 sigma_s = u_med_sigma_s[m] * (m == 0 ? tint0 : vec3(1.0));
+                        ssp += sigma_s * D[m] * octave_phase(t_light, c, u_med_g[m],
+                                                             sigma_s / max(u_med_sigma_t[m], vec3(1e-12)));
+                    }
                     src += li * ssp * u_light_targets.x;
                 }
 #endif
@@ -349,7 +351,8 @@ void main() {
                 if (any(greaterThan(li, vec3(0.0)))) {
                     vec3 tv = exp(-u_sigma_t * (t - seg.x));
                     scatter += tv * u_sigma_s * dt * li
-                               * octave_phase(t_light, -dot(light_travel(q, r), dq), phase_g) * u_light_targets.x;
+                               * octave_phase(t_light, -dot(light_travel(q, r), dq), phase_g,
+                                              u_sigma_s / max(u_sigma_t, vec3(1e-12))) * u_light_targets.x;
                 }
             }
         }
