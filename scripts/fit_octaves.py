@@ -4,11 +4,10 @@ against the Cycles references with bounces (scripts/make_bounce_refs.py).
     .venv/bin/python scripts/fit_octaves.py [--bounces 1 2 4 16 128] [--json out.json]
 
 An octave sum is linear in its octaves: the image with octaves (N, a, b) is the single-scattering
-image plus (b albedo)^n times the image of one octave of contribution 1 whose light transmittance is
-T^(a^n), n = 1..N-1 (the octave image holds one factor of the medium's albedo already).
-So each medium is rendered by TFM (the add-on's defaults, through Blender) once in single
-scattering and once per exponent a^n on the grid below, and every candidate (N, a, b) is composed
-from those images and compared with Cycles, without rendering it. The fit minimises, over the
+image plus b^n times the image octave n adds with b = 1, n = 1..N-1. So each medium is rendered by
+TFM (the add-on's defaults, through Blender) once in single scattering and once per octave count
+and factor a on the grid below, and every candidate (N, a, b) is composed from those images and
+compared with Cycles, without rendering it. The fit minimises, over the
 ``bounces.FIT`` media, the mean of |brightness ratio - 1| + (1 - SSIM); it prints the error of the
 chosen constants on the ``bounces.HELD_OUT`` media too. The anisotropy factor c is not fitted:
 every medium here is isotropic (Principled Volume's default), where c does nothing.
@@ -34,16 +33,17 @@ B_GRID = tuple(np.round(np.arange(0.2, 1.01, 0.05), 2))
 MAX_OCTAVES = 10
 
 
-def octave_images(medium: str, tmp: str) -> tuple[np.ndarray, dict[float, np.ndarray]]:
-    """The medium's single-scattering TFM image and, per exponent alpha, the image one octave of
-    light transmittance T^alpha adds (contribution 1)."""
+def octave_images(medium: str, tmp: str) -> tuple[np.ndarray, dict[tuple[int, float], np.ndarray]]:
+    """The medium's single-scattering TFM image and, per octave n and factor a, the image octave n
+    adds with contribution factor b = 1 (the difference of the sums of n + 1 and n octaves)."""
     import bpy
 
     from tfm_addon.bench import bounces as bn
     from tfm_addon.bench import conformance as cf
     from tfm_addon.engine import multiple_scattering as ms
 
-    def render() -> np.ndarray:
+    def render(o) -> np.ndarray:
+        ms.FITTED[1] = o
         bpy.ops.render.render()
         return cf._read_render(tmp, "fit")[..., :3].astype(np.float64)
 
@@ -55,23 +55,24 @@ def octave_images(medium: str, tmp: str) -> tuple[np.ndarray, dict[float, np.nda
     saved = dict(ms.FITTED)
     try:
         ms.FITTED.clear()
-        ms.FITTED[1] = ms.SINGLE
-        single = render()
-        alphas = sorted({round(a ** n, 6) for a in A_GRID for n in range(1, MAX_OCTAVES)})
+        single = render(ms.SINGLE)
         octave = {}
-        for alpha in alphas:
-            ms.FITTED[1] = ms.Octaves(2, alpha, 1.0, 0.5)
-            octave[alpha] = render() - single
+        for a in A_GRID:
+            below = single
+            for n in range(1, MAX_OCTAVES):
+                total = render(ms.Octaves(n + 1, a, 1.0, 0.5))
+                octave[(n, a)] = total - below
+                below = total
     finally:
         ms.FITTED.clear()
         ms.FITTED.update(saved)
     return single, octave
 
 
-def compose(single, octave, albedo: float, count: int, a: float, b: float) -> np.ndarray:
+def compose(single, octave, count: int, a: float, b: float) -> np.ndarray:
     image = single.copy()
     for n in range(1, count):
-        image += b ** n * albedo ** (n - 1) * octave[round(a ** n, 6)]
+        image += b ** n * octave[(n, a)]
     return image
 
 
@@ -105,7 +106,8 @@ def main(argv: list[str] | None = None) -> int:
             for m in media:
                 if f"{m}/single" in z.files:
                     keys = [k for k in z.files if k.startswith(f"{m}/") and k != f"{m}/single"]
-                    images[m] = (z[f"{m}/single"], {float(k.split("/")[1]): z[k] for k in keys})
+                    images[m] = (z[f"{m}/single"], {(int(k.split("/")[1]), float(k.split("/")[2])): z[k]
+                                                     for k in keys})
     missing = [m for m in media if m not in images]
     if missing:
         tfm_addon.register()
@@ -116,14 +118,13 @@ def main(argv: list[str] | None = None) -> int:
             tfm_addon.unregister()
         if args.cache:
             np.savez(args.cache, **{f"{m}/single": s for m, (s, _) in images.items()},
-                     **{f"{m}/{a}": o for m, (_, octs) in images.items() for a, o in octs.items()})
+                     **{f"{m}/{n}/{a}": o for m, (_, octs) in images.items() for (n, a), o in octs.items()})
     result = {}
     for n in args.bounces:
         refs = {m: bn.load_reference(m, n)[0].astype(np.float64) for m in images}
         best = None
         for count, a, b in itertools.product(range(2, MAX_OCTAVES + 1), A_GRID, B_GRID):
-            figures = [error(compose(*images[m], bn.MEDIA[m][2], count, a, float(b)), refs[m])
-                       for m in bn.FIT]
+            figures = [error(compose(*images[m], count, a, float(b)), refs[m]) for m in bn.FIT]
             value = loss(figures)
             if best is None or value < best[0]:
                 best = (value, count, a, float(b))
@@ -131,7 +132,7 @@ def main(argv: list[str] | None = None) -> int:
         per_medium = {}
         for m in images:
             ss = error(images[m][0], refs[m])
-            ms_ = error(compose(*images[m], bn.MEDIA[m][2], count, a, b), refs[m])
+            ms_ = error(compose(*images[m], count, a, b), refs[m])
             per_medium[m] = {"fitted_on": m in bn.FIT, "single": ss, "octaves": ms_}
             print(f"{n:4d} bounces {m:16s} {'fit ' if m in bn.FIT else 'held'}  single: SSIM {ss[0]:.4f} "
                   f"brightness {ss[1]:.3f}   octaves: SSIM {ms_[0]:.4f} brightness {ms_[1]:.3f}", flush=True)

@@ -278,10 +278,11 @@ void main() {
                 vec3 li = light_reaching(p, q, r, t_light);
                 if (any(greaterThan(li, vec3(0.0)))) {
                     float c = -dot(light_travel(q, r), dq);
+                    vec3 t_through = light_through(p, q, r);
                     vec3 ssp = vec3(0.0);
                     for (int m = 0; m < N_MEDIA; ++m) {
                         vec3 sigma_s = u_med_sigma_s[m] * (m == 0 ? tint0 : vec3(1.0));
-                        ssp += sigma_s * D[m] * octave_phase(t_light, c, u_med_g[m],
+                        ssp += sigma_s * D[m] * octave_phase(t_light, t_through, c, u_med_g[m],
                                                              sigma_s / max(u_med_sigma_t[m], vec3(1e-12)));
                     }
                     src += li * ssp * u_light_targets.x;
@@ -351,7 +352,8 @@ void main() {
                 if (any(greaterThan(li, vec3(0.0)))) {
                     vec3 tv = exp(-u_sigma_t * (t - seg.x));
                     scatter += tv * u_sigma_s * dt * li
-                               * octave_phase(t_light, -dot(light_travel(q, r), dq), phase_g,
+                               * octave_phase(t_light, light_through(o + d * t, q, r),
+                                              -dot(light_travel(q, r), dq), phase_g,
                                               u_sigma_s / max(u_sigma_t, vec3(1e-12))) * u_light_targets.x;
                 }
             }
