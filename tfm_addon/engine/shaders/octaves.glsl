@@ -31,10 +31,14 @@ vec3 octave_phase(vec3 t_light, vec3 t_through, float cos_theta, float g, vec3 a
 
 #if OCTAVES > 1 && HAS_LIGHT
 // The media's transmittance along the whole light ray through p (q: p in light space, r: its
-// light distance), from where the ray enters them to where it leaves: the transmittance from the
-// light to where the ray leaves the media beyond p, read as any point's.
+// light distance), from where the ray enters them to where it leaves (or meets a solid). Called
+// after light_transmittance(p, q, r): a map gives it from the same lookup (its series at the far
+// end); otherwise the transmittance from the light to where the ray leaves the media beyond p.
 vec3 light_through(vec3 p, vec3 q, float r) {
-#if MEDIUM == 2
+#if LIGHT_T == 0
+    // the map's far end, from the lookup light_transmittance(p, q, r) made (transmittance.glsl)
+    return EXP2_RGB(u_tfm_exponent * log2(max(g_tfm_end, 1e-30)));
+#elif MEDIUM == 2
     return vec3(0.0);       // fog everywhere: no way out
 #else
     vec3 dir = toward_light(p, q, r);
