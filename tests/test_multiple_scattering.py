@@ -37,6 +37,9 @@ def test_bounce_count_rebuilds_no_map(fresh):
     assert sixteen.sum() > 1.05 * single.sum()
     assert many.sum() >= sixteen.sum()
     assert np.array_equal(_scatter(fresh, volume_bounces=0), single)
+    report = fresh.render(_scene(), dataclasses.replace(SETTINGS, volume_bounces=16)).warnings
+    assert [w for w in report if w.startswith("Volume Bounces 16: multiple scattering approximated")]
+    assert not [w for w in fresh.render(_scene(), SETTINGS).warnings if w.startswith("Volume Bounces")]
 
 
 def test_zero_bounces_is_single_scattering():

@@ -63,3 +63,12 @@ def bind(prog, o: Octaves) -> None:
     """octaves.glsl's uniforms."""
     if "u_octave" in prog:
         prog["u_octave"].value = (float(o.a), float(o.b), float(o.c))
+
+
+def notes(scene, settings) -> list[str]:
+    """The render report's line for a frame with volume bounces and media."""
+    o = for_settings(settings)
+    if o.count <= 1 or not scene.media:
+        return []
+    return [f"Volume Bounces {settings.volume_bounces}: multiple scattering approximated by {o.count} "
+            "octaves of the single scattering; light that surfaces reflect into the media is not rendered"]
