@@ -69,7 +69,15 @@ def test_custom_shows_each_manual_field_once(context):
     drawn = _render_tab(context)
     assert not any(d.startswith("label:Auto") for d in drawn)
     assert all(drawn.count(name) == 1 for name in MANUAL), drawn
-    assert "label:Volume: 0 (light scatters once)" in _draw("TFM_PT_light_paths", context)
+    # Volume bounces: one field, under Light Paths as in Cycles; -1 shows Cycles' own count.
+    assert drawn.count("volume_bounces") == 1
+    context.scene.tfm.volume_bounces = -1
+    context.scene.cycles.volume_bounces = 5
+    assert _draw("TFM_PT_light_paths", context) == ["volume_bounces", "label:Cycles' Volume Bounces: 5"]
+    context.scene.tfm.volume_bounces = 16
+    assert _draw("TFM_PT_light_paths", context) == ["volume_bounces"]
+    context.scene.tfm.volume_bounces = -1
+    context.scene.cycles.volume_bounces = 0
 
 
 def test_medium_panel_says_where_sigma_comes_from(context):

@@ -64,6 +64,7 @@ class Row:
     build: Callable[[str], None]
     coloured: bool = False          # brightness compared per channel
     emissive: bool = False          # both renders: the medium lights nothing (``build``)
+    bounces: int = 0                # Cycles reference at these volume bounces (the row sets them)
     note: str = ""
 
     @property
@@ -1289,6 +1290,15 @@ def _(tmpdir):
     spot.data.spot_size = 1.2
 
 
+@row("volume_bounces_16", "Light Paths ▸ Max Bounces ▸ Volume 16: white smoke (Density 1.5, Color 1), "
+     "Cycles reference at 16 volume bounces", bounces=16)
+def _(tmpdir):
+    import bpy
+
+    _pv_row(tmpdir, Density=1.5, Color=(1.0, 1.0, 1.0, 1.0))
+    bpy.context.scene.cycles.volume_bounces = 16
+
+
 ROW_BY_ID = {r.id: r for r in ROWS}
 
 
@@ -1339,7 +1349,8 @@ def _read_render(tmpdir: str, name: str) -> np.ndarray:
 
 
 def render_cycles(r: Row, tmpdir: str, samples: int = 2048, seed: int = 0) -> tuple[np.ndarray, float]:
-    """Row ``r`` rendered by Cycles with single scattering (BLENDER.md): (RGBA, seconds)."""
+    """Row ``r`` rendered by Cycles with single scattering (BLENDER.md), or at the row's volume
+    bounces: (RGBA, seconds)."""
     import bpy
 
     from ..blender.scene_builder import cycles_single_scattering
@@ -1347,6 +1358,7 @@ def render_cycles(r: Row, tmpdir: str, samples: int = 2048, seed: int = 0) -> tu
     build(r, tmpdir)
     scene = bpy.context.scene
     cycles_single_scattering(scene, samples=samples)
+    scene.cycles.volume_bounces = scene.cycles.max_bounces = r.bounces
     scene.cycles.seed = seed
     t0 = time.perf_counter()
     bpy.ops.render.render()
@@ -1540,7 +1552,8 @@ def write_page(page_rows: list[PageRow], md: Path, png_dir: Path, blender: str, 
         f"- Thresholds: SSIM ≥ {SSIM_MIN} and total brightness within {BRIGHTNESS_TOL:.0%} of Cycles "
         "(per channel, R / G / B, for coloured media), `tfm_addon.engine.metrics`.",
         f"- Cycles references: Blender {refs[0].get('blender', '?') if refs else '?'}, single scattering "
-        "(volume_bounces 0, max_bounces 0, BLENDER.md's film settings), "
+        "(volume_bounces 0, max_bounces 0, BLENDER.md's film settings; a row at N volume bounces sets "
+        "volume_bounces = max_bounces = N), "
         f"{'/'.join(map(str, samples))} samples each (the mean of two seeds), "
         f"{ref_seconds / 60:.1f} min of Cycles in all on this machine; the two seeds agree to SSIM ≥ "
         f"{seed_ssim:.4f}.",

@@ -197,7 +197,17 @@ def render_settings(scene, viewport: bool = False) -> RenderSettings:
         film_transparent=bool(scene.render.film_transparent),
         world_light=getattr(tfm, "world_light_viewport" if viewport else "world_light", 'UNSHADOWED'),
         world_directions=int(getattr(tfm, "world_directions", 16)),
+        volume_bounces=volume_bounces(scene),
     )
+
+
+def volume_bounces(scene) -> int:
+    """The TFM Volume Bounces, or where it is -1, Cycles' (``scene.cycles.volume_bounces``; 0
+    where the Cycles add-on is off)."""
+    own = int(getattr(scene.tfm, "volume_bounces", -1))
+    if own >= 0:
+        return own
+    return max(int(getattr(getattr(scene, "cycles", None), "volume_bounces", 0)), 0)
 
 
 def render_size(scene) -> tuple[int, int]:

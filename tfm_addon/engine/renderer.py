@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import medium_attributes, shading, surface, world_light
+from . import medium_attributes, multiple_scattering, shading, surface, world_light
 from .adaptive import ActivePixels
 from .camera import view_plane
 from .errors import RenderCancelled
@@ -256,7 +256,8 @@ class Renderer:
         with gl.ctx:     # current for the call, whatever other context the thread made current
             out = self._render(scene, settings, cancel, progress, passes, client, sweep, map_image_side,
                                active, accumulate)
-        out.warnings.extend(w for w in shading.notes(scene) + _media_notes(scene) if w not in out.warnings)
+        notes = shading.notes(scene) + _media_notes(scene) + multiple_scattering.notes(scene, settings)
+        out.warnings.extend(w for w in notes if w not in out.warnings)
         return out
 
     def sample_sums(self, key) -> SampleSums | None:

@@ -20,6 +20,7 @@ from typing import Literal
 import numpy as np
 
 from .camera_effects import Motion
+from .multiple_scattering import Octaves
 from .surface import Surface
 
 RGB = tuple[float, float, float]
@@ -524,6 +525,10 @@ class RenderSettings:
     ``world_light``: how the world colour (``Scene.ambient``) lights the media and the surfaces:
     'UNSHADOWED' adds it as is; 'SHADOWED' as ``world_directions`` suns over the sphere, each
     shadowed by the media and the solids like any light (engine/world_light.py: what Cycles does).
+    ``volume_bounces``: Cycles' Volume Bounces, how many times light may scatter in the media: 0
+    renders single scattering; more adds the octaves of ``multiple_scattering.octaves`` (from the
+    same maps: no map depends on it). ``octaves``: those octaves given outright (None: the fitted
+    rule for ``volume_bounces``; for fitting and benchmarks).
     """
 
     view_steps: int = 100
@@ -543,6 +548,8 @@ class RenderSettings:
     alpha_from_probe: bool = False
     world_light: Literal["UNSHADOWED", "SHADOWED"] = "UNSHADOWED"
     world_directions: int = 16
+    volume_bounces: int = 0
+    octaves: Octaves | None = None
 
 
 @dataclass(frozen=True, eq=False)

@@ -49,9 +49,12 @@ class TFM_PT_light_paths(_TFMPanel, bpy.types.Panel):
     bl_options = {'DEFAULT_CLOSED'}
 
     def draw(self, context):
+        tfm = context.scene.tfm
         col = _split(self.layout).column(heading="Max Bounces")
-        # The volume bounces setting goes here (Cycles: Light Paths ▸ Max Bounces ▸ Volume).
-        col.label(text="Volume: 0 (light scatters once)")
+        col.prop(tfm, "volume_bounces", text="Volume")
+        if tfm.volume_bounces < 0:      # Cycles' own setting, read as it is
+            cycles = getattr(context.scene, "cycles", None)
+            col.label(text=f"Cycles' Volume Bounces: {cycles.volume_bounces if cycles else 0}")
 
 
 class TFM_PT_volumes(_TFMPanel, bpy.types.Panel):

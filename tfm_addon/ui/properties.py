@@ -120,6 +120,11 @@ class TFM_SceneSettings(bpy.types.PropertyGroup):
         description="Directions the shadowed world light comes from: more gives smoother shadows of "
                     "the sky, slower",
     )
+    volume_bounces: IntProperty(
+        name="Volume Bounces", default=-1, min=-1, soft_max=128, max=1024,
+        description="Times light may scatter in the media (approximated from the same maps): 0 renders "
+                    "single scattering; -1 reads Cycles' Light Paths > Max Bounces > Volume",
+    )
     viewport_scale: FloatProperty(
         name="Viewport Resolution", default=0.5, min=0.1, max=1.0, subtype='FACTOR',
         description="Resolution of the rendered viewport relative to the viewport: lower is faster "

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .. import multiple_scattering
 from ..camera import ViewPlane, camera_to_world, pixel_window
 from ..gl_context import GLContext, set_matrix, set_uniforms
 from ..scene import Camera, Medium, RenderSettings
@@ -169,6 +170,9 @@ def run_light_pass(gl: GLContext, *, camera: Camera, plane: ViewPlane, medium: M
         defines.update(tfm.defines(settings.tfm_filter))
     if medium_kind == MEDIUM_GRID:
         defines.update(medium_gpu.defines())
+    octaves = multiple_scattering.for_settings(settings)
+    if light is not None and medium_kind != MEDIUM_NONE and octaves.count > 1:
+        defines["OCTAVES"] = octaves.count
     prog = gl.program("fullscreen.vert", "scatter.frag", defines)
     # The first pass writes the targets ScatteringTargets.begin bound, the others add into them.
     pass_state(gl.ctx, blend=not first or sums is not None)
@@ -192,6 +196,8 @@ def run_light_pass(gl: GLContext, *, camera: Camera, plane: ViewPlane, medium: M
                          u_area_u=soft.area_u, u_area_v=soft.area_v, u_area_spread=soft.area_spread,
                          u_soft_near=0.0 if shadow is None else shadow.near,
                          u_soft_seed=0.0 if settings.view_jitter is None else float(settings.view_jitter))
+    if "OCTAVES" in defines:
+        multiple_scattering.bind(prog, octaves)
     if tfm is not None:
         tfm.bind(prog, medium.sigma_t if tfm_sigma_t is None else tfm_sigma_t)
     if emits or colored:

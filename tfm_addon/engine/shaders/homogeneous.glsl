@@ -39,10 +39,13 @@ vec3 homogeneous_light(vec3 o, vec3 d, vec2 cs, float t0, vec3 sigma_t, vec3 sig
         float t = cs.x + u_mid * span;
         vec3 q = oq + dq * t;
         float r;
-        vec3 li = light_arriving(o + d * t, q, r);
+        vec3 t_light;
+        vec3 li = light_reaching(o + d * t, q, r, t_light);
         if (any(greaterThan(li, vec3(0.0)))) {
             vec3 tv = exp(-sigma_t * (t - t0));
-            scatter += tv * sigma_s * dt * li * hg_phase(-dot(light_travel(q, r), dq), g) * u_light_targets.x;
+            scatter += tv * sigma_s * dt * li * u_light_targets.x
+                       * octave_phase(t_light, light_through(o + d * t, q, r), -dot(light_travel(q, r), dq),
+                                      g, sigma_s / max(sigma_t, vec3(1e-12)));
         }
     }
     return scatter;

@@ -10,6 +10,7 @@
 #include "emission.glsl"
 #include "fire_light.glsl"
 #include "surface.glsl"
+#include "octaves.glsl"
 
 uniform sampler2D u_gb0;       // base colour, distance
 uniform sampler2D u_gb1;       // normal, roughness and metallic, hit flag (gbuffer_pack.glsl)
@@ -46,17 +47,27 @@ layout(location = 3) out vec4 o_combined;
 #if HAS_LIGHT
 uniform vec2 u_light_targets;    // what the light lights: the media (x) and the surfaces (y), 0 or 1
 
-// Radiance arriving at p (q in light space) from the light face, past solids and medium; r is
-// set to the light distance (light.py: the faces of a point light split the sphere).
-vec3 light_arriving(vec3 p, vec3 q, out float r) {
+// Radiance arriving at p (q in light space) from the light face past the solids, before the
+// media; t_light is set to the media's transmittance from the light and r to the light distance
+// (light.py: the faces of a point light split the sphere).
+vec3 light_reaching(vec3 p, vec3 q, out float r, out vec3 t_light) {
     r = light_distance(q);
+    t_light = vec3(1.0);
     if (!in_face(q)) return vec3(0.0);
     float emit = emission_profile(q, r);
     if (emit <= 0.0) return vec3(0.0);
     vec2 uv = light_uv(q);
     float vis = solid_visibility(q, r);
     if (vis <= 0.0) return vec3(0.0);
-    return u_intensity * (emit * vis) * gobo(uv) * light_transmittance(p, q, r);
+    t_light = light_transmittance(p, q, r);
+    return u_intensity * (emit * vis) * gobo(uv);
+}
+
+// The same past the media too.
+vec3 light_arriving(vec3 p, vec3 q, out float r) {
+    vec3 t_light;
+    vec3 li = light_reaching(p, q, r, t_light);
+    return li * t_light;
 }
 
 // Part of the ray (o, d) inside the pyramid that bounds the light's cone.
@@ -308,14 +319,20 @@ void main() {
 #if HAS_LIGHT
                 vec3 q = oq + dq * t;
                 float r;
-                vec3 li = light_arriving(p, q, r);
+                vec3 t_light;
+                vec3 li = light_reaching(p, q, r, t_light);
                 if (any(greaterThan(li, vec3(0.0)))) {
                     float c = -dot(light_travel(q, r), dq);
+                    vec3 t_through = light_through(p, q, r);
                     vec3 ssp = vec3(0.0);
-                    for (int m = 0; m < N_MEDIA; ++m)
-                        ssp += u_med_sigma_s[m] * (m == 0 ? tint0 : vec3(1.0)) * (D[m] * hg_phase(c, u_med_g[m]));
+                    for (int m = 0; m < N_MEDIA; ++m) {
+                        vec3 sigma_s = u_med_sigma_s[m] * (m == 0 ? tint0 : vec3(1.0));
+                        ssp += sigma_s * D[m] * octave_phase(t_light, t_through, c, u_med_g[m],
+                                                             sigma_s / max(u_med_sigma_t[m], vec3(1e-12)));
+                    }
 #if WORLD_FOG
-                    ssp += u_fog_sigma_s * hg_phase(c, u_fog_g);
+                    ssp += u_fog_sigma_s * octave_phase(t_light, t_through, c, u_fog_g,
+                                                        u_fog_sigma_s / max(u_fog_sigma_t, vec3(1e-12)));
 #endif
                     src += li * ssp * u_light_targets.x;
                 }

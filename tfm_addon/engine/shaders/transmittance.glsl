@@ -11,6 +11,10 @@ uniform sampler2D u_coef2;
 uniform sampler2D u_coef3;
 
 #if LIGHT_T == 0
+// F at the far end of the last lookup's light ray (x = 1, cos(j pi) = (-1)^j: the transmittance
+// through the whole medium there), for the multiple-scattering octaves (octaves.glsl).
+float g_tfm_end = 1.0;
+
 // Coefficient j of a map's texel: j = 0, 1 in the K range texture's z, w, then four per texture
 // (u_coef0: 2..5, u_coef1: 6..9, ...). A map may hold more coefficients than the N_COEFF read
 // (a wider map serves a narrower request): the mask zeroes those past N_COEFF.
@@ -22,6 +26,13 @@ vec4 coef_mask(int group) {
 // from the light, clamped to [0, 1]. The cosines cos(j pi x) come four at a time from
 // cos((j + 4) t) = 2 cos(4 t) cos(j t) - cos((j - 4) t), after one cos.
 float tfm_series(vec4 kc, vec4 c0, vec4 c1, vec4 c2, vec4 c3, float r) {
+#ifdef OCTAVES
+    vec4 alt = vec4(1.0, -1.0, 1.0, -1.0);
+    g_tfm_end = clamp(kc.z - kc.w * float(N_COEFF > 1) + dot(c0 * coef_mask(0), alt) * float(N_TARGETS > 0)
+                      + dot(c1 * coef_mask(1), alt) * float(N_TARGETS > 1)
+                      + dot(c2 * coef_mask(2), alt) * float(N_TARGETS > 2)
+                      + dot(c3 * coef_mask(3), alt) * float(N_TARGETS > 3), 0.0, 1.0);
+#endif
     float x = (r - kc.x) / max(kc.y - kc.x, 1e-6);
     if (x <= 0.0) return 1.0;
     float t1 = cos(PI * min(x, 1.0));
@@ -120,12 +131,16 @@ float tfm_lookup(vec2 uv, float r) {
     ivec2 i0 = ivec2(floor(f));
     vec2 w = f - floor(f);
     float v = 0.0;
+    float end = 0.0;
     for (int dy = 0; dy < 2; ++dy) {
         for (int dx = 0; dx < 2; ++dx) {
             ivec2 c = clamp(i0 + ivec2(dx, dy), ivec2(0), ivec2(res - 1));
-            v += tfm_texel(c, r) * (dx == 1 ? w.x : 1.0 - w.x) * (dy == 1 ? w.y : 1.0 - w.y);
+            float wt = (dx == 1 ? w.x : 1.0 - w.x) * (dy == 1 ? w.y : 1.0 - w.y);
+            v += tfm_texel(c, r) * wt;
+            end += g_tfm_end * wt;
         }
     }
+    g_tfm_end = end;
     return v;
 #endif
 }
@@ -158,6 +173,7 @@ vec3 toward_light(vec3 p, vec3 q, float r) {
 vec3 media_light_transmittance(vec3 p, vec3 q, float r) {
 #if LIGHT_T == 0
     vec2 uv = light_uv(q);
+    g_tfm_end = 1.0;
     if (u_face_ortho == 1 && (any(lessThan(uv, vec2(0.0))) || any(greaterThan(uv, vec2(1.0))))) return vec3(1.0);
 #if SOFT_SHADOW
     return EXP2_RGB(u_tfm_exponent * log2(max(soft_tfm_lookup(q, uv, r), 1e-30)));

@@ -1,0 +1,83 @@
+"""Multiple scattering by octaves (engine/multiple_scattering.py, shaders/octaves.glsl): the bounce
+count reads the same maps (counters), and the octave sum against independent renders: an octave
+whose light transmittance is T^0 = 1 adds the unshadowed image (times the albedo) in fog that fills
+the scene, one with T^1 the single-scattering image again; thin media gain less than thick ones.
+(Against Cycles with bounces: tests/blender/test_multiple_scattering.py.)"""
+
+import dataclasses
+
+import numpy as np
+
+from tfm_addon import scenes
+from tfm_addon.engine import RenderSettings
+from tfm_addon.engine.multiple_scattering import SINGLE, Octaves, octaves
+
+SETTINGS = RenderSettings(view_steps=48, light_steps=48, map_resolution=64, coefficients=6, ambient=False)
+MAPS = ("tfms", "shadow_maps", "grid_uploads", "gbuffers")
+FOG_SA = (0.05, 0.05, 0.05)
+FOG_ALBEDO = 0.5 / 0.55
+
+
+def _scene():
+    return scenes.smoke_scene(width=48, height=32, n=24, with_ground=True)
+
+
+def _scatter(renderer, **kw) -> np.ndarray:
+    out = renderer.render(_scene(), dataclasses.replace(SETTINGS, **kw))
+    return out.passes["scattering"].astype(np.float64)
+
+
+def test_bounce_count_rebuilds_no_map(fresh):
+    single = _scatter(fresh)
+    built = {k: fresh.counters[k] for k in MAPS}
+    sixteen = _scatter(fresh, volume_bounces=16)
+    many = _scatter(fresh, volume_bounces=128)
+    assert {k: fresh.counters[k] for k in MAPS} == built
+    assert built["tfms"] >= 1
+    assert sixteen.sum() > 1.05 * single.sum()
+    assert many.sum() >= sixteen.sum()
+    assert np.array_equal(_scatter(fresh, volume_bounces=0), single)
+    report = fresh.render(_scene(), dataclasses.replace(SETTINGS, volume_bounces=16)).warnings
+    assert [w for w in report if w.startswith("Volume Bounces 16: multiple scattering approximated")]
+    assert not [w for w in fresh.render(_scene(), SETTINGS).warnings if w.startswith("Volume Bounces")]
+
+
+def test_zero_bounces_is_single_scattering():
+    assert octaves(0) == SINGLE and SINGLE.count == 1
+    assert octaves(16).count > 1 and octaves(128).count >= octaves(16).count
+
+
+def _fog_scatter(renderer, **kw) -> np.ndarray:
+    """Fog everywhere (no way out for the light: T_through = 0, each octave keeps b albedo)."""
+    scene = scenes.homogeneous_box_scene(width=48, height=32, sigma_s=(0.5, 0.5, 0.5), sigma_a=FOG_SA)
+    scene = dataclasses.replace(scene, media=(dataclasses.replace(scene.media[0], box_to_world=None),))
+    out = renderer.render(scene, dataclasses.replace(SETTINGS, **kw))
+    return out.passes["scattering"].astype(np.float64)
+
+
+def test_octave_with_no_light_extinction_adds_the_unshadowed_image(renderer):
+    single = _fog_scatter(renderer)
+    unshadowed = _fog_scatter(renderer, method="UNSHADOWED")
+    both = _fog_scatter(renderer, volume_bounces=1, octaves=Octaves(2, a=0.0, b=1.0, c=1.0))
+    assert unshadowed.sum() > 1.2 * single.sum()        # the fog shadows itself
+    np.testing.assert_allclose(both, single + FOG_ALBEDO * unshadowed, rtol=2e-3, atol=1e-5 * single.max())
+
+
+def test_octave_with_the_same_extinction_repeats_single_scattering(renderer):
+    single = _fog_scatter(renderer)
+    thrice = _fog_scatter(renderer, volume_bounces=1, octaves=Octaves(3, a=1.0, b=0.5, c=1.0))
+    factor = 1.0 + 0.5 * FOG_ALBEDO + (0.5 * FOG_ALBEDO) ** 2
+    np.testing.assert_allclose(thrice, factor * single, rtol=2e-3, atol=1e-5 * single.max())
+
+
+def test_thin_media_let_the_octaves_light_out(renderer):
+    """The octaves scale by 1 - T_through: a thin puff gains less than a thick one."""
+    gains = []
+    for scale in (0.1, 3.0):
+        scene = scenes.smoke_scene(width=48, height=32, n=24, sigma_s=(2.0 * scale,) * 3,
+                                   sigma_a=(0.2 * scale,) * 3, with_bar=False)
+        single = renderer.render(scene, SETTINGS).passes["scattering"].sum()
+        multi = renderer.render(scene, dataclasses.replace(SETTINGS, volume_bounces=16))
+        multi = multi.passes["scattering"].sum()
+        gains.append(multi / single)
+    assert 1.0 < gains[0] < 1.1 and gains[1] > gains[0] + 0.2, gains

@@ -1,0 +1,142 @@
+"""Multiple scattering against Cycles with volume bounces: media, references, comparison.
+
+Runs inside a process that imported ``bpy``. Each medium is a small scene built as the
+conformance suite builds its rows (``conformance.base``: camera at 64x48, black World, grey ground,
+a light), rendered by Cycles with ``volume_bounces = N`` (and ``max_bounces = N``; every other
+bounce kind 0, BLENDER.md's film settings) and by TFM with the same bounce count.
+
+``FIT`` are the media the octave constants (``engine/multiple_scattering.py``) were fitted on;
+``HELD_OUT`` the media they were not fitted on, whose error the docs report.
+
+References: ``scripts/make_bounce_refs.py`` stores ``tests/data/bounces/<medium>_<N>.npz``;
+``scripts/fit_octaves.py`` fits the constants; ``tests/blender/test_multiple_scattering.py``
+checks held-out media.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+
+from . import conformance as cf
+
+REF_DIR = Path(__file__).resolve().parents[2] / "tests" / "data" / "bounces"
+BOUNCES = (1, 2, 4, 16, 128)
+
+
+def _puff(tmpdir: str, *, density: float, color: float, light: str = 'POINT') -> None:
+    mat, nt, out = cf.material()
+    cf.principled(nt, out, Density=density, Color=(color, color, color, 1.0))
+    cf.base(lights=light)
+    cf.volume_object(tmpdir, mat=mat)
+
+
+def _noise_cloud(tmpdir: str, *, density: float, color: float, light: str = 'POINT') -> None:
+    mat, nt, out = cf.material("Cloud")
+    pv = cf.principled(nt, out, **{"Density Attribute": "", "Color": (color, color, color, 1.0)})
+    coords = nt.nodes.new('ShaderNodeTexCoord')
+    tex = nt.nodes.new('ShaderNodeTexNoise')
+    nt.links.new(coords.outputs["Object"], tex.inputs["Vector"])
+    mr = nt.nodes.new('ShaderNodeMapRange')
+    mr.inputs["From Min"].default_value = 0.45
+    mr.inputs["From Max"].default_value = 0.7
+    mr.inputs["To Max"].default_value = density
+    nt.links.new(tex.outputs["Fac"], mr.inputs["Value"])
+    nt.links.new(mr.outputs["Result"], pv.inputs["Density"])
+    cf.base(lights=light)
+    cf.cube_medium(mat)
+
+
+def _fog(tmpdir: str, *, density: float, color: float, light: str = 'POINT') -> None:
+    mat, nt, out = cf.material("Fog")
+    cf.principled(nt, out, Density=density, Color=(color, color, color, 1.0))
+    cf.base(lights=light)
+    cf.cube_medium(mat)
+
+
+# name: (builder, title, albedo). Densities are Principled Volume Density (the puff's grid peaks
+# at 2.5, the noise cloud's Map Range at the density given); Color is the scattering albedo.
+MEDIA: dict[str, tuple[Callable[[str], None], str, float]] = {
+    "thin_smoke": (lambda d: _puff(d, density=0.4, color=0.8),
+                   "smoke puff, Density 0.4, Color 0.8 (optical depth through the middle ~1)", 0.8),
+    "thick_smoke": (lambda d: _puff(d, density=4.0, color=0.8),
+                    "smoke puff, Density 4, Color 0.8 (optical depth ~10)", 0.8),
+    "cloud": (lambda d: _noise_cloud(d, density=3.0, color=1.0),
+              "noise cloud (Noise Texture → Map Range 0–3), white (albedo 1)", 1.0),
+    "fog_box": (lambda d: _fog(d, density=0.8, color=0.9), "2 m fog box, Density 0.8, Color 0.9", 0.9),
+    # held out
+    "white_smoke": (lambda d: _puff(d, density=1.5, color=1.0),
+                    "smoke puff, Density 1.5, white (albedo 1), point light", 1.0),
+    "dense_cloud_sun": (lambda d: _noise_cloud(d, density=8.0, color=1.0, light='SUN'),
+                        "noise cloud, Map Range 0–8, white, lit by a sun", 1.0),
+    "grey_smoke_spot": (lambda d: _puff(d, density=2.0, color=0.6, light='SPOT'),
+                        "smoke puff, Density 2, Color 0.6, spot light", 0.6),
+    "fog_sun": (lambda d: _fog(d, density=1.5, color=1.0, light='SUN'),
+                "2 m fog box, Density 1.5, white, lit by a sun", 1.0),
+}
+FIT = ("thin_smoke", "thick_smoke", "cloud", "fog_box")
+HELD_OUT = ("white_smoke", "dense_cloud_sun", "grey_smoke_spot", "fog_sun")
+
+
+def build(medium: str, tmpdir: str, bounces: int) -> None:
+    """An empty scene holding ``medium``, with Cycles' Volume Bounces set to ``bounces`` (what
+    TFM reads)."""
+    import bpy
+
+    cf.reset()
+    os.makedirs(tmpdir, exist_ok=True)
+    MEDIA[medium][0](tmpdir)
+    bpy.context.scene.cycles.volume_bounces = bounces
+
+
+def cycles_with_bounces(bl_scene, bounces: int, samples: int) -> None:
+    """BLENDER.md's single-scattering settings but ``volume_bounces`` (and ``max_bounces``) N."""
+    from ..blender.scene_builder import cycles_single_scattering
+
+    cycles_single_scattering(bl_scene, samples=samples)
+    bl_scene.cycles.volume_bounces = bounces
+    bl_scene.cycles.max_bounces = bounces
+
+
+def render_cycles(medium: str, bounces: int, tmpdir: str, samples: int,
+                  seed: int) -> tuple[np.ndarray, float]:
+    import bpy
+
+    build(medium, tmpdir, bounces)
+    scene = bpy.context.scene
+    cycles_with_bounces(scene, bounces, samples)
+    scene.cycles.seed = seed
+    t0 = time.perf_counter()
+    bpy.ops.render.render()
+    seconds = time.perf_counter() - t0
+    return cf._read_render(tmpdir, f"{medium}_{bounces}_cycles_{seed}"), seconds
+
+
+def reference_path(medium: str, bounces: int, directory: Path = REF_DIR) -> Path:
+    return directory / f"{medium}_{bounces}.npz"
+
+
+def load_reference(medium: str, bounces: int, directory: Path = REF_DIR) -> tuple[np.ndarray, dict]:
+    """The stored Cycles reference at ``bounces``: (h, w, 3) float32 and its metadata."""
+    return cf.load_reference(reference_path(medium, bounces, directory).stem, directory)
+
+
+def render_tfm(medium: str, bounces: int, tmpdir: str, samples: int = cf.TFM_SAMPLES) -> cf.TfmResult:
+    """``medium`` rendered by TFM at the add-on's defaults, reading Volume Bounces ``bounces``."""
+    import bpy
+
+    build(medium, tmpdir, bounces)
+    scene = bpy.context.scene
+    scene.render.engine = 'TFM'
+    scene.render.film_transparent = True
+    scene.tfm.samples = samples
+    fr = cf.final_render_module()
+    t0 = time.perf_counter()
+    bpy.ops.render.render()
+    seconds = time.perf_counter() - t0
+    return cf.TfmResult(cf._read_render(tmpdir, f"{medium}_{bounces}_tfm"), seconds,
+                        [m for _, m in fr.last_messages])
