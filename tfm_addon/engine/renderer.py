@@ -946,7 +946,7 @@ def _frame_notes(scene: Scene, lights, warnings: list[str]) -> list[str]:
     world = [light for light in scene.lights if light.from_world]
     if world and len(world) == len(scene.lights):
         warnings.append(f"The scene has no light of its own: the world lights it alone, from {len(world)} "
-                        f"directions (World Light: Shadowed), each casting the soft shadow of its "
+                        f"directions (World ▸ Lighting: Shadowed), each casting the soft shadow of its "
                         f"share of the sky on surfaces")
     elif not scene.lights:
         warnings.append("The scene has no spot light (nor any other light): only surfaces and "
