@@ -85,6 +85,11 @@ def test_medium_panel_says_where_sigma_comes_from(context):
     assert {"density_grid", "use_node_material", "sigma_a", "sigma_s", "density_scale",
             "anisotropy"} <= set(drawn)
     assert any(d.startswith("label:Read from Principled Volume") for d in drawn), drawn
+    # the fallback fields in the Principled Volume's order and names
+    assert [d for d in drawn if d in ("sigma_s", "density_scale", "sigma_a")] == [
+        "sigma_s", "density_scale", "sigma_a"]
+    rna = context.volume.tfm.bl_rna.properties
+    assert (rna["sigma_s"].name, rna["sigma_a"].name) == ("Color", "Absorption Color")
 
 
 def test_light_settings_sit_under_the_light_panel(context):

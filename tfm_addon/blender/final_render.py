@@ -52,9 +52,10 @@ NOT_MISSING = ("has no active voxels",)
 BUDGET_ENV = "TFM_MEMORY_BUDGET_GB"   # GiB; overrides scene.tfm.memory_budget_gb
 GIB = 1024 ** 3
 # Bytes a pixel of a final render takes at its peak beyond Blender's render result, measured with
-# python -m tfm_addon.bench.frame_memory (docs/benchmark.md: 317) and rounded up: the renderer's GL
-# images (G-buffer, scattering targets, the samples' sums: host memory on a software GL, the
-# GPU's on a graphics card), the means read back, one pass copied into Blender at a time.
+# python -m tfm_addon.bench.frame_memory (docs/benchmark.md, "A final render's memory per pixel")
+# and rounded up: the renderer's GL images (G-buffer, scattering targets, the samples' sums: host
+# memory on a software GL, the GPU's on a graphics card), the means read back, one pass copied
+# into Blender at a time.
 ENGINE_BYTES_PER_PIXEL = 340
 
 

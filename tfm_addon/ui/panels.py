@@ -162,10 +162,10 @@ class TFM_PT_volume_medium(_TFMPanel, bpy.types.Panel):
                 box.label(text=reason, icon='INFO')
         col = layout.column()
         col.active = node_sigma is None
-        col.prop(tfm, "sigma_a")
-        col.prop(tfm, "sigma_s")
-        col.prop(tfm, "density_scale")
+        col.prop(tfm, "sigma_s")          # in the Principled Volume's order: Color, Density,
+        col.prop(tfm, "density_scale")    # Anisotropy, Absorption Color, then emission
         col.prop(tfm, "anisotropy")
+        col.prop(tfm, "sigma_a")
         col.prop(tfm, "emission_color")
         col.prop(tfm, "emission_strength")
         col.prop_search(tfm, "emission_grid", volume, "grids")

@@ -177,18 +177,21 @@ class TFM_VolumeSettings(bpy.types.PropertyGroup):
                     "Off, or with no material, the colours and density below are used",
     )
     sigma_a: FloatVectorProperty(
-        name="Absorption", subtype='COLOR', size=3, default=(0.1, 0.1, 0.1), min=0.0, soft_max=1.0,
-        description="Light absorbed per metre at density 1, per colour: darkens the volume and its "
+        name="Absorption Color", subtype='COLOR', size=3, default=(0.1, 0.1, 0.1), min=0.0, soft_max=1.0,
+        description="Light absorbed per metre at density 1, per colour (the Principled Volume's "
+                    "Absorption Color): darkens the volume and its "
                     "shadow without lighting it (soot, dark smoke)",
     )
     sigma_s: FloatVectorProperty(
-        name="Scattering", subtype='COLOR', size=3, default=(1.0, 1.0, 1.0), min=0.0, soft_max=1.0,
-        description="Light scattered per metre at density 1, per colour: how brightly the volume "
+        name="Color", subtype='COLOR', size=3, default=(1.0, 1.0, 1.0), min=0.0, soft_max=1.0,
+        description="Light scattered per metre at density 1, per colour (the Principled Volume's "
+                    "Color): how brightly the volume "
                     "is lit and how much it dims the light behind it (white smoke, fog, clouds)",
     )
     density_scale: FloatProperty(
         name="Density Scale", default=1.0, min=0.0, soft_max=100.0,
-        description="Multiplies the absorption and scattering above: thicker or thinner volume",
+        description="Multiplies the Color and Absorption Color above, as the Principled Volume's "
+                    "Density does: thicker or thinner volume",
     )
     anisotropy: FloatProperty(
         name="Anisotropy", default=0.0, min=-0.99, max=0.99, subtype='FACTOR',
