@@ -53,12 +53,11 @@ def test_a_bake_is_kept_by_the_world_and_the_viewport_does_not_wait(sky, monkeyp
     w, _, node = sky
     bakes = _Bakes()
     monkeypatch.setattr(sky_bake, "_run", bakes)
+    monkeypatch.setattr(sky_bake, "_latest", {})
     env, note = world.environment(w, wait=False)
     assert env is None and "is being baked with Cycles" in note
     assert world.ambient_radiance(w, wait=False)[0] == tuple(w.color)
-    thread = next(iter(sky_bake._running.values()))
-    bakes.release.set()
-    thread.join()
+    _finish(bakes)
     camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
     bpy.context.scene.collection.objects.link(camera)
     for _ in range(3):                     # redraws and a camera move: no bake again
@@ -66,8 +65,24 @@ def test_a_bake_is_kept_by_the_world_and_the_viewport_does_not_wait(sky, monkeyp
         env, note = world.environment(w, wait=False)
         assert env is not None and "is baked with Cycles" in note
     assert bakes.count == 1
-    node.sun_elevation += 0.1              # the sky changed: baked again
-    assert world.environment(w, wait=True)[0] is not None and bakes.count == 2
+    bakes.release.clear()
+    for _ in range(3):                     # a dragged slider: one bake at a time, the previous meanwhile
+        node.sun_elevation += 0.1
+        env, note = world.environment(w, wait=False)
+        assert env is not None and "its previous bake lights the scene meanwhile" in note
+        assert len(sky_bake._running) == 1
+    _finish(bakes)
+    assert bakes.count == 2
+    world.environment(w, wait=False)       # the last value, baked next
+    _finish(bakes)
+    assert bakes.count == 3 and "is baked with Cycles" in world.environment(w, wait=True)[1]
+
+
+def _finish(bakes):
+    threads = list(sky_bake._running.values())
+    bakes.release.set()
+    for thread in threads:
+        thread.join()
 
 
 def test_a_failed_bake_falls_back_to_the_viewport_colour_with_a_line(sky, monkeypatch):

@@ -131,7 +131,7 @@ def _prepare(world, size, samples) -> tuple[tempfile.TemporaryDirectory, list[st
     tmp = tempfile.TemporaryDirectory(prefix="tfm_sky_")
     blend = os.path.join(tmp.name, "world.blend")
     exr = os.path.join(tmp.name, "sky.exr")
-    bpy.data.libraries.write(blend, {world}, fake_user=True)
+    bpy.data.libraries.write(blend, {world}, path_remap='ABSOLUTE', fake_user=True)
     return tmp, _command(CHILD, [blend, world.name, exr, str(w), str(h), str(samples)]), exr
 
 
@@ -187,21 +187,24 @@ def content_key(world) -> tuple:
     return nodes, links
 
 
-_baked: dict = {}       # content key -> (image or None, note): the last bakes
+_baked: dict = {}       # content key -> (image or None, report line): the last bakes
 _running: dict = {}     # content key -> the thread baking it
+_latest: dict = {}      # world name -> its last bake's (image or None, report line)
 
 
 def sky_environment(world, wait: bool) -> tuple[np.ndarray | None, str]:
     """The world baked by Cycles (kept by its content), and its report line. With ``wait`` False
-    (the viewport) a bake not done yet runs in the background and (None, a line saying so) comes
-    back meanwhile; the world is tagged for an update when it is done."""
+    (the viewport) a bake not done yet runs in the background, one at a time (a dragged slider
+    bakes its last value, not each one), and the world's previous bake, or None, comes back
+    meanwhile with a line saying so; the world is tagged for an update when a bake is done."""
+    label = f"World '{world.name}'"
     key = content_key(world)
     hit = _baked.get(key)
     if hit is not None:
+        _latest[world.name] = hit
         return hit
-    label = f"World '{world.name}'"
     thread = _running.get(key)
-    if thread is None:
+    if thread is None and (wait or not _running):
         try:
             job = _prepare(world, BAKE_SIZE, BAKE_SAMPLES)
         except (OSError, RuntimeError) as ex:
@@ -229,7 +232,12 @@ def sky_environment(world, wait: bool) -> tuple[np.ndarray | None, str]:
             _tag_when_done(thread, world.name)
     if wait:
         thread.join()
+        _latest[world.name] = _baked[key]
         return _baked[key]
+    previous = _latest.get(world.name, (None, None))[0]
+    if previous is not None:
+        return previous, f"{label}: its Sky Texture is being baked again with Cycles; its previous bake " \
+                         f"lights the scene meanwhile"
     return None, f"{label}: its Sky Texture is being baked with Cycles; the world's viewport colour " \
                  f"lights the scene meanwhile"
 
