@@ -47,7 +47,6 @@ TFM_SAMPLES = 0
 _NOT_READ = "is not read by the engine; using the TFM settings instead"
 EXPECT: dict[str, str] = {
     "blackbody_node": "emits and scatters: its own emission is not scattered by it",
-    "world_sky": "node 'Sky Texture' (Sky Texture) is not read by the engine",
     "clamp": "gives a medium where the grids are empty, up to Cycles' volume bounds",
     "mix_float": "gives a medium where the grids are empty, up to Cycles' volume bounds",
     "area_spread": "its spread is rendered approximately",

@@ -252,11 +252,12 @@ def extract(depsgraph, *, parts: Change = Change.ALL, previous: Extraction | Non
         warnings[Change.CAMERA] = tuple(notes)
 
     if Change.WORLD in parts:
-        ambient, note = ambient_radiance(scene.world)
+        wait = depsgraph.mode == 'RENDER'       # the viewport bakes a Sky Texture in the background
+        ambient, note = ambient_radiance(scene.world, wait)
         changes["ambient"] = tuple(float(c) for c in ambient)
         fog, fog_notes = world_fog(scene.world)
         changes["world_fog"] = fog
-        changes["environment"] = environment(scene.world)[0] if scene.world is not None else None
+        changes["environment"] = environment(scene.world, wait)[0] if scene.world is not None else None
         changes["world_visibility"] = world_visibility(scene.world)
         warnings[Change.WORLD] = ((note,) if note else ()) + tuple(fog_notes)
 
@@ -292,7 +293,8 @@ def scene_state(depsgraph) -> dict:
         census.append(entry)
     return {"settings": (render_settings(scene, viewport=depsgraph.mode != 'RENDER'),
                          tuple(_settings_warnings(scene))),
-            "world": (ambient_radiance(scene.world), world_visibility(scene.world)),
+            "world": (ambient_radiance(scene.world, depsgraph.mode == 'RENDER'),
+                      world_visibility(scene.world)),
             "frame": (scene.frame_current, float(scene.frame_subframe)),
             "size": render_size(scene),
             "simplify": volume_simplify_level(depsgraph),

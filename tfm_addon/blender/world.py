@@ -7,6 +7,7 @@ import numpy as np
 from ..engine import shading
 from ..engine.scene import GridValue, Medium
 from .materials import Unreadable, _constant, _linked_node, _rgb
+from .sky_bake import sky_environment, sky_node
 
 RGB = tuple[float, float, float]
 
@@ -30,11 +31,14 @@ def background_node(world):
 ENVIRONMENT_SIDE = 128      # an environment image is averaged down to at most this many pixels wide
 
 
-def environment(world) -> tuple[np.ndarray | None, str | None]:
+def environment(world, wait: bool = True) -> tuple[np.ndarray | None, str | None]:
     """The world's radiance by direction when its Background colour is an Environment Texture
     (equirectangular, unmapped) times the Strength: an (h, w, 3) image, top row first, averaged down
-    to at most ENVIRONMENT_SIDE wide (its light, not its sharpness, is what lights the media); and
-    a note for a set-up read only in part."""
+    to at most ENVIRONMENT_SIDE wide (its light, not its sharpness, is what lights the media); a
+    world with a Sky Texture baked by Cycles (sky_bake.py; ``wait`` False: in the background);
+    and a note for a set-up read only in part."""
+    if sky_node(world) is not None:
+        return sky_environment(world, wait)
     node = background_node(world)
     if node is None or not node.inputs["Color"].is_linked:
         return None, None
@@ -108,15 +112,17 @@ def _image_radiance(image) -> np.ndarray:
     return out
 
 
-def ambient_radiance(world) -> tuple[RGB, str | None]:
+def ambient_radiance(world, wait: bool = True) -> tuple[RGB, str | None]:
     """World radiance W/(sr m^2) per channel, and a warning when the world's nodes are not read."""
     if world is None:
         return (0.0, 0.0, 0.0), None
-    env, note = environment(world)
+    env, note = environment(world, wait)
     if env is not None:
         from ..engine.world_light import mean_radiance
 
         return mean_radiance(env), note
+    if sky_node(world) is not None:
+        return tuple(world.color), note
     node = background_node(world)
     if node is not None:
         try:
