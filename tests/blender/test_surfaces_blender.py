@@ -47,6 +47,15 @@ def test_principled_inputs(blank):
     assert len(notes) == 1 and "'Coat Weight'" in notes[0], notes
 
 
+def test_principled_alpha(blank):
+    """Alpha is read (the G-buffer pass renders it); its shadows are named as opaque."""
+    mat = bpy.data.materials.new("Veil")
+    mat.node_tree.nodes["Principled BSDF"].inputs["Alpha"].default_value = 0.4
+    s, notes = _surface(mat)
+    assert s.alpha == pytest.approx(0.4)
+    assert len(notes) == 1 and "Alpha" in notes[0] and "shadows are cast opaque" in notes[0], notes
+
+
 def test_mix_of_diffuse_and_emission(blank):
     mat = bpy.data.materials.new("Sign")
     nt = mat.node_tree

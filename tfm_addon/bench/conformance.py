@@ -22,6 +22,7 @@ conformance`` writes docs/conformance.md.
 from __future__ import annotations
 
 import dataclasses
+import math
 import os
 import time
 from collections.abc import Callable
@@ -65,6 +66,7 @@ class Row:
     coloured: bool = False          # brightness compared per channel
     emissive: bool = False          # both renders: the medium lights nothing (``build``)
     bounces: int = 0                # Cycles reference at these volume bounces (the row sets them)
+    transparent_bounces: int = 0    # Cycles reference at these transparent bounces (Blender's default 8)
     note: str = ""
 
     @property
@@ -1280,6 +1282,23 @@ def _(tmpdir):
     bpy.context.object.data.materials.append(mat)
 
 
+@row("surface_alpha_smoke", "A vertical plane, Principled BSDF orange, Alpha 0.4, in front of the smoke "
+     "(its shadow falls out of view), Cycles at 8 transparent bounces", coloured=True, transparent_bounces=8)
+def _(tmpdir):
+    import bpy
+
+    mat, nt, out = material()
+    principled(nt, out)
+    base(ground=False)
+    bpy.ops.mesh.primitive_plane_add(size=1.6, location=(-0.6, -2.0, 0.0), rotation=(math.pi / 2, 0.0, 0.0))
+    glass = bpy.data.materials.new("Veil")
+    bsdf = glass.node_tree.nodes["Principled BSDF"]
+    bsdf.inputs["Base Color"].default_value = (0.35, 0.18, 0.07, 1.0)
+    bsdf.inputs["Alpha"].default_value = 0.4
+    bpy.context.object.data.materials.append(glass)
+    volume_object(tmpdir, mat=mat)
+
+
 @row("spot_grazing_floor", "Spot light low over a Diffuse floor (the light grazes it)")
 def _(tmpdir):
     base(lights=None, ground=False)
@@ -1359,6 +1378,7 @@ def render_cycles(r: Row, tmpdir: str, samples: int = 2048, seed: int = 0) -> tu
     scene = bpy.context.scene
     cycles_single_scattering(scene, samples=samples)
     scene.cycles.volume_bounces = scene.cycles.max_bounces = r.bounces
+    scene.cycles.transparent_max_bounces = r.transparent_bounces
     scene.cycles.seed = seed
     t0 = time.perf_counter()
     bpy.ops.render.render()
