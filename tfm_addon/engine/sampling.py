@@ -61,7 +61,7 @@ def auto_samples(camera: Camera | None, meshes=()) -> int:
     blur of a point at infinity (aperture diameter / focus distance, in pixels). The f/0.25 row of
     the conformance suite (B = 15 px at 160x90): SSIM against Cycles 0.9779 at 16 samples, 0.9929
     at 32, 0.9968 at the 55 this gives."""
-    alpha = any(m.shading.alpha < 1.0 and not m.holdout for m in meshes)
+    alpha = any(m.shading.alpha < 1.0 and m.visible_camera and not m.holdout for m in meshes)
     least = AUTO_ALPHA_SAMPLES if alpha else AUTO_SAMPLES
     ap = None if camera is None else camera.aperture
     if ap is None or ap.radius_m <= 0.0 or camera.projection != "PERSP":
