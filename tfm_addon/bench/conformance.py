@@ -1299,6 +1299,21 @@ def _(tmpdir):
     volume_object(tmpdir, mat=mat)
 
 
+@row("surface_alpha_shadow", "A horizontal plane, Principled BSDF orange, Alpha 0.4, over the ground "
+     "(its shadow lets 60 % of the light through), Cycles at 8 transparent bounces", coloured=True,
+     transparent_bounces=8)
+def _(tmpdir):
+    import bpy
+
+    base()
+    bpy.ops.mesh.primitive_plane_add(size=1.2, location=(-0.3, -1.0, -0.5))
+    veil = bpy.data.materials.new("Veil")
+    bsdf = veil.node_tree.nodes["Principled BSDF"]
+    bsdf.inputs["Base Color"].default_value = (0.35, 0.18, 0.07, 1.0)
+    bsdf.inputs["Alpha"].default_value = 0.4
+    bpy.context.object.data.materials.append(veil)
+
+
 @row("spot_grazing_floor", "Spot light low over a Diffuse floor (the light grazes it)")
 def _(tmpdir):
     base(lights=None, ground=False)

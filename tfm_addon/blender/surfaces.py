@@ -80,9 +80,6 @@ def _principled(r: _Reader, node) -> Surface:
                     ("Sheen Weight", 0.0), ("Anisotropic", 0.0), ("Diffuse Roughness", 0.0),
                     ("Thin Film Thickness", 0.0), ("Normal", None)))
     alpha = min(max(r.value(node, "Alpha"), 0.0), 1.0)
-    if alpha < 1.0:
-        r.note(f"the Alpha of '{node.name}' is seen but its shadows are cast opaque (Cycles lets "
-               f"{1.0 - alpha:.0%} of the light through)")
     strength = r.value(node, "Emission Strength")
     emission = tuple(c * strength for c in r.value(node, "Emission Color"))
     return Surface(base_color=tuple(max(c, 0.0) for c in r.value(node, "Base Color", varying=True)),
