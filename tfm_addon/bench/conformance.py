@@ -1588,7 +1588,8 @@ def write_page(page_rows: list[PageRow], md: Path, png_dir: Path, blender: str, 
         "(per channel, R / G / B, for coloured media), `tfm_addon.engine.metrics`.",
         f"- Cycles references: Blender {refs[0].get('blender', '?') if refs else '?'}, single scattering "
         "(volume_bounces 0, max_bounces 0, BLENDER.md's film settings; a row at N volume bounces sets "
-        "volume_bounces = max_bounces = N), "
+        "volume_bounces = max_bounces = N; a row with a surface of Alpha below 1 sets Blender's default "
+        "8 transparent bounces, which the engine does not limit), "
         f"{'/'.join(map(str, samples))} samples each (the mean of two seeds), "
         f"{ref_seconds / 60:.1f} min of Cycles in all on this machine; the two seeds agree to SSIM ≥ "
         f"{seed_ssim:.4f}.",
