@@ -1314,6 +1314,23 @@ def _(tmpdir):
     bpy.context.object.data.materials.append(veil)
 
 
+@row("surface_alpha_smoke_shadow", "A plane, Principled BSDF Alpha 0.4, between the light and the smoke "
+     "(its corner seen at the top right): the smoke and the ground in its shadow, Cycles at 8 "
+     "transparent bounces", transparent_bounces=8)
+def _(tmpdir):
+    import bpy
+
+    mat, nt, out = material()
+    principled(nt, out)
+    base()
+    bpy.ops.mesh.primitive_plane_add(size=1.0, location=(1.6, -1.6, 1.9))
+    _aim(bpy.context.object, (2.5 * 2, -2.5 * 2, 3.0 * 2))
+    veil = bpy.data.materials.new("Veil")
+    veil.node_tree.nodes["Principled BSDF"].inputs["Alpha"].default_value = 0.4
+    bpy.context.object.data.materials.append(veil)
+    volume_object(tmpdir, mat=mat)
+
+
 @row("spot_grazing_floor", "Spot light low over a Diffuse floor (the light grazes it)")
 def _(tmpdir):
     base(lights=None, ground=False)
