@@ -14,7 +14,7 @@ from dataclasses import replace
 from ..engine import shading
 from ..engine.surface import Surface, effective_ior, mix
 from . import node_graph
-from .materials import output_node
+from .materials import Unreadable, output_node, ray_value
 
 FALLBACK = Surface.lambert((0.5, 0.5, 0.5))
 
@@ -79,7 +79,11 @@ def _principled(r: _Reader, node) -> Surface:
     r.unread(node, (("Subsurface Weight", 0.0), ("Transmission Weight", 0.0), ("Coat Weight", 0.0),
                     ("Sheen Weight", 0.0), ("Anisotropic", 0.0), ("Diffuse Roughness", 0.0),
                     ("Thin Film Thickness", 0.0), ("Normal", None)))
-    alpha = min(max(r.value(node, "Alpha"), 0.0), 1.0)
+    try:        # the alpha shadow rays see (a surface hidden from camera rays is left out of the view)
+        alpha = ray_value(node.inputs["Alpha"], camera_ray=False)
+    except Unreadable:
+        alpha = r.value(node, "Alpha")
+    alpha = min(max(alpha, 0.0), 1.0)
     strength = r.value(node, "Emission Strength")
     emission = tuple(c * strength for c in r.value(node, "Emission Color"))
     return Surface(base_color=tuple(max(c, 0.0) for c in r.value(node, "Base Color", varying=True)),
