@@ -47,6 +47,19 @@ def test_principled_inputs(blank):
     assert len(notes) == 1 and "'Coat Weight'" in notes[0], notes
 
 
+def test_principled_alpha(blank):
+    """A constant Alpha is read and rendered (no line); one from a texture is named."""
+    mat = bpy.data.materials.new("Veil")
+    p = mat.node_tree.nodes["Principled BSDF"]
+    p.inputs["Alpha"].default_value = 0.4
+    s, notes = _surface(mat)
+    assert s.alpha == pytest.approx(0.4) and notes == []
+    checker = mat.node_tree.nodes.new('ShaderNodeTexChecker')
+    mat.node_tree.links.new(checker.outputs["Fac"], p.inputs["Alpha"])
+    s, notes = _surface(mat)
+    assert len(notes) == 1 and "'Alpha'" in notes[0] and "varies over the surface" in notes[0], notes
+
+
 def test_mix_of_diffuse_and_emission(blank):
     mat = bpy.data.materials.new("Sign")
     nt = mat.node_tree

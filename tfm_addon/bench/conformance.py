@@ -22,6 +22,7 @@ conformance`` writes docs/conformance.md.
 from __future__ import annotations
 
 import dataclasses
+import math
 import os
 import time
 from collections.abc import Callable
@@ -64,6 +65,7 @@ class Row:
     coloured: bool = False          # brightness compared per channel
     emissive: bool = False          # both renders: the medium lights nothing (``build``)
     bounces: int = 0                # Cycles reference at these volume bounces (the row sets them)
+    transparent_bounces: int = 0    # Cycles reference at these transparent bounces (Blender's default 8)
     note: str = ""
 
     @property
@@ -1279,6 +1281,55 @@ def _(tmpdir):
     bpy.context.object.data.materials.append(mat)
 
 
+@row("surface_alpha_smoke", "A vertical plane, Principled BSDF orange, Alpha 0.4, in front of the smoke "
+     "(its shadow falls out of view), Cycles at 8 transparent bounces", coloured=True, transparent_bounces=8)
+def _(tmpdir):
+    import bpy
+
+    mat, nt, out = material()
+    principled(nt, out)
+    base(ground=False)
+    bpy.ops.mesh.primitive_plane_add(size=1.6, location=(-0.6, -2.0, 0.0), rotation=(math.pi / 2, 0.0, 0.0))
+    glass = bpy.data.materials.new("Veil")
+    bsdf = glass.node_tree.nodes["Principled BSDF"]
+    bsdf.inputs["Base Color"].default_value = (0.35, 0.18, 0.07, 1.0)
+    bsdf.inputs["Alpha"].default_value = 0.4
+    bpy.context.object.data.materials.append(glass)
+    volume_object(tmpdir, mat=mat)
+
+
+@row("surface_alpha_shadow", "A horizontal plane, Principled BSDF orange, Alpha 0.4, over the ground "
+     "(its shadow lets 60 % of the light through), Cycles at 8 transparent bounces", coloured=True,
+     transparent_bounces=8)
+def _(tmpdir):
+    import bpy
+
+    base()
+    bpy.ops.mesh.primitive_plane_add(size=1.2, location=(-0.3, -1.0, -0.5))
+    veil = bpy.data.materials.new("Veil")
+    bsdf = veil.node_tree.nodes["Principled BSDF"]
+    bsdf.inputs["Base Color"].default_value = (0.35, 0.18, 0.07, 1.0)
+    bsdf.inputs["Alpha"].default_value = 0.4
+    bpy.context.object.data.materials.append(veil)
+
+
+@row("surface_alpha_smoke_shadow", "A plane, Principled BSDF Alpha 0.4, between the light and the smoke "
+     "(its corner seen at the top right): the smoke and the ground in its shadow, Cycles at 8 "
+     "transparent bounces", transparent_bounces=8)
+def _(tmpdir):
+    import bpy
+
+    mat, nt, out = material()
+    principled(nt, out)
+    base()
+    bpy.ops.mesh.primitive_plane_add(size=1.0, location=(1.6, -1.6, 1.9))
+    _aim(bpy.context.object, (2.5 * 2, -2.5 * 2, 3.0 * 2))
+    veil = bpy.data.materials.new("Veil")
+    veil.node_tree.nodes["Principled BSDF"].inputs["Alpha"].default_value = 0.4
+    bpy.context.object.data.materials.append(veil)
+    volume_object(tmpdir, mat=mat)
+
+
 @row("spot_grazing_floor", "Spot light low over a Diffuse floor (the light grazes it)")
 def _(tmpdir):
     base(lights=None, ground=False)
@@ -1358,6 +1409,7 @@ def render_cycles(r: Row, tmpdir: str, samples: int = 2048, seed: int = 0) -> tu
     scene = bpy.context.scene
     cycles_single_scattering(scene, samples=samples)
     scene.cycles.volume_bounces = scene.cycles.max_bounces = r.bounces
+    scene.cycles.transparent_max_bounces = r.transparent_bounces
     scene.cycles.seed = seed
     t0 = time.perf_counter()
     bpy.ops.render.render()
@@ -1552,7 +1604,8 @@ def write_page(page_rows: list[PageRow], md: Path, png_dir: Path, blender: str, 
         "(per channel, R / G / B, for coloured media), `tfm_addon.engine.metrics`.",
         f"- Cycles references: Blender {refs[0].get('blender', '?') if refs else '?'}, single scattering "
         "(volume_bounces 0, max_bounces 0, BLENDER.md's film settings; a row at N volume bounces sets "
-        "volume_bounces = max_bounces = N), "
+        "volume_bounces = max_bounces = N; a row with a surface of Alpha below 1 sets Blender's default "
+        "8 transparent bounces, which the engine does not limit), "
         f"{'/'.join(map(str, samples))} samples each (the mean of two seeds), "
         f"{ref_seconds / 60:.1f} min of Cycles in all on this machine; the two seeds agree to SSIM ≥ "
         f"{seed_ssim:.4f}.",

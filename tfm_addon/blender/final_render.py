@@ -212,10 +212,11 @@ def enabled_passes(view_layer) -> tuple[tuple[str, str], ...]:
                  if getattr(settings, f"use_pass_{name}", True))
 
 
-def sample_count(scene, camera=None) -> int:
+def sample_count(scene, camera=None, meshes=()) -> int:
     """Antialiasing samples of a final render: scene.tfm.samples, or for 0 the automatic count
-    (sampling.auto_samples: AUTO_SAMPLES, more for ``camera``'s depth of field)."""
-    return int(scene.tfm.samples) or auto_samples(camera)
+    (sampling.auto_samples: AUTO_SAMPLES, more for ``camera``'s depth of field and for surfaces
+    of ``meshes`` with alpha below 1)."""
+    return int(scene.tfm.samples) or auto_samples(camera, meshes)
 
 
 def register_passes(engine, scene, view_layer) -> None:
@@ -334,7 +335,7 @@ def _render(engine, depsgraph, strict: bool) -> str:
         settings = extraction.settings
         if preview:
             settings = preview_settings(settings, width, height)
-        samples = 1 if preview else sample_count(scene, extraction.camera)
+        samples = 1 if preview else sample_count(scene, extraction.camera, extraction.meshes)
         last_samples[0] = samples
         engine.update_stats("", "TFM: rendering" if samples == 1 else f"TFM: sample 1/{samples}")
         shown = [0]

@@ -500,7 +500,7 @@ def hidden_from_camera(material) -> bool:
         node = _linked_node(out.inputs["Surface"])
         if node is None or node.bl_idname != 'ShaderNodeBsdfPrincipled':
             return False
-        return _camera_ray_value(node.inputs["Alpha"]) <= 0.0
+        return ray_value(node.inputs["Alpha"]) <= 0.0
     except (Unreadable, KeyError):
         return False
 
@@ -509,8 +509,9 @@ _MATH = {'ADD': lambda a, b: a + b, 'SUBTRACT': lambda a, b: a - b, 'MULTIPLY': 
          'MINIMUM': min, 'MAXIMUM': max}
 
 
-def _camera_ray_value(socket) -> float:
-    """A float input's value on a camera ray, through Light Path and Math nodes."""
+def ray_value(socket, camera_ray: bool = True) -> float:
+    """A float input's value on a camera ray (or, ``camera_ray`` False, on a shadow ray), through
+    Light Path ("Is Camera Ray") and Math nodes; Unreadable for other nodes."""
     if not socket.is_linked:
         return float(socket.default_value)
     link = socket.links[0]
@@ -518,8 +519,9 @@ def _camera_ray_value(socket) -> float:
     if node is None:
         return float(socket.default_value)
     if node.bl_idname == 'ShaderNodeLightPath':
-        return 1.0 if link.from_socket.name == "Is Camera Ray" else 0.0
+        return 1.0 if link.from_socket.name == "Is Camera Ray" and camera_ray else 0.0
     if node.bl_idname == 'ShaderNodeMath' and node.operation in _MATH:
-        value = _MATH[node.operation](_camera_ray_value(node.inputs[0]), _camera_ray_value(node.inputs[1]))
+        a, b = (ray_value(node.inputs[i], camera_ray) for i in (0, 1))
+        value = _MATH[node.operation](a, b)
         return min(max(value, 0.0), 1.0) if node.use_clamp else value
     raise Unreadable(f"input '{socket.name}' is driven by node '{node.name}'")

@@ -14,7 +14,7 @@ from dataclasses import replace
 from ..engine import shading
 from ..engine.surface import Surface, effective_ior, mix
 from . import node_graph
-from .materials import output_node
+from .materials import Unreadable, output_node, ray_value
 
 FALLBACK = Surface.lambert((0.5, 0.5, 0.5))
 
@@ -79,8 +79,11 @@ def _principled(r: _Reader, node) -> Surface:
     r.unread(node, (("Subsurface Weight", 0.0), ("Transmission Weight", 0.0), ("Coat Weight", 0.0),
                     ("Sheen Weight", 0.0), ("Anisotropic", 0.0), ("Diffuse Roughness", 0.0),
                     ("Thin Film Thickness", 0.0), ("Normal", None)))
-    if r.value(node, "Alpha") < 1.0:
-        r.note(f"the Alpha of '{node.name}' is rendered as 1 (opaque)")
+    try:        # the alpha shadow rays see (a surface hidden from camera rays is left out of the view)
+        alpha = ray_value(node.inputs["Alpha"], camera_ray=False)
+    except Unreadable:
+        alpha = r.value(node, "Alpha")
+    alpha = min(max(alpha, 0.0), 1.0)
     strength = r.value(node, "Emission Strength")
     emission = tuple(c * strength for c in r.value(node, "Emission Color"))
     return Surface(base_color=tuple(max(c, 0.0) for c in r.value(node, "Base Color", varying=True)),
@@ -92,7 +95,7 @@ def _principled(r: _Reader, node) -> Surface:
                    ior=effective_ior(r.value(node, "IOR"), r.value(node, "Specular IOR Level")),
                    specular_tint=tuple(max(c, 0.0) for c in r.value(node, "Specular Tint")),
                    emission=emission if strength > 1e-5 else (0.0, 0.0, 0.0),
-                   multiscatter=node.distribution == 'MULTI_GGX')
+                   multiscatter=node.distribution == 'MULTI_GGX', alpha=alpha)
 
 
 def _diffuse(r: _Reader, node) -> Surface:

@@ -384,9 +384,10 @@ class Renderer:
         gl = self.gl
         t0 = time.perf_counter()
         plane = view_plane(scene.camera)
+        alpha_seed = settings.view_jitter or 0.0      # the sample's: surfaces of alpha below 1
         gbuffer, built = self._gbuffers.get(
-            (scene.camera.key, tuple(m.key for m in scene.camera_meshes)),
-            lambda: self._gbuffer_for(scene.camera, plane, frame.seen))
+            (scene.camera.key, tuple(m.key for m in scene.camera_meshes), alpha_seed),
+            lambda: self._gbuffer_for(scene.camera, plane, frame.seen, alpha_seed))
         self.counters["gbuffers"] += built
         steps.step("gbuffer", t0)
 
@@ -737,7 +738,7 @@ class Renderer:
 
         return self._tfms.get(key, build)[0], ref.sigma_t
 
-    def _gbuffer_for(self, camera, plane, solids) -> _PooledGBuffer:
+    def _gbuffer_for(self, camera, plane, solids, alpha_seed) -> _PooledGBuffer:
         """A G-buffer drawn for ``camera``: GL objects of that size that the cache released (the
         previous sample's) are drawn into again; new ones are made only when none is free."""
         size = (plane.width_px, plane.height_px)
@@ -749,7 +750,7 @@ class Renderer:
             self.counters["gbuffer_objects"] += 1
         entry = _PooledGBuffer(gbuffer, self._gbuffer_pool)
         try:
-            gbuffer.draw(self.gl, camera, plane, solids)
+            gbuffer.draw(self.gl, camera, plane, solids, alpha_seed)
         except BaseException:
             entry.release()
             raise

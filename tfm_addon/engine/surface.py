@@ -66,6 +66,8 @@ class Surface:
     ``effective_ior``), ``specular_tint``, ``weight`` of the reflecting closures (0: emission
     only), ``emission`` radiance (W/(sr m²), both sides), ``multiscatter`` (Multiscatter GGX),
     ``constant_fresnel`` (the metal's Fresnel is its base colour at every angle: Glossy BSDF);
+    ``alpha``: the fraction of camera rays the surface stops (the rest pass through it, Cycles'
+    stochastic transparency; the G-buffer pass discards the others);
     ``base_texture``, ``roughness_texture``, ``metallic_texture``: ``shading.ShaderGraph``s whose
     output is that input where it varies over the surface (textures), evaluated per pixel
     (passes/surface_textures.py)."""
@@ -79,6 +81,7 @@ class Surface:
     emission: RGB = (0.0, 0.0, 0.0)
     multiscatter: bool = True
     constant_fresnel: bool = False
+    alpha: float = 1.0
     base_texture: object = None
     roughness_texture: object = None
     metallic_texture: object = None
@@ -97,21 +100,24 @@ class Surface:
         return np.array([*self.base_color, self.weight,
                          self.roughness, self.metallic, self.ior, float(self.multiscatter),
                          *self.specular_tint, float(self.constant_fresnel),
-                         *self.emission, 0.0], np.float32)
+                         *self.emission, self.alpha], np.float32)
 
 
 def mix(parts: list[tuple[float, Surface]]) -> tuple[Surface, bool]:
     """Closures added with weights (Mix and Add Shader): one Surface, and whether it is exact.
     The reflecting weights and the emissions add; the other inputs are their weight-averaged
     means, exact when the parts agree on them (a mix of colours, or of a surface with emission);
-    a texture is kept where one part reflects."""
+    a texture is kept where one part reflects; the alpha is the parts' mean by their factors,
+    exact when they agree."""
     parts = [(float(f), s) for f, s in parts if f > 0.0]
     if not parts:
         return Surface(weight=0.0), True
     emission = tuple(float(sum(f * s.emission[i] for f, s in parts)) for i in range(3))
+    alpha = float(sum(f * s.alpha for f, s in parts) / sum(f for f, _ in parts))
+    same_alpha = all(s.alpha == parts[0][1].alpha for _, s in parts)
     lit = [(f * s.weight, s) for f, s in parts if f * s.weight > 0.0]
     if not lit:
-        return Surface(weight=0.0, emission=emission), True
+        return Surface(weight=0.0, emission=emission, alpha=alpha), same_alpha
     total = sum(w for w, _ in lit)
 
     def mean(get):
@@ -122,14 +128,14 @@ def mix(parts: list[tuple[float, Surface]]) -> tuple[Surface, bool]:
              for _, s in lit]
     exact = all(x == shape[0] for x in shape)
     one = lit[0][1] if len(lit) == 1 else Surface()
-    exact = exact and (len(lit) == 1 or not any(s.textured for _, s in lit))
+    exact = exact and same_alpha and (len(lit) == 1 or not any(s.textured for _, s in lit))
     return Surface(base_texture=one.base_texture, roughness_texture=one.roughness_texture,
                    metallic_texture=one.metallic_texture, base_color=mean(lambda s: s.base_color),
                    metallic=mean(lambda s: s.metallic),
                    roughness=mean(lambda s: s.roughness), ior=mean(lambda s: s.ior),
                    specular_tint=mean(lambda s: s.specular_tint), weight=total, emission=emission,
                    multiscatter=lit[0][1].multiscatter,
-                   constant_fresnel=lit[0][1].constant_fresnel), exact
+                   constant_fresnel=lit[0][1].constant_fresnel, alpha=alpha), exact
 
 
 def table_note(meshes) -> list[str]:

@@ -6,7 +6,7 @@ from ..camera import ViewPlane, camera_to_world, clip_matrix
 from ..gl_context import GLContext, set_matrix, set_uniforms
 from ..scene import Camera
 from ..surface import table_blocks
-from .bindings import BLOCK, UNIT, pass_state
+from .bindings import BLOCK, UNIT, bind_units, pass_state
 from .solids import FORMAT, SolidsBuffer
 from .surface_textures import SurfaceTextures
 
@@ -16,7 +16,8 @@ class GBuffer:
     ray in metres) and (world normal as two octahedral floats, roughness and metallic packed in
     one, the hit flag: 1 + 2 k where a surface of material k of the solids' table is seen, 2 where
     a holdout is seen; shaders/gbuffer_pack.glsl), with their
-    framebuffer and depth buffer. ``draw`` re-renders the contents for a view into the same GL
+    framebuffer and depth buffer. A surface of alpha below 1 is drawn at that fraction of the
+    pixels and samples (shaders/gbuffer.frag). ``draw`` re-renders the contents for a view into the same GL
     objects, so that samples that only move the camera (antialiasing jitter) allocate nothing."""
 
     def __init__(self, gl: GLContext, size: tuple[int, int]):
@@ -34,8 +35,10 @@ class GBuffer:
         self._tables = [ctx.buffer(b) for b in table_blocks()]
         self._textures = None     # SurfaceTextures, made for the first textured solids drawn
 
-    def draw(self, gl: GLContext, camera: Camera, plane: ViewPlane, solids: SolidsBuffer) -> None:
-        """Render ``solids`` seen by ``camera`` (``plane`` its pixel window, of this size)."""
+    def draw(self, gl: GLContext, camera: Camera, plane: ViewPlane, solids: SolidsBuffer,
+             alpha_seed: float = 0.0) -> None:
+        """Render ``solids`` seen by ``camera`` (``plane`` its pixel window, of this size);
+        ``alpha_seed`` in [0, 1), the sample's: which pixels a surface of alpha below 1 covers."""
         ctx = gl.ctx
         self.fbo.use()
         pass_state(ctx, depth_test=True)
@@ -45,8 +48,10 @@ class GBuffer:
             prog = gl.program("gbuffer.vert", "gbuffer.frag")
             c2w = camera_to_world(camera)
             set_matrix(prog, "u_camera_clip", clip_matrix(camera))
-            set_uniforms(prog, u_camera_pos=tuple(c2w[:3, 3]),
-                         u_camera_forward=tuple(-c2w[:3, 2]), u_ortho=int(plane.ortho))
+            set_uniforms(prog, u_camera_pos=tuple(c2w[:3, 3]), u_camera_forward=tuple(-c2w[:3, 2]),
+                         u_ortho=int(plane.ortho), u_alpha_seed=float(alpha_seed))
+            bind_units(prog)
+            solids.materials.bind_to_uniform_block(BLOCK["Materials"])
             if self._vao_solids is not solids:
                 if self._vao is not None:
                     self._vao.release()

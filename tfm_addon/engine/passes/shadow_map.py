@@ -6,8 +6,8 @@ import numpy as np
 
 from ..gl_context import GLContext, set_matrix, set_uniforms
 from ..light import LightFrame
-from .bindings import pass_state
-from .solids import POSITION_ONLY, SolidsBuffer
+from .bindings import BLOCK, bind_units, pass_state
+from .solids import POSITION_HIT, SolidsBuffer
 
 
 class ShadowMap:
@@ -45,7 +45,9 @@ class ShadowMap:
         set_matrix(prog, "u_light_clip", frame.clip_matrix(near, far))
         set_matrix(prog, "u_world_to_light", frame.world_to_light)
         set_uniforms(prog, u_light_pos=tuple(frame.position), u_shadow_far=far, u_face_ortho=int(frame.ortho))
-        vao = ctx.vertex_array(prog, [(solids.vbo, POSITION_ONLY, "in_position")])
+        bind_units(prog)
+        solids.materials.bind_to_uniform_block(BLOCK["Materials"])
+        vao = ctx.vertex_array(prog, [(solids.vbo, POSITION_HIT, "in_position", "in_hit")])
         vao.render(vertices=solids.vertex_count)
         pass_state(ctx)
         vao.release()

@@ -9,7 +9,7 @@ from ..scene import Mesh
 from ..surface import MAX_MATERIALS, material_table
 
 FORMAT = "3f 3f 3f 1f 2f"
-POSITION_ONLY = "3f 36x"
+POSITION_HIT = "3f 24x 1f 8x"     # position and hit flag (the shadow maps)
 WIDTH = 12          # floats per vertex
 
 

@@ -5,11 +5,7 @@
 
 #include "gbuffer_pack.glsl"
 
-#define MAX_MATERIALS 128
-layout(std140) uniform Materials {
-    vec4 u_material[4 * MAX_MATERIALS];    // base, weight | rough, metal, ior, multi | tint, const F | emission
-                                           // (base, rough and metal are read from the G-buffer)
-};
+#include "materials.glsl"
 // Cycles' microfacet tables (surface.ggx_tables), four floats a vec4.
 layout(std140) uniform GgxFresnel {
     vec4 u_s_ior[1024];                     // [z][mu][rough], 16 each
@@ -29,10 +25,6 @@ struct SurfacePoint {
     bool constant_fresnel;
     vec3 emission;
 };
-
-int material_index(float hit_flag) {
-    return clamp(int(hit_flag + 0.5) / 2, 0, MAX_MATERIALS - 1);
-}
 
 SurfacePoint surface_point(float hit_flag, vec3 base, vec2 rough_metal) {
     int k = 4 * material_index(hit_flag);
