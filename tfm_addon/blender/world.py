@@ -141,10 +141,10 @@ def ambient_radiance(world, wait: bool = True) -> tuple[RGB, str | None]:
 
 
 def world_visibility(world) -> tuple[bool, bool, bool]:
-    """The World's Ray Visibility as Cycles reads it for this engine's diffuse surfaces and media:
+    """The World's Ray Visibility as Cycles reads it for this engine's media and surfaces:
     (Camera: the world seen behind everything, Volume Scatter: its light on the media, Diffuse: its
-    light on the surfaces). Glossy and Transmission light no diffuse surface; Shadow changes
-    nothing (measured against Cycles 5.0)."""
+    light on the surfaces, their specular layer included; Glossy is not read). Transmission and
+    Shadow change nothing (measured against Cycles 5.0)."""
     v = getattr(world, "cycles_visibility", None) if world is not None else None
     if v is None:
         return True, True, True
