@@ -41,6 +41,9 @@ def parse_args(argv=None):
     p.add_argument("--direct", action="store_true",
                    help="register tfm_addon from this repository instead of installing the zip")
     p.add_argument("--blend", action="store_true", help="also save the scene as a .blend file")
+    p.add_argument("--fog", type=float, default=0.015,
+                   help="density of the fog on the World's Volume output, in which the spot's beam and "
+                        "the bar's shadow shaft show (0: none)")
     p.add_argument("--fire", action="store_true",
                    help="render a burning plume instead: smoke with flame and temperature grids made "
                         "by code, read through a Principled Volume's emission and blackbody")
@@ -131,6 +134,11 @@ def main(argv=None) -> int:
     scene_builder.build(demo, out_dir, settings=settings, name="Demo")
     scene = bpy.context.scene
     scene.render.engine = 'TFM'
+    if args.fog > 0.0 and not args.fire:     # fog in the air, as artists show a light's beam
+        nt = scene.world.node_tree
+        fog = nt.nodes.new('ShaderNodeVolumeScatter')
+        fog.inputs["Density"].default_value = args.fog
+        nt.links.new(fog.outputs["Volume"], nt.nodes["World Output"].inputs["Volume"])
 
     png = os.path.join(out_dir, f"{stem}.png")
     exr = os.path.join(out_dir, f"{stem}.exr")
