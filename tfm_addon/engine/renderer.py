@@ -38,6 +38,7 @@ from .passes.bindings import (
     MediumGPU,
     MediumSlot,
     gobo_texture,
+    has_sparse_unit,
     max_grids,
     pass_state,
 )
@@ -62,6 +63,7 @@ from .passes.tfm import (
 )
 from .quality import auto_settings, light_density_integral
 from .scene import Light, Medium, RenderSettings, Scene
+from .sparse_grid import PreparedSparse, grid_bytes, prepare_sparse
 
 
 def prepare_scene(scene: Scene, settings: RenderSettings | None) -> Scene:
@@ -523,17 +525,19 @@ class Renderer:
             media = [m for m in media if m.density is None or m.grid_key in kept]
             grids = {k: v for k, v in grids.items() if k in kept}
         allowance, budget_note = grid_allowances(
-            {k: (m.density.size * 4, m.name) for k, m in grids.items()}, settings.max_grid_bytes)
+            {k: (grid_bytes(m), m.name) for k, m in grids.items()}, settings.max_grid_bytes)
         if budget_note:
             warnings.append(budget_note)
         textures: dict[str, MediumGPU] = {}
         for k, m in grids.items():
-            key = (k, allowance[k], self.gl.max_3d_texture_size)
+            key = (k, allowance[k], self.gl.max_3d_texture_size, not textures)
 
-            def build(m=m, k=k, key=key):
-                grid = prepare_grid(m.density, np.eye(4), self.gl.max_3d_texture_size, allowance[k],
-                                    m.clipping)
-                notes = list(grid.warnings)
+            def build(m=m, k=k, key=key, first=not textures):
+                grid, notes = self._sparse_grid(m, allowance[k], first)
+                if grid is None:
+                    grid = prepare_grid(m.density, np.eye(4), self.gl.max_3d_texture_size, allowance[k],
+                                        m.clipping)
+                notes += list(grid.warnings)
                 if grid.is_empty:
                     notes.append("The density grid is empty: only the surfaces are rendered.")
                 self.counters["grid_uploads"] += 1
@@ -570,6 +574,30 @@ class Renderer:
         gpu.fog = fog
         gpu.key = tuple(_slot_key(s) for s in slots) + ((("fog", fog.key),) if fog is not None else ())
         return gpu, warnings
+
+    def _sparse_grid(self, m: Medium, allowance: int, first: bool) -> tuple[PreparedSparse | None, list[str]]:
+        """The bricks of the medium's grid prepared for upload where it has them and they can be
+        used: the frame's first grid, no emission or colour grid, the index's texture unit, within
+        the memory budget; otherwise (None, the reason, for the report) and the grid is uploaded
+        dense from the medium's coarser ``density``."""
+        if m.sparse is None:
+            return None, []
+        reason = None
+        if m.has_emission or m.color_grid is not None:
+            reason = "it has an emission or colour grid, which only a dense grid carries"
+        elif not first:
+            reason = "only the frame's first density grid can be sparse"
+        elif not has_sparse_unit(self.gl):
+            reason = "this OpenGL has too few texture units for its brick index"
+        if reason is None:
+            grid = prepare_sparse(m.sparse, m.clipping)
+            if grid.atlas_bytes * 2 <= allowance:      # the budget counts float32 voxels
+                return grid, []
+            reason = (f"its {len(grid.grid.bricks)} bricks need {grid.atlas_bytes * 2 // 2**20} MiB, more "
+                      f"than the {allowance // 2**20} MiB grid budget")
+        d = m.density.shape
+        return None, [f"The sparse grid '{m.name}' is rendered at the resolution of its coarse copy "
+                      f"({d[0]}x{d[1]}x{d[2]}, 1/{m.sparse.voxels_per_index:g}): {reason}."]
 
     def _fire(self, medium, seen, warnings: list[str]) -> FireGPU | None:
         """The light the first marched medium's emission casts on the solids the camera sees

@@ -318,6 +318,11 @@ class Medium:
 
     ``lights_surfaces``: the emission lights the solids too (Cycles does, even with no bounces,
     unless the object's Diffuse ray visibility is off), approximated by engine/fire_light.py.
+
+    ``sparse``: the density at full resolution as bricks (an ``engine.sparse_grid.SparseGrid``,
+    a big grid that is mostly empty), which the renderer uploads in place of ``density``; the
+    ``density`` is then a coarser copy (block means) that everything else reads (statistics,
+    bounds), and ``sparse.index_to_medium`` maps the bricks' index space into its own.
     """
 
     sigma_a: RGB = (0.1, 0.1, 0.1)
@@ -340,6 +345,7 @@ class Medium:
     emission_grid: str | None = None
     shader: object | None = None
     lights_surfaces: bool = False
+    sparse: object | None = None
 
     def __post_init__(self):
         if self.density is not None:
@@ -410,7 +416,13 @@ class Medium:
             return None
         if self.source_key is not None:
             return _digest("source", self.source_key, self.density.shape, float(self.clipping))
-        return _digest(self.density, float(self.clipping))
+        return _digest(self.density, float(self.clipping), *self._sparse_parts)
+
+    @property
+    def _sparse_parts(self) -> tuple:
+        """What the bricks add to a content key (nothing without them)."""
+        s = self.sparse
+        return () if s is None else ("sparse", s.shape, s.cells, s.bricks, s.index_to_medium)
 
     @cached_property
     def density_key(self) -> str:
@@ -420,7 +432,7 @@ class Medium:
         if self.source_key is not None:
             return _digest("source", self.source_key, self.index_to_world, self.density.shape,
                            float(self.clipping))
-        return _digest(self.density, self.index_to_world, float(self.clipping))
+        return _digest(self.density, self.index_to_world, float(self.clipping), *self._sparse_parts)
 
     @cached_property
     def key(self) -> str:

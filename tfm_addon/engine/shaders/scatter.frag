@@ -246,7 +246,7 @@ void main() {
 #if PACKED_DENSITY
                 D[m] = m == 0 ? packed_density(pk) : medium_density(m, p);
 #elif N_MEDIA == 1
-                D[m] = MEDIA_SLOT[0] >= 0 ? textureLod(u_density, vray.tc0 + vray.tcd * t, 0.0).r * vray.scale
+                D[m] = MEDIA_SLOT[0] >= 0 ? grid0(vray.tc0 + vray.tcd * t, 0.0) * vray.scale
                                           : medium_density(m, p);
 #else
                 D[m] = medium_density(m, p);
