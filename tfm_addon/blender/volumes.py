@@ -50,6 +50,9 @@ class DensityGrid:
     # (lo, hi) in array indices where Cycles draws the volume when it draws it by its object's mesh
     # (a fluid domain's cube); None: by the grids' leaf nodes (extract.glow_blocks)
     bounds: tuple | None = None
+    # a big, mostly empty density read as bricks (engine.sparse_grid.SparseGrid), ``density`` then
+    # being their coarse copy (1/8 resolution); None: ``density`` is the grid
+    sparse: object | None = None
 
 
 def choose_grid(available: list[tuple[str, str]], preferred: str, label: str) -> tuple[str, str | None]:
@@ -107,6 +110,30 @@ MAX_READ_VOXELS = 2 ** 28
 SLAB_BYTES = 64 * 2 ** 20     # the most a downsampled read copies at once
 
 
+SPARSE_MAX_FILL = 0.5     # a box above MAX_READ_VOXELS whose active voxels fill at most this part of
+                          # it is read as bricks (read_sparse), at full resolution
+
+
+def read_sparse(grid, lo, hi, max_voxels: int = MAX_READ_VOXELS):
+    """The bricks of a float grid's box lo..hi (inclusive): slabs of 9 x planes (a row of 8³
+    cells and the next plane) copied one at a time, only their non-empty bricks kept, so that
+    memory grows with the active bricks (engine/sparse_grid.py). Returns (SparseGrid, coarse copy,
+    coarse index to box index), or None when the bricks would hold more than ``max_voxels``."""
+    from ..engine import sparse_grid
+
+    shape = tuple(int(h - l + 1) for l, h in zip(lo, hi, strict=True))
+    collector = sparse_grid.BrickCollector(shape)
+    dtype = np.float64 if grid.valueTypeName == "double" else np.float32
+    slab = np.zeros(sparse_grid.slab_shape(shape), dtype)     # copyToArray writes all of it
+    limit = max_voxels // sparse_grid.SLOT ** 3
+    for cx in range(collector.cs[0]):
+        grid.copyToArray(slab, ijk=(lo[0] + sparse_grid.CELL * cx - 1, lo[1] - 1, lo[2] - 1))
+        collector.add(cx, slab)
+        if collector.count > limit:
+            return None
+    return collector.finish()
+
+
 def read_factor(shape, max_voxels: int = MAX_READ_VOXELS) -> int:
     """1, or the smallest power of two f whose f x f x f means bring ``shape`` within
     ``max_voxels``."""
@@ -151,11 +178,13 @@ def _copy(grid, lo, hi, factor: int = 1) -> np.ndarray:
 
 
 def read_grid_set(openvdb, path: str, density_name: str, extras, label: str, warnings: list[str],
-                  key: str, max_voxels: int | None = None) -> DensityGrid:
+                  key: str, max_voxels: int | None = None, sparse: bool = False) -> DensityGrid:
     """The density grid and the ``extras`` of a .vdb file, densely over the union of their active
     boxes (extras whose transform differs from the density's are skipped with a warning);
     ``max_voxels``: a box with more voxels is read as the means of f x f x f blocks (read_factor),
-    said in a warning."""
+    said in a warning, unless ``sparse`` and the density alone is read and fills at most
+    SPARSE_MAX_FILL of its box: then it is read at full resolution as bricks (read_sparse), if
+    they hold at most ``max_voxels``."""
     try:
         density = openvdb.read(path, density_name)
     except Exception as ex:
@@ -187,6 +216,19 @@ def read_grid_set(openvdb, path: str, density_name: str, extras, label: str, war
     hi = tuple(max(int(b[1][k]) for b in boxes) for k in range(3))
     shape = tuple(h - l + 1 for l, h in zip(lo, hi, strict=True))
     factor = 1 if max_voxels is None else read_factor(shape, max_voxels)
+    box = np.prod(shape, dtype=np.float64)
+    if factor > 1 and sparse and len(grids) == 1 and density.activeVoxelCount() <= SPARSE_MAX_FILL * box:
+        found = read_sparse(density, lo, hi, max_voxels)
+        if found is not None:
+            bricks, coarse, coarse_to_box = found
+            coarse.setflags(write=False)
+            shift = np.eye(4)
+            shift[:3, 3] = lo
+            return DensityGrid(density=coarse, index_to_object=to_object @ shift @ coarse_to_box,
+                               grid_name=density_name, key=key, warnings=tuple(warnings), first_index=lo,
+                               sparse=bricks)
+        warnings.append(f"Volume '{label}': the active 8³ blocks of grid '{density_name}' hold more than "
+                        f"{max_voxels // 2 ** 20} M voxels")
     if factor > 1:
         reduced = "x".join(str(-(-n // factor)) for n in shape)
         warnings.append(f"Volume '{label}': the grids' active box is {'x'.join(map(str, shape))} voxels "
@@ -243,12 +285,13 @@ class GridCache:
         return [(g.name, g.data_type) for g in grids]
 
     def read(self, volume, preferred: str, label: str, *, generated: bool,
-             extras: tuple[str, ...] = ()) -> tuple[DensityGrid, list[str]]:
+             extras: tuple[str, ...] = (), sparse: bool = False) -> tuple[DensityGrid, list[str]]:
         """Read the density grid (and the grids named in ``extras`` that exist) of an evaluated
         Volume data-block.
 
         ``generated``: the evaluated grids may differ from the file (modifiers, Geometry Nodes,
         instancing from nodes), so they are saved and hashed instead of read from the file.
+        ``sparse``: a big, mostly empty density may be read as bricks (read_grid_set).
         Returns the grid and warnings; raises VolumeReadError.
         """
         from .openvdb_module import import_openvdb
@@ -265,11 +308,11 @@ class GridCache:
         grids = volume.grids
         if not generated and path and volume.packed_file is None and os.path.isfile(path):
             st = os.stat(path)
-            key = ("file", path, st.st_mtime_ns, st.st_size, name, extras)
+            key = ("file", path, st.st_mtime_ns, st.st_size, name, extras, sparse)
             cached = self._lookup(key)
             if cached is None:
                 cached = self._store(key, self._read_file(import_openvdb(), path, name, label,
-                                                          extras, repr(key), MAX_READ_VOXELS))
+                                                          extras, repr(key), MAX_READ_VOXELS, sparse))
             return cached, warnings + list(cached.warnings)
 
         with tempfile.TemporaryDirectory(prefix="tfm_volume_") as tmp:
@@ -279,11 +322,11 @@ class GridCache:
                 raise VolumeReadError(f"Volume '{label}': cannot save its grids: {grids.error_message}")
             with open(saved, "rb") as f:
                 digest = hashlib.blake2b(f.read(), digest_size=16).hexdigest()
-            key = ("data", digest, name, extras)
+            key = ("data", digest, name, extras, sparse)
             cached = self._lookup(key)
             if cached is None:
                 cached = self._store(key, self._read_file(import_openvdb(), saved, name, label,
-                                                          extras, repr(key), MAX_READ_VOXELS))
+                                                          extras, repr(key), MAX_READ_VOXELS, sparse))
         return cached, warnings + list(cached.warnings)
 
     def read_path(self, path: str, density_name: str, label: str, extras: tuple[str, ...] = ()
@@ -312,9 +355,10 @@ class GridCache:
             self._entries.popitem(last=False)
         return grid
 
-    def _read_file(self, openvdb, path, name, label, extras=(), key="", max_voxels=None) -> DensityGrid:
+    def _read_file(self, openvdb, path, name, label, extras=(), key="", max_voxels=None,
+                   sparse=False) -> DensityGrid:
         self.reads += 1
-        return read_grid_set(openvdb, path, name, extras, label, [], key, max_voxels)
+        return read_grid_set(openvdb, path, name, extras, label, [], key, max_voxels, sparse)
 
 
 VOLUME_FRAME_NONE = 2**31 - 1     # Blender's VOLUME_FRAME_NONE: no file of the sequence this frame

@@ -83,25 +83,31 @@ class BrickCollector:
         self.coarse = np.zeros(self.cs, np.float32)
         self._cells, self._bricks = [], []
 
+    @property
+    def count(self) -> int:
+        """Bricks gathered so far."""
+        return sum(len(b) for b in self._bricks)
+
     def add(self, cx: int, slab: np.ndarray) -> None:
         """``slab``: (9, 8 cy + 1, 8 cz + 1) padded voxels from (8 cx, 0, 0) (``slab_shape``)."""
         slab = np.ascontiguousarray(slab, dtype=np.float32)
         cy, cz = self.cs[1], self.cs[2]
-        filled = slab != 0                          # NaN counts: the renderer cleans it, said once
-        plane = filled.any(axis=0)                  # (8 cy + 1, 8 cz + 1)
+        plane = slab[0] != 0                        # (8 cy + 1, 8 cz + 1): any of the 9 planes
+        for k in range(1, SLOT):                    # (NaN counts: the renderer cleans it, said once)
+            np.logical_or(plane, slab[k] != 0, out=plane)
         rows = np.logical_or.reduceat(plane[:-1], np.arange(0, CELL * cy, CELL), axis=0)
         rows |= plane[CELL::CELL]
         present = np.logical_or.reduceat(rows[:, :-1], np.arange(0, CELL * cz, CELL), axis=1)
         present |= rows[:, CELL::CELL]
-        interior = slab[:CELL, :CELL * cy, :CELL * cz].reshape(CELL, cy, CELL, cz, CELL)
-        self.coarse[cx] = interior.sum(axis=(0, 2, 4), dtype=np.float64) / CELL ** 3
         js, ks = np.nonzero(present)
         if js.size == 0:
             return
         sx, sy, sz = slab.strides
         windows = np.lib.stride_tricks.as_strided(
             slab, shape=(cy, cz, SLOT, SLOT, SLOT), strides=(CELL * sy, CELL * sz, sx, sy, sz))
-        self._bricks.append(windows[js, ks])        # a copy: only the non-empty bricks
+        bricks = windows[js, ks]                    # a copy: only the non-empty bricks
+        self.coarse[cx, js, ks] = bricks[:, :CELL, :CELL, :CELL].mean(axis=(1, 2, 3), dtype=np.float64)
+        self._bricks.append(bricks)
         self._cells.append(np.stack([np.full_like(js, cx), js, ks], axis=1).astype(np.int32))
 
     def finish(self) -> tuple[SparseGrid, np.ndarray, np.ndarray]:

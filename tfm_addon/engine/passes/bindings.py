@@ -149,7 +149,7 @@ class MediumGPU:
         self.sparse = True
         self._gl = gl
         self.grid_format = "R16"
-        self.index_scale = np.linalg.inv(np.asarray(g.index_to_medium, np.float64))
+        self.index_scale = np.asarray(g.index_to_medium, np.float64)
         self.grid_size = tuple(int(n) + 2 for n in g.shape)
         self.density_scale = max(grid.max_value, 1e-30)
         layout = sparse_grid.atlas_layout(len(g.bricks), gl.max_3d_texture_size)
