@@ -2,11 +2,12 @@
 
 Writes (once, by code) a float grid whose active box is ``--side``³ voxels with about
 ``--active`` million active voxels (blobs of smoke scattered in the box, the rest inactive), then
-renders it in a fresh Blender process (bpy as a module, the add-on from this checkout) at 640x360
+renders it in fresh Blender processes (bpy as a module, the add-on from this checkout) at 640x360
 through ``bpy.ops.render.render``: the seconds from the render call to the written frame and the
 peak resident memory above the process before the call (sampled every 5 ms), with the frame's
-report lines (the read's downsampling among them). The grid is dense once read (docs/blender.md,
-"Volumes"): these are the dense path's figures for such a file.
+report lines. Two paths take turns (``--repeats`` each): the sparse one (the grid read as bricks
+at full resolution, docs/blender.md "Volumes") and the dense one (the same file read dense at
+reduced resolution, as for a grid that is not sparse enough: the sparse rule switched off).
 """
 
 from __future__ import annotations
@@ -20,10 +21,13 @@ import numpy as np
 
 CHILD = r"""
 import json, os, sys, threading, time
-root, vdb, side = sys.argv[-3], sys.argv[-2], int(sys.argv[-1])
+root, vdb, side, path = sys.argv[-4], sys.argv[-3], int(sys.argv[-2]), sys.argv[-1]
 sys.path.insert(0, root); sys.path.insert(0, os.path.join(root, "tests", "blender"))
 import bpy, tfm_addon
 tfm_addon.register()
+from tfm_addon.blender import volumes
+if path == "dense":
+    volumes.SPARSE_MAX_FILL = -1.0          # never sparse: read dense at reduced resolution
 from blender_helpers import smoke, SETTINGS
 from tfm_addon.blender import scene_builder, final_render
 import tempfile
@@ -55,7 +59,7 @@ seconds = time.perf_counter() - start
 stop[0] = True; t.join()
 print("RESULT " + json.dumps({"seconds": seconds, "rss_peak_above": peak[0] - before,
       "before": before, "messages": final_render.last_messages,
-      "timings": final_render.last_timings}), flush=True)
+      "timings": final_render.last_timings, "load": os.getloadavg()[0]}), flush=True)
 os._exit(0)
 """
 
@@ -94,6 +98,17 @@ def write_sparse_vdb(path: str, side: int, active_millions: float, seed: int = 5
     return int(grid.activeVoxelCount())
 
 
+def render_once(root: str, vdb: str, side: int, path: str) -> dict:
+    """One first final frame in a fresh Blender process: 'sparse' or 'dense'."""
+    env = dict(os.environ, MALLOC_MMAP_THRESHOLD_="65536")
+    done = subprocess.run([sys.executable, "-c", CHILD, root, vdb, str(side), path],
+                          capture_output=True, text=True, timeout=3600, env=env)
+    for line in done.stdout.splitlines():
+        if line.startswith("RESULT "):
+            return json.loads(line[7:])
+    raise RuntimeError(done.stdout[-3000:] + done.stderr[-3000:])
+
+
 def main(argv=None) -> None:
     import argparse
 
@@ -101,25 +116,28 @@ def main(argv=None) -> None:
     parser.add_argument("--side", type=int, default=1024)
     parser.add_argument("--active", type=float, default=32.0, help="millions of active voxels")
     parser.add_argument("--vdb", default="/tmp/tfm_sparse_bench.vdb")
+    parser.add_argument("--repeats", type=int, default=2, help="frames per path, taking turns")
+    parser.add_argument("--paths", default="dense,sparse")
     args = parser.parse_args(argv)
     root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
     if not os.path.exists(args.vdb):
         active = write_sparse_vdb(args.vdb, args.side, args.active)
         print(f"wrote {args.vdb}: {args.side}³ box, {active / 1e6:.1f} M active voxels", flush=True)
-    env = dict(os.environ, MALLOC_MMAP_THRESHOLD_="65536")
-    done = subprocess.run([sys.executable, "-c", CHILD, root, args.vdb, str(args.side)],
-                          capture_output=True, text=True, timeout=3600, env=env)
-    for line in done.stdout.splitlines():
-        if line.startswith("RESULT "):
-            r = json.loads(line[7:])
-            print(f"first final frame 640x360: {r['seconds']:.1f} s, "
+    results: dict[str, list] = {}
+    for _ in range(args.repeats):
+        for path in args.paths.split(","):
+            r = render_once(root, args.vdb, args.side, path)
+            results.setdefault(path, []).append(r)
+            print(f"{path}: first final frame 640x360: {r['seconds']:.1f} s, "
                   f"peak {r['rss_peak_above'] / 2**30:.2f} GiB above the process "
-                  f"({r['before'] / 2**30:.2f} GiB before)")
+                  f"({r['before'] / 2**30:.2f} GiB before), load average {r['load']:.1f}", flush=True)
             for level, message in r["messages"]:
                 print(f"  {level}: {message}")
             print("  timings: " + ", ".join(f"{k} {v:.2f} s" for k, v in sorted(r["timings"].items())))
-            return
-    raise RuntimeError(done.stdout[-3000:] + done.stderr[-3000:])
+    for path, rs in results.items():
+        print(f"{path}: fastest {min(r['seconds'] for r in rs):.1f} s, median "
+              f"{sorted(r['seconds'] for r in rs)[len(rs) // 2]:.1f} s, largest peak "
+              f"{max(r['rss_peak_above'] for r in rs) / 2**30:.2f} GiB")
 
 
 if __name__ == "__main__":
