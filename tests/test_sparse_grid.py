@@ -125,3 +125,15 @@ def test_sparse_grid_with_an_emission_grid_falls_back_with_a_report_line(rendere
     fire = dataclasses.replace(m, sparse=sg.from_dense(m.density))
     out = renderer.render(dataclasses.replace(base, media=(fire,)), RenderSettings(view_steps=32))
     assert [w for w in out.warnings if "sparse grid" in w and "emission" in w]
+
+
+def test_bricks_are_cleaned_as_the_dense_grid_is():
+    d = np.zeros((20, 20, 20), np.float32)
+    d[7, 3, 3] = np.nan             # in cell 1's interior and cell 0's apron: counted once
+    d[15, 15, 15] = -2.0            # alone in its cells: their bricks are dropped
+    d[3, 3, 3] = 1.0
+    prepared = sg.prepare_sparse(sg.from_dense(d))
+    assert prepared.warnings == ["The density grid has 1 NaN voxel; rendered as 0.",
+                                 "The density grid has 1 negative voxel; rendered as 0."]
+    assert np.array_equal(sg.dense_from_bricks(prepared.grid), np.where(d == 1.0, d, 0))
+    assert len(prepared.grid.bricks) == 1 and prepared.bounds == nonzero_bounds(np.where(d == 1.0, d, 0))

@@ -47,3 +47,39 @@ def test_a_grid_above_the_read_limit_is_read_as_block_means(blank, tmp_path, mon
     assert any("read at 1/2 resolution" in m for m in said), said
     ssim = metrics.ssim(halved, full)
     assert 0.95 < ssim < 0.9999, ssim       # the same smoke at half its resolution
+
+
+def test_a_big_mostly_empty_grid_is_read_as_bricks_at_full_resolution(tmp_path, monkeypatch):
+    """Above the read limit, a density whose active voxels fill at most SPARSE_MAX_FILL of its box
+    is read as bricks (volumes.read_sparse), slab by slab: they hold exactly the full-resolution
+    voxels, placed as the dense read places them, beside their 1/8 coarse copy."""
+    from tfm_addon.blender import volumes
+    from tfm_addon.blender.openvdb_module import import_openvdb
+    from tfm_addon.engine import sparse_grid
+
+    vdb = import_openvdb()
+    x, y, z = np.meshgrid(*(np.arange(50, dtype=np.float32),) * 3, indexing="ij")
+    d = np.zeros((50, 50, 50), np.float32)
+    for c in ((10, 12, 30), (38, 20, 9), (25, 40, 40)):
+        r2 = ((x - c[0]) ** 2 + (y - c[1]) ** 2 + (z - c[2]) ** 2) / 36.0
+        d = np.maximum(d, np.clip(1.0 - r2, 0.0, None) * 4.0)
+    grid = vdb.FloatGrid()
+    grid.name = "density"
+    grid.transform = vdb.createLinearTransform(voxelSize=0.05)
+    grid.copyFromArray(d, ijk=(3, -7, 11), tolerance=0.0)
+    path = str(tmp_path / "blobs.vdb")
+    vdb.write(path, grids=[grid])
+
+    full = volumes.read_grid_set(vdb, path, "density", (), "Blobs", [], "k")
+    limit = 60_000       # below the box (about 41³), above the bricks
+    read = volumes.read_grid_set(vdb, path, "density", (), "Blobs", [], "k", limit, sparse=True)
+    bricks = read.sparse
+    assert bricks is not None and 0 < len(bricks.bricks) * 9 ** 3 <= limit < full.density.size
+    assert np.array_equal(sparse_grid.dense_from_bricks(bricks), full.density)
+    # Brick index i sits where the full read's index i does; the coarse copy is 1/8 of it.
+    fine = np.array([5.0, 9.0, 13.0, 1.0])
+    assert np.allclose(read.index_to_object @ bricks.index_to_medium @ fine, full.index_to_object @ fine)
+    assert read.density.shape == sparse_grid.cell_shape(full.density.shape)
+    # Not asked for (another grid read, an emitting material): read dense at 1/2, as before.
+    halved = volumes.read_grid_set(vdb, path, "density", (), "Blobs", [], "k", limit)
+    assert halved.sparse is None and halved.density.shape == tuple(-(-n // 2) for n in full.density.shape)

@@ -122,7 +122,8 @@ def read_sparse(grid, lo, hi, max_voxels: int = MAX_READ_VOXELS):
     from ..engine import sparse_grid
 
     shape = tuple(int(h - l + 1) for l, h in zip(lo, hi, strict=True))
-    collector = sparse_grid.BrickCollector(shape)
+    expected = int(grid.activeVoxelCount()) // sparse_grid.CELL ** 3 * 3 // 2     # blobs: about 1.4x
+    collector = sparse_grid.BrickCollector(shape, min(expected, max_voxels // sparse_grid.SLOT ** 3 + 1))
     dtype = np.float64 if grid.valueTypeName == "double" else np.float32
     slab = np.zeros(sparse_grid.slab_shape(shape), dtype)     # copyToArray writes all of it
     limit = max_voxels // sparse_grid.SLOT ** 3

@@ -77,16 +77,19 @@ class BrickCollector:
     each cell's 8³ voxels, the coarse copy (1/8 resolution) of the grid for whoever reads the
     medium's ``density`` (statistics, bounds)."""
 
-    def __init__(self, shape):
+    def __init__(self, shape, expected: int = 0):
+        """``expected``: bricks to make room for at first (it grows as needed)."""
         self.shape = tuple(int(n) for n in shape)
         self.cs = cell_shape(self.shape)
         self.coarse = np.zeros(self.cs, np.float32)
-        self._cells, self._bricks = [], []
+        self._store = np.empty((int(expected), SLOT, SLOT, SLOT), np.float32)
+        self._cell_store = np.empty((int(expected), 3), np.int32)
+        self._count = 0
 
     @property
     def count(self) -> int:
         """Bricks gathered so far."""
-        return sum(len(b) for b in self._bricks)
+        return self._count
 
     def add(self, cx: int, slab: np.ndarray) -> None:
         """``slab``: (9, 8 cy + 1, 8 cz + 1) padded voxels from (8 cx, 0, 0) (``slab_shape``)."""
@@ -95,29 +98,35 @@ class BrickCollector:
         plane = slab[0] != 0                        # (8 cy + 1, 8 cz + 1): any of the 9 planes
         for k in range(1, SLOT):                    # (NaN counts: the renderer cleans it, said once)
             np.logical_or(plane, slab[k] != 0, out=plane)
-        rows = np.logical_or.reduceat(plane[:-1], np.arange(0, CELL * cy, CELL), axis=0)
-        rows |= plane[CELL::CELL]
-        present = np.logical_or.reduceat(rows[:, :-1], np.arange(0, CELL * cz, CELL), axis=1)
-        present |= rows[:, CELL::CELL]
+        rows = plane[:-1].reshape(cy, CELL, -1).any(axis=1) | plane[CELL::CELL]     # (cy, 8 cz + 1)
+        present = rows[:, :-1].reshape(cy, cz, CELL).any(axis=2) | rows[:, CELL::CELL]
         js, ks = np.nonzero(present)
         if js.size == 0:
             return
         sx, sy, sz = slab.strides
         windows = np.lib.stride_tricks.as_strided(
             slab, shape=(cy, cz, SLOT, SLOT, SLOT), strides=(CELL * sy, CELL * sz, sx, sy, sz))
-        bricks = windows[js, ks]                    # a copy: only the non-empty bricks
+        n0, n1 = self._count, self._count + len(js)
+        if n1 > len(self._store):                   # grown by half: no list of pieces to join
+            grown = np.empty((max(n1, len(self._store) * 3 // 2 + 64), SLOT, SLOT, SLOT), np.float32)
+            grown[:n0] = self._store[:n0]
+            self._store = grown
+            self._cell_store = np.resize(self._cell_store, (len(grown), 3))
+        bricks = self._store[n0:n1]
+        bricks[...] = windows[js, ks]               # only the non-empty bricks
         self.coarse[cx, js, ks] = bricks[:, :CELL, :CELL, :CELL].mean(axis=(1, 2, 3), dtype=np.float64)
-        self._bricks.append(bricks)
-        self._cells.append(np.stack([np.full_like(js, cx), js, ks], axis=1).astype(np.int32))
+        self._cell_store[n0:n1] = np.stack([np.full_like(js, cx), js, ks], axis=1)
+        self._count = n1
 
     def finish(self) -> tuple[SparseGrid, np.ndarray, np.ndarray]:
         """The grid's bricks, its coarse copy (cx, cy, cz) float32 and the coarse copy's index to
         this grid's index (a cell's centre: index 8 c + 2.5); the SparseGrid's
         ``index_to_medium`` maps into the coarse copy's index space."""
-        bricks = (np.concatenate(self._bricks) if self._bricks
-                  else np.zeros((0, SLOT, SLOT, SLOT), np.float32))
-        cells = np.concatenate(self._cells) if self._cells else np.zeros((0, 3), np.int32)
-        self._bricks, self._cells = [], []
+        n = self._count
+        bricks = self._store[:n]
+        if n < len(self._store) * 3 // 4:          # much room left unused: not kept
+            bricks = bricks.copy()
+        cells = self._cell_store[:n].copy()
         coarse_to_fine = np.diag([float(CELL)] * 3 + [1.0])
         coarse_to_fine[:3, 3] = CELL / 2 - 1.5
         grid = SparseGrid(self.shape, cells, bricks, np.linalg.inv(coarse_to_fine))
@@ -171,12 +180,12 @@ def prepare_sparse(grid: SparseGrid, clipping: float = 0.0) -> PreparedSparse:
     """Clean the bricks (NaN, infinite, negative values and values below ``clipping`` set to 0;
     the warnings count each voxel once, in its own cell) and find the bounds."""
     bricks, warnings = clean_density(grid.bricks, clipping)
-    if warnings:
-        _, warnings = clean_density(grid.bricks[:, :CELL, :CELL, :CELL], clipping)
-    keep = bricks.reshape(len(bricks), -1).max(axis=1, initial=0.0) > 0 if len(bricks) else np.zeros(0, bool)
-    if not keep.all():
-        bricks = bricks[keep]
-    cells = grid.cells[keep]
+    cells = grid.cells
+    if bricks is not grid.bricks:                   # values were cleaned: some bricks may be empty now
+        if warnings:
+            _, warnings = clean_density(grid.bricks[:, :CELL, :CELL, :CELL], clipping)
+        keep = bricks.reshape(len(bricks), -1).max(axis=1, initial=0.0) > 0
+        bricks, cells = bricks[keep], cells[keep]
     cleaned = SparseGrid(grid.shape, cells, bricks, grid.index_to_medium)
     max_value = float(bricks.max()) if len(bricks) else 0.0
     return PreparedSparse(cleaned, max_value, brick_bounds(cells, bricks), warnings)
@@ -184,20 +193,25 @@ def prepare_sparse(grid: SparseGrid, clipping: float = 0.0) -> PreparedSparse:
 
 def brick_bounds(cells: np.ndarray, bricks: np.ndarray) -> tuple[tuple, tuple]:
     """``boxes.nonzero_bounds`` of the grid the bricks hold: one voxel beyond the first and last
-    non-zero voxel centres on each axis (index space; lo = hi where none is)."""
-    if len(bricks) == 0:
-        return (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
-    filled = bricks[:, :CELL, :CELL, :CELL] > 0
+    non-zero voxel centres on each axis (index space; lo = hi where none is). A cell's own voxels
+    lie below the next cell's, so each end is found in the outermost layer of cells holding a
+    non-zero voxel of their own (not only in their apron)."""
     lo, hi = [], []
     for axis in range(3):
         others = tuple(a for a in (1, 2, 3) if a != axis + 1)
-        along = filled.any(axis=others)                              # (n, 8)
-        has = along.any(axis=1)
-        first = np.argmax(along, axis=1)
-        last = CELL - 1 - np.argmax(along[:, ::-1], axis=1)
-        base = CELL * cells[:, axis] - 1                              # padded -> index
-        lo.append(float((base + first)[has].min() - 1))
-        hi.append(float((base + last)[has].max() + 1))
+        ends = []
+        for layers in (np.unique(cells[:, axis]), np.unique(cells[:, axis])[::-1]):
+            for layer in layers:
+                pick = np.flatnonzero(cells[:, axis] == layer)
+                along = (bricks[pick, :CELL, :CELL, :CELL] > 0).any(axis=others)      # (n, 8)
+                if along.any():
+                    where = np.flatnonzero(along.any(axis=0))
+                    ends.append(CELL * int(layer) - 1 + int(where[0] if not ends else where[-1]))
+                    break
+        if len(ends) < 2:
+            return (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
+        lo.append(float(ends[0] - 1))
+        hi.append(float(ends[1] + 1))
     return tuple(lo), tuple(hi)
 
 
