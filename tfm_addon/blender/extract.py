@@ -692,7 +692,8 @@ def _volume_medium(instance, cache: GridCache, notes: list[str], simplify: int =
         found = kept.grid(memo) if memo is not None else None
         if found is None:
             found = cache.read(volume, preferred, _label(instance), generated=generated,
-                               extras=tuple(read["grids"]), sparse=_may_read_sparse(read))
+                               extras=tuple(read["grids"]), sparse=_may_read_sparse(read),
+                               wait=depsgraph is None or depsgraph.mode == 'RENDER')
             if memo is not None:
                 kept.keep_grid(memo, found, owners)
         grid, grid_notes = found

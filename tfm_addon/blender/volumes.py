@@ -12,6 +12,7 @@ from __future__ import annotations
 import hashlib
 import os
 import tempfile
+import threading
 from collections import OrderedDict
 from dataclasses import dataclass, field
 
@@ -27,6 +28,10 @@ class VolumeReadError(Exception):
 
 class NoGridThisFrame(VolumeReadError):
     """A frame sequence outside its frame range: nothing to render, nothing wrong."""
+
+
+class GridBeingRead(VolumeReadError):
+    """A big grid the viewport reads in the background: not there yet (GridCache.read)."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -108,6 +113,9 @@ def dense_array(grid) -> tuple[np.ndarray, tuple[int, int, int]]:
 # resolution (read_factor), never copied dense at full size.
 MAX_READ_VOXELS = 2 ** 28
 SLAB_BYTES = 64 * 2 ** 20     # the most a downsampled read copies at once
+COPY_VOXELS = 2 ** 20         # the most a sparse read copies at once: openvdb's copy holds Python's
+                              # lock throughout (some 10 ms a million voxels on a loaded 2-core machine)
+BACKGROUND_READ_BYTES = 16 * 2 ** 20     # the viewport reads larger files in the background
 
 
 SPARSE_MAX_FILL = 0.5     # a box above MAX_READ_VOXELS whose active voxels fill at most this part of
@@ -127,8 +135,14 @@ def read_sparse(grid, lo, hi, max_voxels: int = MAX_READ_VOXELS):
     dtype = np.float64 if grid.valueTypeName == "double" else np.float32
     slab = np.zeros(sparse_grid.slab_shape(shape), dtype)     # copyToArray writes all of it
     limit = max_voxels // sparse_grid.SLOT ** 3
+    rows = max(1, COPY_VOXELS // (slab.shape[0] * slab.shape[2]))
+    part = np.zeros((slab.shape[0], rows, slab.shape[2]), dtype)
     for cx in range(collector.cs[0]):
-        grid.copyToArray(slab, ijk=(lo[0] + sparse_grid.CELL * cx - 1, lo[1] - 1, lo[2] - 1))
+        for j0 in range(0, slab.shape[1], rows):      # a part at a time: openvdb holds Python's lock
+            n = min(rows, slab.shape[1] - j0)
+            piece = part if n == rows else np.zeros((slab.shape[0], n, slab.shape[2]), dtype)
+            grid.copyToArray(piece, ijk=(lo[0] + sparse_grid.CELL * cx - 1, lo[1] - 1 + j0, lo[2] - 1))
+            slab[:, j0:j0 + n] = piece
         collector.add(cx, slab)
         if collector.count > limit:
             return None
@@ -264,6 +278,8 @@ class GridCache:
         self.reads = 0  # grids read from openvdb, for tests
         self.hits = 0
         self.saves = 0   # generated volumes written with grids.save (then hashed), for tests
+        self.reading: dict = {}      # key -> the thread reading it in the background
+        self._lock = threading.Lock()
 
     def clear(self):
         self._entries.clear()
@@ -286,13 +302,17 @@ class GridCache:
         return [(g.name, g.data_type) for g in grids]
 
     def read(self, volume, preferred: str, label: str, *, generated: bool,
-             extras: tuple[str, ...] = (), sparse: bool = False) -> tuple[DensityGrid, list[str]]:
+             extras: tuple[str, ...] = (), sparse: bool = False,
+             wait: bool = True) -> tuple[DensityGrid, list[str]]:
         """Read the density grid (and the grids named in ``extras`` that exist) of an evaluated
         Volume data-block.
 
         ``generated``: the evaluated grids may differ from the file (modifiers, Geometry Nodes,
         instancing from nodes), so they are saved and hashed instead of read from the file.
         ``sparse``: a big, mostly empty density may be read as bricks (read_grid_set).
+        ``wait`` False (the viewport): a file of more than BACKGROUND_READ_BYTES not read yet is
+        read on a thread of its own, which tags the volume for an update when done; meanwhile
+        GridBeingRead is raised, so that Blender's thread never waits for a big read.
         Returns the grid and warnings; raises VolumeReadError.
         """
         from .openvdb_module import import_openvdb
@@ -311,6 +331,11 @@ class GridCache:
             st = os.stat(path)
             key = ("file", path, st.st_mtime_ns, st.st_size, name, extras, sparse)
             cached = self._lookup(key)
+            if cached is None and not wait and st.st_size > BACKGROUND_READ_BYTES:
+                args = (path, name, label, extras, repr(key), MAX_READ_VOXELS, sparse)
+                self._read_in_background(key, (volume.original or volume).name, args)
+                raise GridBeingRead(f"Volume '{label}': grid '{name}' is being read from '{path}' "
+                                    f"({st.st_size / 2 ** 20:.0f} MB) in the background; it shows once read")
             if cached is None:
                 cached = self._store(key, self._read_file(import_openvdb(), path, name, label,
                                                           extras, repr(key), MAX_READ_VOXELS, sparse))
@@ -343,23 +368,67 @@ class GridCache:
                                                       tuple(sorted(extras)), repr(key)))
         return cached
 
+    def _read_in_background(self, key, volume_name: str, args) -> None:
+        """Read a file's grids on a thread (one at a time; a read asked for while another runs
+        waits for the next update), then tag the volume so that the viewport reads it again."""
+        from .openvdb_module import import_openvdb
+
+        with self._lock:
+            if key in self.reading or self.reading:
+                return
+            openvdb = import_openvdb()
+
+            def work():
+                try:
+                    self._store(key, self._read_file(openvdb, *args))
+                except VolumeReadError as ex:
+                    self._store(key, ex)
+                finally:
+                    with self._lock:
+                        self.reading.pop(key, None)
+
+            thread = threading.Thread(target=work, name="TFM grid read", daemon=True)
+            self.reading[key] = thread
+            thread.start()
+        _tag_when_done(thread, volume_name)
+
     def _lookup(self, key):
-        grid = self._entries.get(key)
-        if grid is not None:
-            self._entries.move_to_end(key)
-            self.hits += 1
+        with self._lock:
+            grid = self._entries.get(key)
+            if grid is not None:
+                self._entries.move_to_end(key)
+                self.hits += 1
+        if isinstance(grid, VolumeReadError):        # what a background read ran into
+            raise grid
         return grid
 
     def _store(self, key, grid):
-        self._entries[key] = grid
-        while len(self._entries) > self.max_entries:
-            self._entries.popitem(last=False)
+        with self._lock:
+            self._entries[key] = grid
+            while len(self._entries) > self.max_entries:
+                self._entries.popitem(last=False)
         return grid
 
     def _read_file(self, openvdb, path, name, label, extras=(), key="", max_voxels=None,
                    sparse=False) -> DensityGrid:
         self.reads += 1
         return read_grid_set(openvdb, path, name, extras, label, [], key, max_voxels, sparse)
+
+
+def _tag_when_done(thread: threading.Thread, volume_name: str) -> None:
+    """Tag the Volume data-block for an update once its background read is done (Blender's
+    thread, by a timer), so that the viewport reads it again, from the cache."""
+    import bpy
+
+    def poll():
+        if thread.is_alive():
+            return 0.1
+        volume = bpy.data.volumes.get(volume_name)
+        if volume is not None:
+            volume.update_tag()
+        return None
+
+    bpy.app.timers.register(poll, first_interval=0.1)
 
 
 VOLUME_FRAME_NONE = 2**31 - 1     # Blender's VOLUME_FRAME_NONE: no file of the sequence this frame
