@@ -80,6 +80,11 @@ def test_a_big_mostly_empty_grid_is_read_as_bricks_at_full_resolution(tmp_path, 
     fine = np.array([5.0, 9.0, 13.0, 1.0])
     assert np.allclose(read.index_to_object @ bricks.index_to_medium @ fine, full.index_to_object @ fine)
     assert read.density.shape == sparse_grid.cell_shape(full.density.shape)
+    # The viewport's read, in a process of its own, gives the same grids back.
+    other = volumes.read_in_process(path, "density", "Blobs", (), "k", limit, True)
+    assert np.array_equal(other.sparse.bricks, bricks.bricks) and np.array_equal(other.density, read.density)
+    assert np.array_equal(other.index_to_object, read.index_to_object)
+    assert other.first_index == read.first_index
     # Not asked for (another grid read, an emitting material): read dense at 1/2, as before.
     halved = volumes.read_grid_set(vdb, path, "density", (), "Blobs", [], "k", limit)
     assert halved.sparse is None and halved.density.shape == tuple(-(-n // 2) for n in full.density.shape)

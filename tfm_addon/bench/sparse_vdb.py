@@ -64,6 +64,86 @@ os._exit(0)
 """
 
 
+VIEWPORT_CHILD = r"""
+import json, os, sys, time
+root, vdb, side = sys.argv[-3], sys.argv[-2], int(sys.argv[-1])
+sys.path.insert(0, root); sys.path.insert(0, os.path.join(root, "tests", "blender"))
+import bpy, numpy as np, tfm_addon
+tfm_addon.register()
+from blender_helpers import smoke, SETTINGS
+from tfm_addon.blender import scene_builder, viewport, volumes
+from tfm_addon.blender.changes import Change
+from tfm_addon.blender.camera import camera_from_view, without_scale
+import tempfile
+bpy.ops.wm.read_factory_settings(use_empty=True)
+made = scene_builder.build(smoke(width=640, height=360, n=32), tempfile.mkdtemp(prefix="tfm_sparse_"),
+                           settings=SETTINGS, samples=1)
+scene = bpy.context.scene
+scene.tfm.quality = 'AUTO'
+ob = made["medium"]
+ob.data.filepath = vdb
+ob.matrix_world = ((1, 0, 0, -1.0), (0, 1, 0, -1.0), (0, 0, 1, 0.2), (0, 0, 0, 1))
+samples = int(os.environ.get("TFM_VIEW_SAMPLES", "4"))
+
+def view_camera(dg, w, h):
+    cam = scene.camera.evaluated_get(dg)
+    view = np.linalg.inv(without_scale(cam.matrix_world))
+    return camera_from_view(view, np.array(cam.calc_matrix_camera(dg, x=w, y=h)), w, h)
+
+# Blender's thread as a loop of Python callbacks: each step's gap is how long it was held (by our
+# calls, or by another thread holding Python's lock).
+holds, events = [], {}
+session = viewport.ViewportSession()
+start = time.perf_counter()
+last = start
+dg = bpy.context.evaluated_depsgraph_get()
+session.update(dg)
+events["first update (s)"] = session.update_s
+camera = view_camera(dg, 640, 360)
+session.request(camera, samples)
+read_done, first, shown = False, None, None
+while time.perf_counter() - start < 300:
+    now = time.perf_counter()
+    holds.append((now - last, last - start))
+    frame = session.frame()
+    if frame is not None and first is None:
+        first = now - start
+    if not read_done and not volumes.grid_cache.reading:
+        read_done = True
+        events["grid read (s)"] = now - start
+        ob.data.update_tag()                   # what the add-on's timer does once the read is done
+        dg = bpy.context.evaluated_depsgraph_get()
+        session.update(dg, Change.MEDIUM)      # the flags view_update's depsgraph would give
+        events["update after the read (s)"] = session.update_s
+        session.request(camera, samples)
+        before = frame
+    if read_done and frame is not None and frame is not before and shown is None:
+        shown = now - start
+        events["first image with the grid (s)"] = shown
+    if shown is not None and frame.samples == samples and session.view.state == "idle":
+        events[f"{samples} samples (s)"] = now - start
+        break
+    last = time.perf_counter()
+    time.sleep(0.002)
+events["first image (before the read) (s)"] = first
+events["longest hold of the main loop (ms)"] = 1e3 * max(h for h, _ in holds[1:])
+events["holds over 50 ms (ms at s)"] = " ".join(f"{1e3 * h:.0f}@{t:.1f}" for h, t in holds[1:] if h > 0.05)
+events["warnings"] = session.warnings
+print("RESULT " + json.dumps(events), flush=True)
+os._exit(0)
+"""
+
+
+def viewport_once(root: str, vdb: str, side: int) -> dict:
+    """A Rendered viewport's first images of the grid (ViewportSession, as the engine drives it)."""
+    done = subprocess.run([sys.executable, "-c", VIEWPORT_CHILD, root, vdb, str(side)],
+                          capture_output=True, text=True, timeout=900)
+    for line in done.stdout.splitlines():
+        if line.startswith("RESULT "):
+            return json.loads(line[7:])
+    raise RuntimeError(done.stdout[-3000:] + done.stderr[-3000:])
+
+
 def write_sparse_vdb(path: str, side: int, active_millions: float, seed: int = 5) -> int:
     """A float grid 'density' with voxel size 2/side m, its active voxels in spherical blobs (a
     smooth falloff to 0 at their rim) filling a ``side``³ box; written slab by slab, never dense.
@@ -118,11 +198,18 @@ def main(argv=None) -> None:
     parser.add_argument("--vdb", default="/tmp/tfm_sparse_bench.vdb")
     parser.add_argument("--repeats", type=int, default=2, help="frames per path, taking turns")
     parser.add_argument("--paths", default="dense,sparse")
+    parser.add_argument("--viewport", action="store_true", help="a Rendered viewport's first images")
     args = parser.parse_args(argv)
     root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
     if not os.path.exists(args.vdb):
         active = write_sparse_vdb(args.vdb, args.side, args.active)
         print(f"wrote {args.vdb}: {args.side}³ box, {active / 1e6:.1f} M active voxels", flush=True)
+    if args.viewport:
+        r = viewport_once(root, args.vdb, args.side)
+        print(f"viewport, load average {os.getloadavg()[0]:.1f}:")
+        for k, v in r.items():
+            print(f"  {k}: {v:.2f}" if isinstance(v, float) else f"  {k}: {v}")
+        return
     results: dict[str, list] = {}
     for _ in range(args.repeats):
         for path in args.paths.split(","):

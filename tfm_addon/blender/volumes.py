@@ -10,6 +10,7 @@ grid's name, so an unchanged volume is not read twice and an animated one is rea
 from __future__ import annotations
 
 import hashlib
+import json
 import os
 import tempfile
 import threading
@@ -369,18 +370,18 @@ class GridCache:
         return cached
 
     def _read_in_background(self, key, volume_name: str, args) -> None:
-        """Read a file's grids on a thread (one at a time; a read asked for while another runs
-        waits for the next update), then tag the volume so that the viewport reads it again."""
-        from .openvdb_module import import_openvdb
-
+        """Read a file's grids in a process of its own (openvdb holds Python's lock while it
+        loads a file, most of a second for a big one), waited for on a thread (one at a time; a
+        read asked for while another runs waits for the next update), then tag the volume so
+        that the viewport reads it again."""
         with self._lock:
             if key in self.reading or self.reading:
                 return
-            openvdb = import_openvdb()
 
             def work():
                 try:
-                    self._store(key, self._read_file(openvdb, *args))
+                    self.reads += 1
+                    self._store(key, read_in_process(*args))
                 except VolumeReadError as ex:
                     self._store(key, ex)
                 finally:
@@ -413,6 +414,86 @@ class GridCache:
                    sparse=False) -> DensityGrid:
         self.reads += 1
         return read_grid_set(openvdb, path, name, extras, label, [], key, max_voxels, sparse)
+
+
+READ_PROCESS = r"""
+import os, sys, types
+openvdb_dir, root, out = sys.argv[1:4]
+sys.path[:0] = [openvdb_dir, root]
+import tfm_addon
+# tfm_addon.blender's __init__ imports bpy, which this process lacks: its modules are loaded bare.
+package = types.ModuleType("tfm_addon.blender")
+package.__path__ = [os.path.join(root, "tfm_addon", "blender")]
+sys.modules["tfm_addon.blender"] = package
+import openvdb
+from tfm_addon.blender import volumes
+volumes.read_into_file(openvdb, out, sys.argv[4:])
+"""
+
+
+def read_in_process(path, name, label, extras, key, max_voxels, sparse) -> DensityGrid:
+    """``read_grid_set`` run by Blender's Python in a process of its own (this thread waits
+    with Python's lock released); the grids come back through an uncompressed .npz file."""
+    import subprocess
+    import sys
+
+    from .openvdb_module import import_openvdb
+
+    module = os.path.abspath(import_openvdb().__file__)      # a module file, or a package's __init__
+    openvdb_dir = os.path.dirname(os.path.dirname(module) if module.endswith("__init__.py") else module)
+    root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+    with tempfile.TemporaryDirectory(prefix="tfm_read_") as tmp:
+        out = os.path.join(tmp, "grids.npz")
+        done = subprocess.run([sys.executable, "-c", READ_PROCESS, openvdb_dir, root, out, path, name,
+                               label, "\n".join(extras), key, str(max_voxels or 0), str(int(sparse))],
+                              capture_output=True, text=True)
+        if done.returncode == 3:
+            raise VolumeReadError(done.stderr.strip().splitlines()[-1])
+        if done.returncode != 0:
+            raise VolumeReadError(f"Volume '{label}': reading '{path}' failed: {done.stderr.strip()[-300:]}")
+        return _grid_from_file(out)
+
+
+def read_into_file(openvdb, out: str, argv) -> None:
+    """The reading process's side of ``read_in_process``: exit status 3 and the message on the
+    last line of stderr for a VolumeReadError."""
+    import sys
+
+    path, name, label, extras, key, max_voxels, sparse = argv
+    try:
+        grid = read_grid_set(openvdb, path, name, tuple(e for e in extras.split("\n") if e), label, [],
+                             key, int(max_voxels) or None, sparse == "1")
+    except VolumeReadError as ex:
+        print(str(ex), file=sys.stderr)
+        sys.exit(3)
+    arrays = {"density": grid.density, "index_to_object": grid.index_to_object,
+              "first_index": np.asarray(grid.first_index)}
+    arrays.update({f"extra:{k}": v for k, v in grid.extras.items()})
+    if grid.sparse is not None:
+        b = grid.sparse
+        arrays.update(sparse_shape=np.asarray(b.shape), sparse_cells=b.cells, sparse_bricks=b.bricks,
+                      sparse_to_medium=b.index_to_medium)
+    text = {"grid_name": grid.grid_name, "key": grid.key, "warnings": list(grid.warnings)}
+    np.savez(out, meta=np.asarray(json.dumps(text)), **arrays)
+
+
+def _grid_from_file(path: str) -> DensityGrid:
+    from ..engine.sparse_grid import SparseGrid
+
+    with np.load(path) as f:
+        a = {k: f[k] for k in f.files}
+    meta = json.loads(str(a.pop("meta")))
+    sparse = None
+    if "sparse_bricks" in a:
+        sparse = SparseGrid(tuple(int(n) for n in a["sparse_shape"]), a["sparse_cells"], a["sparse_bricks"],
+                            a["sparse_to_medium"])
+    for k, v in a.items():
+        if v.ndim >= 3 and not k.startswith("sparse"):
+            v.setflags(write=False)
+    return DensityGrid(density=a["density"], index_to_object=a["index_to_object"],
+                       grid_name=meta["grid_name"], key=meta["key"], warnings=tuple(meta["warnings"]),
+                       extras={k[6:]: v for k, v in a.items() if k.startswith("extra:")},
+                       first_index=tuple(int(i) for i in a["first_index"]), sparse=sparse)
 
 
 def _tag_when_done(thread: threading.Thread, volume_name: str) -> None:
