@@ -32,7 +32,6 @@ GRID_FORMATS = {"R32F": ("f4", np.float32), "R16F": ("f2", np.float16), "R16": (
                 "R8": ("nu1", np.uint8)}
 GRID_FORMAT = "R16"
 OCCUPANCY_BLOCK = 8     # voxels per side of an occupancy cell (empty-space skipping)
-UPLOAD_BYTES = 8 * 2 ** 20     # a sparse grid's atlas is uploaded this much at a time
 
 MEDIUM_NONE, MEDIUM_BOX, MEDIUM_EVERYWHERE, MEDIUM_GRID = 0, 1, 2, 3
 """MEDIUM_GRID marches every medium (density grids and homogeneous boxes, several of them)."""
@@ -157,11 +156,7 @@ class MediumGPU:
         atlas = sparse_grid.pack_atlas(g.bricks, layout,
                                        lambda v: stored_values(v, np.uint16, self.density_scale))
         self.atlas_size = atlas.shape[::-1]
-        self.texture = gl.ctx.texture3d(self.atlas_size, 1, dtype="nu2")
-        step = max(1, UPLOAD_BYTES // max(atlas[0].nbytes, 1))
-        for z in range(0, atlas.shape[0], step):      # in parts: moderngl holds Python's lock
-            part = atlas[z:z + step]
-            self.texture.write(part, viewport=(0, 0, z, *self.atlas_size[:2], part.shape[0]))
+        self.texture = gl.texture3d_r16(atlas)         # the host's thread runs meanwhile
         self.texture.repeat_x = self.texture.repeat_y = self.texture.repeat_z = False
         self.texture.filter = (gl.ctx.LINEAR, gl.ctx.LINEAR)
         del atlas
