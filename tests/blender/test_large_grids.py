@@ -80,12 +80,6 @@ def test_a_big_mostly_empty_grid_is_read_as_bricks_at_full_resolution(tmp_path, 
     fine = np.array([5.0, 9.0, 13.0, 1.0])
     assert np.allclose(read.index_to_object @ bricks.index_to_medium @ fine, full.index_to_object @ fine)
     assert read.density.shape == sparse_grid.cell_shape(full.density.shape)
-    # Read by one process (this one) instead of one per core: the same bricks.
-    monkeypatch.setattr(volumes, "read_parts", lambda: 1)
-    alone = volumes.read_grid_set(vdb, path, "density", (), "Blobs", [], "k", limit, sparse=True)
-    assert np.array_equal(sparse_grid.dense_from_bricks(alone.sparse), full.density)
-    assert np.array_equal(alone.density, read.density)
-    monkeypatch.undo()
     # The viewport's read, in a process of its own, gives the same grids back.
     other = volumes.read_in_process(path, "density", "Blobs", (), "k", limit, True)
     assert np.array_equal(other.sparse.bricks, bricks.bricks) and np.array_equal(other.density, read.density)

@@ -123,25 +123,22 @@ SPARSE_MAX_FILL = 0.5     # a box above MAX_READ_VOXELS whose active voxels fill
                           # it is read as bricks (read_sparse), at full resolution
 
 
-def read_sparse(grid, lo, hi, max_voxels: int = MAX_READ_VOXELS, rows_of: tuple[int, int] = (0, 1)):
+def read_sparse(grid, lo, hi, max_voxels: int = MAX_READ_VOXELS):
     """The bricks of a float grid's box lo..hi (inclusive): slabs of 9 x planes (a row of 8³
     cells and the next plane) copied one at a time, only their non-empty bricks kept, so that
     memory grows with the active bricks (engine/sparse_grid.py). Returns (SparseGrid, coarse copy,
-    coarse index to box index), or None when the bricks would hold more than ``max_voxels``.
-    ``rows_of`` (k, n): only the rows of cells k, k + n, k + 2n ... (one of n reading processes,
-    ``read_sparse_parts``; the coarse copy is 0 in the others)."""
+    coarse index to box index), or None when the bricks would hold more than ``max_voxels``."""
     from ..engine import sparse_grid
 
     shape = tuple(int(h - l + 1) for l, h in zip(lo, hi, strict=True))
-    k0, n_parts = rows_of
-    expected = int(grid.activeVoxelCount()) // sparse_grid.CELL ** 3 * 3 // 2 // n_parts   # blobs: 1.4x
+    expected = int(grid.activeVoxelCount()) // sparse_grid.CELL ** 3 * 3 // 2     # blobs: about 1.4x
     collector = sparse_grid.BrickCollector(shape, min(expected, max_voxels // sparse_grid.SLOT ** 3 + 1))
     dtype = np.float64 if grid.valueTypeName == "double" else np.float32
     slab = np.zeros(sparse_grid.slab_shape(shape), dtype)     # copyToArray writes all of it
-    limit = max_voxels // sparse_grid.SLOT ** 3 // n_parts
+    limit = max_voxels // sparse_grid.SLOT ** 3
     rows = max(1, COPY_VOXELS // (slab.shape[0] * slab.shape[2]))
     part = np.zeros((slab.shape[0], rows, slab.shape[2]), dtype)
-    for cx in range(k0, collector.cs[0], n_parts):
+    for cx in range(collector.cs[0]):
         for j0 in range(0, slab.shape[1], rows):      # a part at a time: openvdb holds Python's lock
             n = min(rows, slab.shape[1] - j0)
             piece = part if n == rows else np.zeros((slab.shape[0], n, slab.shape[2]), dtype)
@@ -151,56 +148,6 @@ def read_sparse(grid, lo, hi, max_voxels: int = MAX_READ_VOXELS, rows_of: tuple[
         if collector.count > limit:
             return None
     return collector.finish()
-
-
-def read_parts() -> int:
-    """Processes a sparse read runs in (one per core, at most 8)."""
-    return max(1, min(8, os.cpu_count() or 1))
-
-
-def read_sparse_parts(path: str, name: str, lo, hi, max_voxels: int, parts: int):
-    """``read_sparse`` by ``parts`` processes at once (Blender's Python, each reading every
-    ``parts``-th row of cells from the file; openvdb holds Python's lock while it copies, so
-    threads would take turns), joined; None when the bricks would hold more than ``max_voxels``."""
-    import subprocess
-
-    from ..engine.sparse_grid import SparseGrid
-
-    with tempfile.TemporaryDirectory(prefix="tfm_read_") as tmp:
-        outs = [os.path.join(tmp, f"part{k}.npz") for k in range(parts)]
-        running = [subprocess.Popen(_process_args(out, "part", path, name, json.dumps([list(lo), list(hi)]),
-                                                  str(max_voxels), f"{k} {parts}"),
-                                    stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
-                   for k, out in enumerate(outs)]
-        errors = [p.communicate()[1] for p in running]
-        if any(p.returncode != 0 for p in running):
-            raise VolumeReadError(f"reading '{path}' failed: {' '.join(errors).strip()[-300:]}")
-        found = []
-        for out in outs:
-            with np.load(out) as f:
-                if "over" in f.files:
-                    return None
-                found.append({k: f[k] for k in f.files})
-    coarse = found[0]["coarse"]
-    for f in found[1:]:
-        coarse += f["coarse"]
-    grid = SparseGrid(tuple(int(n) for n in found[0]["shape"]), np.concatenate([f["cells"] for f in found]),
-                      np.concatenate([f["bricks"] for f in found]), found[0]["to_medium"])
-    return grid, coarse, found[0]["coarse_to_box"]
-
-
-def read_part_into_file(openvdb, out: str, argv) -> None:
-    """A reading process's side of ``read_sparse_parts``."""
-    path, name, box, max_voxels, part = argv
-    lo, hi = (tuple(c) for c in json.loads(box))
-    k, n = (int(x) for x in part.split())
-    found = read_sparse(openvdb.read(path, name), lo, hi, int(max_voxels), (k, n))
-    if found is None:
-        np.savez(out, over=np.zeros(1))
-        return
-    grid, coarse, coarse_to_box = found
-    np.savez(out, shape=np.asarray(grid.shape), cells=grid.cells, bricks=grid.bricks,
-             to_medium=grid.index_to_medium, coarse=coarse, coarse_to_box=coarse_to_box)
 
 
 def read_factor(shape, max_voxels: int = MAX_READ_VOXELS) -> int:
@@ -287,9 +234,7 @@ def read_grid_set(openvdb, path: str, density_name: str, extras, label: str, war
     factor = 1 if max_voxels is None else read_factor(shape, max_voxels)
     box = np.prod(shape, dtype=np.float64)
     if factor > 1 and sparse and len(grids) == 1 and density.activeVoxelCount() <= SPARSE_MAX_FILL * box:
-        parts = read_parts() if path and os.path.isfile(path) else 1
-        found = (read_sparse_parts(path, density_name, lo, hi, max_voxels, parts) if parts > 1
-                 else read_sparse(density, lo, hi, max_voxels))
+        found = read_sparse(density, lo, hi, max_voxels)
         if found is not None:
             bricks, coarse, coarse_to_box = found
             coarse.setflags(write=False)
@@ -473,7 +418,7 @@ class GridCache:
 
 READ_PROCESS = r"""
 import os, sys, types
-openvdb_dir, root, out, what = sys.argv[1:5]
+openvdb_dir, root, out = sys.argv[1:4]
 sys.path[:0] = [openvdb_dir, root]
 import tfm_addon
 # tfm_addon.blender's __init__ imports bpy, which this process lacks: its modules are loaded bare.
@@ -482,12 +427,14 @@ package.__path__ = [os.path.join(root, "tfm_addon", "blender")]
 sys.modules["tfm_addon.blender"] = package
 import openvdb
 from tfm_addon.blender import volumes
-(volumes.read_into_file if what == "grids" else volumes.read_part_into_file)(openvdb, out, sys.argv[5:])
+volumes.read_into_file(openvdb, out, sys.argv[4:])
 """
 
 
-def _process_args(out: str, what: str, *args: str) -> list[str]:
-    """The command line of a reading process (READ_PROCESS) run by this Python."""
+def read_in_process(path, name, label, extras, key, max_voxels, sparse) -> DensityGrid:
+    """``read_grid_set`` run by Blender's Python in a process of its own (this thread waits
+    with Python's lock released); the grids come back through an uncompressed .npz file."""
+    import subprocess
     import sys
 
     from .openvdb_module import import_openvdb
@@ -495,18 +442,10 @@ def _process_args(out: str, what: str, *args: str) -> list[str]:
     module = os.path.abspath(import_openvdb().__file__)      # a module file, or a package's __init__
     openvdb_dir = os.path.dirname(os.path.dirname(module) if module.endswith("__init__.py") else module)
     root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-    return [sys.executable, "-c", READ_PROCESS, openvdb_dir, root, out, what, *args]
-
-
-def read_in_process(path, name, label, extras, key, max_voxels, sparse) -> DensityGrid:
-    """``read_grid_set`` run by Blender's Python in a process of its own (this thread waits
-    with Python's lock released); the grids come back through an uncompressed .npz file."""
-    import subprocess
-
     with tempfile.TemporaryDirectory(prefix="tfm_read_") as tmp:
         out = os.path.join(tmp, "grids.npz")
-        done = subprocess.run(_process_args(out, "grids", path, name, label, "\n".join(extras), key,
-                                            str(max_voxels or 0), str(int(sparse))),
+        done = subprocess.run([sys.executable, "-c", READ_PROCESS, openvdb_dir, root, out, path, name,
+                               label, "\n".join(extras), key, str(max_voxels or 0), str(int(sparse))],
                               capture_output=True, text=True)
         if done.returncode == 3:
             raise VolumeReadError(done.stderr.strip().splitlines()[-1])
