@@ -134,17 +134,20 @@ def read_sparse(grid, lo, hi, max_voxels: int = MAX_READ_VOXELS):
     expected = int(grid.activeVoxelCount()) // sparse_grid.CELL ** 3 * 3 // 2     # blobs: about 1.4x
     collector = sparse_grid.BrickCollector(shape, min(expected, max_voxels // sparse_grid.SLOT ** 3 + 1))
     dtype = np.float64 if grid.valueTypeName == "double" else np.float32
-    slab = np.zeros(sparse_grid.slab_shape(shape), dtype)     # copyToArray writes all of it
-    limit = max_voxels // sparse_grid.SLOT ** 3
-    rows = max(1, COPY_VOXELS // (slab.shape[0] * slab.shape[2]))
-    part = np.zeros((slab.shape[0], rows, slab.shape[2]), dtype)
+    cell, slot = sparse_grid.CELL, sparse_grid.SLOT
+    _, cy, cz = collector.cs
+    limit = max_voxels // slot ** 3
+    # A piece: the 9 x planes of some cells of a row, with the plane after them in y (copyToArray
+    # writes all of it, the background outside the grid); at most COPY_VOXELS at a time, as
+    # openvdb holds Python's lock while it copies.
+    m = max(1, min(cy, COPY_VOXELS // (slot * cell * (cell * cz + 1))))
+    pieces: dict = {}                       # by shape: reused (add copies the bricks out)
     for cx in range(collector.cs[0]):
-        for j0 in range(0, slab.shape[1], rows):      # a part at a time: openvdb holds Python's lock
-            n = min(rows, slab.shape[1] - j0)
-            piece = part if n == rows else np.zeros((slab.shape[0], n, slab.shape[2]), dtype)
-            grid.copyToArray(piece, ijk=(lo[0] + sparse_grid.CELL * cx - 1, lo[1] - 1 + j0, lo[2] - 1))
-            slab[:, j0:j0 + n] = piece
-        collector.add(cx, slab)
+        for cy0 in range(0, cy, m):
+            shape = (slot, cell * min(m, cy - cy0) + 1, cell * cz + 1)
+            piece = pieces.setdefault(shape, np.empty(shape, dtype))
+            grid.copyToArray(piece, ijk=(lo[0] + cell * cx - 1, lo[1] + cell * cy0 - 1, lo[2] - 1))
+            collector.add(cx, piece, cy0)
         if collector.count > limit:
             return None
     return collector.finish()

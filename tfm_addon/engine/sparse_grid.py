@@ -91,10 +91,11 @@ class BrickCollector:
         """Bricks gathered so far."""
         return self._count
 
-    def add(self, cx: int, slab: np.ndarray) -> None:
-        """``slab``: (9, 8 cy + 1, 8 cz + 1) padded voxels from (8 cx, 0, 0) (``slab_shape``)."""
+    def add(self, cx: int, slab: np.ndarray, cy0: int = 0) -> None:
+        """``slab``: (9, 8 m + 1, 8 cz + 1) padded voxels from (8 cx, 8 cy0, 0): the cells cy0 ..
+        cy0 + m - 1 of a row (all of them: ``slab_shape``)."""
         slab = np.ascontiguousarray(slab, dtype=np.float32)
-        cy, cz = self.cs[1], self.cs[2]
+        cy, cz = (slab.shape[1] - 1) // CELL, self.cs[2]
         plane = slab[0] != 0                        # (8 cy + 1, 8 cz + 1): any of the 9 planes
         for k in range(1, SLOT):                    # (NaN counts: the renderer cleans it, said once)
             np.logical_or(plane, slab[k] != 0, out=plane)
@@ -114,8 +115,8 @@ class BrickCollector:
             self._cell_store = np.resize(self._cell_store, (len(grown), 3))
         bricks = self._store[n0:n1]
         bricks[...] = windows[js, ks]               # only the non-empty bricks
-        self.coarse[cx, js, ks] = bricks[:, :CELL, :CELL, :CELL].mean(axis=(1, 2, 3), dtype=np.float64)
-        self._cell_store[n0:n1] = np.stack([np.full_like(js, cx), js, ks], axis=1)
+        self.coarse[cx, cy0 + js, ks] = bricks[:, :CELL, :CELL, :CELL].mean(axis=(1, 2, 3), dtype=np.float64)
+        self._cell_store[n0:n1] = np.stack([np.full_like(js, cx), cy0 + js, ks], axis=1)
         self._count = n1
 
     def finish(self) -> tuple[SparseGrid, np.ndarray, np.ndarray]:
