@@ -19,11 +19,11 @@ import sys
 
 import numpy as np
 
-CHILD = r"""
+SETUP = r"""
 import json, os, sys, threading, time
 root, vdb, side, path = sys.argv[-4], sys.argv[-3], int(sys.argv[-2]), sys.argv[-1]
 sys.path.insert(0, root); sys.path.insert(0, os.path.join(root, "tests", "blender"))
-import bpy, tfm_addon
+import bpy, numpy as np, tfm_addon
 tfm_addon.register()
 from tfm_addon.blender import volumes
 if path == "dense":
@@ -40,7 +40,9 @@ ob = made["medium"]
 ob.data.filepath = vdb
 voxel = 2.0 / side                        # the smoke's 2 m box, centred at (0, 0, 1.2)
 ob.matrix_world = ((1, 0, 0, -1.0), (0, 1, 0, -1.0), (0, 0, 1, 0.2), (0, 0, 0, 1))
+"""
 
+CHILD = SETUP + r"""
 def rss():
     with open("/proc/self/statm") as f:
         return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
@@ -64,25 +66,10 @@ os._exit(0)
 """
 
 
-VIEWPORT_CHILD = r"""
-import json, os, sys, time
-root, vdb, side = sys.argv[-3], sys.argv[-2], int(sys.argv[-1])
-sys.path.insert(0, root); sys.path.insert(0, os.path.join(root, "tests", "blender"))
-import bpy, numpy as np, tfm_addon
-tfm_addon.register()
-from blender_helpers import smoke, SETTINGS
-from tfm_addon.blender import scene_builder, viewport, volumes
+VIEWPORT_CHILD = SETUP + r"""
+from tfm_addon.blender import viewport
 from tfm_addon.blender.changes import Change
 from tfm_addon.blender.camera import camera_from_view, without_scale
-import tempfile
-bpy.ops.wm.read_factory_settings(use_empty=True)
-made = scene_builder.build(smoke(width=640, height=360, n=32), tempfile.mkdtemp(prefix="tfm_sparse_"),
-                           settings=SETTINGS, samples=1)
-scene = bpy.context.scene
-scene.tfm.quality = 'AUTO'
-ob = made["medium"]
-ob.data.filepath = vdb
-ob.matrix_world = ((1, 0, 0, -1.0), (0, 1, 0, -1.0), (0, 0, 1, 0.2), (0, 0, 0, 1))
 samples = int(os.environ.get("TFM_VIEW_SAMPLES", "4"))
 
 def view_camera(dg, w, h):
@@ -136,7 +123,7 @@ os._exit(0)
 
 def viewport_once(root: str, vdb: str, side: int) -> dict:
     """A Rendered viewport's first images of the grid (ViewportSession, as the engine drives it)."""
-    done = subprocess.run([sys.executable, "-c", VIEWPORT_CHILD, root, vdb, str(side)],
+    done = subprocess.run([sys.executable, "-c", VIEWPORT_CHILD, root, vdb, str(side), "sparse"],
                           capture_output=True, text=True, timeout=900)
     for line in done.stdout.splitlines():
         if line.startswith("RESULT "):
