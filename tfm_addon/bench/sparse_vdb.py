@@ -88,26 +88,29 @@ session.update(dg)
 events["first update (s)"] = session.update_s
 camera = view_camera(dg, 640, 360)
 session.request(camera, samples)
-read_done, first, shown = False, None, None
+first, told, waiting, before = None, set(), None, None
 while time.perf_counter() - start < 300:
     now = time.perf_counter()
     holds.append((now - last, last - start))
     frame = session.frame()
     if frame is not None and first is None:
         first = now - start
-    if not read_done and not volumes.grid_cache.reading:
-        read_done = True
-        events["grid read (s)"] = now - start
-        ob.data.update_tag()                   # what the add-on's timer does once the read is done
+    news = ({"preview"} if volumes.grid_cache.previews else set()) | (
+        {"read"} if not volumes.grid_cache.reading else set())
+    if news - told:                            # what the add-on's timer does: tag, Blender updates
+        name = "+".join(sorted(news - told))
+        told |= news
+        events[f"{name} done (s)"] = now - start
+        ob.data.update_tag()
         dg = bpy.context.evaluated_depsgraph_get()
         session.update(dg, Change.MEDIUM)      # the flags view_update's depsgraph would give
-        events["update after the read (s)"] = session.update_s
+        events[f"update after the {name} (s)"] = session.update_s
         session.request(camera, samples)
-        before = frame
-    if read_done and frame is not None and frame is not before and shown is None:
-        shown = now - start
-        events["first image with the grid (s)"] = shown
-    if shown is not None and frame.samples == samples and session.view.state == "idle":
+        waiting, before = name, frame
+    if waiting and frame is not None and frame is not before:
+        events[f"first image after the {waiting} (s)"] = now - start
+        waiting, before = None, None
+    if "read" in told and waiting is None and frame.samples == samples and session.view.state == "idle":
         events[f"{samples} samples (s)"] = now - start
         break
     last = time.perf_counter()

@@ -283,6 +283,7 @@ class GridCache:
         self.hits = 0
         self.saves = 0   # generated volumes written with grids.save (then hashed), for tests
         self.reading: dict = {}      # key -> the thread reading it in the background
+        self.previews: dict = {}     # key -> a preview of a grid being read (read_preview)
         self._lock = threading.Lock()
 
     def clear(self):
@@ -338,6 +339,11 @@ class GridCache:
             if cached is None and not wait and st.st_size > BACKGROUND_READ_BYTES:
                 args = (path, name, label, extras, repr(key), MAX_READ_VOXELS, sparse)
                 self._read_in_background(key, (volume.original or volume).name, args)
+                preview = self.previews.get(key)
+                if preview is not None:
+                    n = "x".join(str(v) for v in preview.density.shape)
+                    return preview, warnings + [f"Volume '{label}': grid '{name}' is being read in the "
+                                                f"background; shown meanwhile from one voxel in 8 ({n})"]
                 raise GridBeingRead(f"Volume '{label}': grid '{name}' is being read from '{path}' "
                                     f"({st.st_size / 2 ** 20:.0f} MB) in the background; it shows once read")
             if cached is None:
@@ -381,20 +387,44 @@ class GridCache:
             if key in self.reading or self.reading:
                 return
 
+            def preview(grid):
+                self.previews[key] = grid
+
             def work():
                 try:
                     self.reads += 1
-                    self._store(key, read_in_process(*args))
+                    self._store(key, read_in_process(*args, on_preview=preview))
                 except VolumeReadError as ex:
                     self._store(key, ex)
                 finally:
                     with self._lock:
                         self.reading.pop(key, None)
+                        self.previews.pop(key, None)
 
             thread = threading.Thread(target=work, name="TFM grid read", daemon=True)
             self.reading[key] = thread
             thread.start()
-        _tag_when_done(thread, volume_name)
+        self._tag_on_news(key, volume_name)
+
+    def _tag_on_news(self, key, volume_name: str) -> None:
+        """Tag the Volume data-block for an update (a timer on Blender's thread) when the preview
+        of its background read is there and when the read is done, so that the viewport reads it
+        again, from the cache."""
+        import bpy
+
+        told = set()
+
+        def poll():
+            news = ({"preview"} if key in self.previews else set()) | ({"done"} if key not in self.reading
+                                                                       else set())
+            if news - told:
+                told.update(news)
+                volume = bpy.data.volumes.get(volume_name)
+                if volume is not None:
+                    volume.update_tag()
+            return None if "done" in told else 0.1
+
+        bpy.app.timers.register(poll, first_interval=0.1)
 
     def _lookup(self, key):
         with self._lock:
@@ -434,11 +464,14 @@ volumes.read_into_file(openvdb, out, sys.argv[4:])
 """
 
 
-def read_in_process(path, name, label, extras, key, max_voxels, sparse) -> DensityGrid:
+def read_in_process(path, name, label, extras, key, max_voxels, sparse, on_preview=None) -> DensityGrid:
     """``read_grid_set`` run by Blender's Python in a process of its own (this thread waits
-    with Python's lock released); the grids come back through an uncompressed .npz file."""
+    with Python's lock released); the grids come back through an uncompressed .npz file. A box
+    above ``max_voxels`` first gives a preview (``read_preview``), handed to ``on_preview`` while
+    the rest is read."""
     import subprocess
     import sys
+    import time
 
     from .openvdb_module import import_openvdb
 
@@ -447,14 +480,37 @@ def read_in_process(path, name, label, extras, key, max_voxels, sparse) -> Densi
     root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
     with tempfile.TemporaryDirectory(prefix="tfm_read_") as tmp:
         out = os.path.join(tmp, "grids.npz")
-        done = subprocess.run([sys.executable, "-c", READ_PROCESS, openvdb_dir, root, out, path, name,
-                               label, "\n".join(extras), key, str(max_voxels or 0), str(int(sparse))],
-                              capture_output=True, text=True)
-        if done.returncode == 3:
-            raise VolumeReadError(done.stderr.strip().splitlines()[-1])
-        if done.returncode != 0:
-            raise VolumeReadError(f"Volume '{label}': reading '{path}' failed: {done.stderr.strip()[-300:]}")
+        process = subprocess.Popen([sys.executable, "-c", READ_PROCESS, openvdb_dir, root, out, path, name,
+                                    label, "\n".join(extras), key, str(max_voxels or 0), str(int(sparse))],
+                                   stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+        preview = out + ".preview.npz"
+        while on_preview is not None and process.poll() is None and not os.path.exists(preview):
+            time.sleep(0.05)
+        if on_preview is not None and os.path.exists(preview):
+            on_preview(_grid_from_file(preview))
+        error = process.communicate()[1].strip()
+        if process.returncode == 3:
+            raise VolumeReadError(error.splitlines()[-1])
+        if process.returncode != 0:
+            raise VolumeReadError(f"Volume '{label}': reading '{path}' failed: {error[-300:]}")
         return _grid_from_file(out)
+
+
+def read_preview(grid, lo, hi) -> tuple[np.ndarray, np.ndarray]:
+    """A quick look at a big float grid's box lo..hi: its voxels at index 8 c + 3 of the box
+    (one in 8 along each axis), copied a line along z at a time (a 64th of the copying of a full
+    read); returns the (cx, cy, cz) float32 samples and their index to the box's index."""
+    shape = tuple(int(h - l + 1) for l, h in zip(lo, hi, strict=True))
+    n = tuple(-(-(s - 3) // 8) for s in shape)
+    out = np.zeros(n, np.float32)
+    line = np.empty((1, 1, shape[2]), np.float64 if grid.valueTypeName == "double" else np.float32)
+    for c in range(n[0]):
+        for j in range(n[1]):
+            grid.copyToArray(line, ijk=(lo[0] + 8 * c + 3, lo[1] + 8 * j + 3, lo[2]))
+            out[c, j] = line[0, 0, 3::8]
+    to_box = np.diag([8.0, 8.0, 8.0, 1.0])
+    to_box[:3, 3] = 3.0
+    return out, to_box
 
 
 def read_into_file(openvdb, out: str, argv) -> None:
@@ -464,11 +520,33 @@ def read_into_file(openvdb, out: str, argv) -> None:
 
     path, name, label, extras, key, max_voxels, sparse = argv
     try:
+        density = openvdb.read(path, name)
+        lo, hi = density.evalActiveVoxelBoundingBox()
+        if int(max_voxels) and np.prod([h - l + 1 for l, h in zip(lo, hi, strict=True)],
+                                       dtype=np.float64) > int(max_voxels):
+            samples, to_box = read_preview(density, lo, hi)
+            shift = np.eye(4)
+            shift[:3, 3] = lo
+            to_object = index_to_world_matrix(density.transform)[0] @ shift @ to_box
+            _save_grid(DensityGrid(density=samples, index_to_object=to_object, grid_name=name,
+                                   key=key + " preview", first_index=tuple(int(v) for v in lo)),
+                       out + ".preview.npz")
+            if hasattr(os, "nice"):
+                os.nice(5)      # the rest after the viewport's first image of the preview
+        del density
+    except Exception:
+        pass            # no preview: read_grid_set says what is wrong
+    try:
         grid = read_grid_set(openvdb, path, name, tuple(e for e in extras.split("\n") if e), label, [],
                              key, int(max_voxels) or None, sparse == "1")
     except VolumeReadError as ex:
         print(str(ex), file=sys.stderr)
         sys.exit(3)
+    _save_grid(grid, out)
+
+
+def _save_grid(grid: DensityGrid, out: str) -> None:
+    """A DensityGrid as an uncompressed .npz (``_grid_from_file``), written whole, then renamed."""
     arrays = {"density": grid.density, "index_to_object": grid.index_to_object,
               "first_index": np.asarray(grid.first_index)}
     arrays.update({f"extra:{k}": v for k, v in grid.extras.items()})
@@ -477,7 +555,8 @@ def read_into_file(openvdb, out: str, argv) -> None:
         arrays.update(sparse_shape=np.asarray(b.shape), sparse_cells=b.cells, sparse_bricks=b.bricks,
                       sparse_to_medium=b.index_to_medium)
     text = {"grid_name": grid.grid_name, "key": grid.key, "warnings": list(grid.warnings)}
-    np.savez(out, meta=np.asarray(json.dumps(text)), **arrays)
+    np.savez(out + ".part.npz", meta=np.asarray(json.dumps(text)), **arrays)
+    os.replace(out + ".part.npz", out)
 
 
 def _grid_from_file(path: str) -> DensityGrid:
@@ -497,22 +576,6 @@ def _grid_from_file(path: str) -> DensityGrid:
                        grid_name=meta["grid_name"], key=meta["key"], warnings=tuple(meta["warnings"]),
                        extras={k[6:]: v for k, v in a.items() if k.startswith("extra:")},
                        first_index=tuple(int(i) for i in a["first_index"]), sparse=sparse)
-
-
-def _tag_when_done(thread: threading.Thread, volume_name: str) -> None:
-    """Tag the Volume data-block for an update once its background read is done (Blender's
-    thread, by a timer), so that the viewport reads it again, from the cache."""
-    import bpy
-
-    def poll():
-        if thread.is_alive():
-            return 0.1
-        volume = bpy.data.volumes.get(volume_name)
-        if volume is not None:
-            volume.update_tag()
-        return None
-
-    bpy.app.timers.register(poll, first_interval=0.1)
 
 
 VOLUME_FRAME_NONE = 2**31 - 1     # Blender's VOLUME_FRAME_NONE: no file of the sequence this frame
