@@ -81,8 +81,13 @@ def test_a_big_mostly_empty_grid_is_read_as_bricks_at_full_resolution(tmp_path, 
     fine = np.array([5.0, 9.0, 13.0, 1.0])
     assert np.allclose(read.index_to_object @ bricks.index_to_medium @ fine, full.index_to_object @ fine)
     assert read.density.shape == sparse_grid.cell_shape(full.density.shape)
-    # The viewport's read, in a process of its own, gives the same grids back.
-    other = volumes.read_in_process(path, "density", "Blobs", (), "k", limit, True)
+    # The viewport's read, in a process of its own, gives the same grids back, after a preview:
+    # the voxels at 8 c + 3 of the box, placed where they are.
+    previews = []
+    other = volumes.read_in_process(path, "density", "Blobs", (), "k", limit, True, previews.append)
+    (preview,) = previews
+    assert np.array_equal(preview.density, full.density[3::8, 3::8, 3::8])
+    assert np.allclose(preview.index_to_object @ [1, 2, 0, 1], full.index_to_object @ [11, 19, 3, 1])
     assert np.array_equal(other.sparse.bricks, bricks.bricks) and np.array_equal(other.density, read.density)
     assert np.array_equal(other.index_to_object, read.index_to_object)
     assert other.first_index == read.first_index
