@@ -826,6 +826,34 @@ def _(tmpdir):
     receivers.collection_objects[0].light_linking.link_state = 'EXCLUDE'
 
 
+def _shadow_linked_spot(tmpdir, excluded: str | None) -> None:
+    """A spot past a 6 cm bar into the smoke; its Shadow Linking blocker collection excludes the
+    bar or the smoke (``excluded``: 'bar' or 'smoke'; None: no collection), which then casts no
+    shadow from it."""
+    import bpy
+
+    mat, nt, out = material()
+    principled(nt, out)
+    base(lights=None)
+    spot = light('SPOT', (0.0, -0.4, 3.2))
+    _bar(1.8)
+    bar = bpy.context.object
+    smoke = volume_object(tmpdir, mat=mat)
+    if excluded is None:
+        return
+    blockers = bpy.data.collections.new("Blockers")
+    blockers.objects.link(bar if excluded == 'bar' else smoke)
+    spot.light_linking.blocker_collection = blockers
+    blockers.collection_objects[0].light_linking.link_state = 'EXCLUDE'
+
+
+for _what in ('bar', 'smoke'):
+    ROWS.append(Row(id=f"shadow_linking_excludes_{_what}",
+                    title=f"Spot light past a bar into the smoke, its Shadow Linking blocker collection "
+                          f"excluding the {_what} (no shadow from it)",
+                    build=lambda tmpdir, what=_what: _shadow_linked_spot(tmpdir, what)))
+
+
 @row("area_spread", "Area light 1 m, Spread 60° (Cycles' soft-box grid)")
 def _(tmpdir):
     mat, nt, out = material()

@@ -426,7 +426,8 @@ class Renderer:
             t0 = time.perf_counter()
             run_light_pass(gl, first=(i == 0), light_t=plan.light_t, tfm=plan.tfm,
                            light=(plan.frame, plan.light.intensity_w_per_sr, plan.shadow, plan.gobo,
-                                  (float(plan.light.lights_medium), float(plan.light.lights_surfaces))),
+                                  (float(plan.light.lights_medium), float(plan.light.lights_surfaces),
+                                   float(plan.light.media_shadow_surfaces))),
                            tfm_sigma_t=plan.tfm_sigma_t, medium_shadow=plan.medium_shadow,
                            soft=soft_extent(plan.light, plan.frame), **common)
             self.counters["light_passes"] += 1
@@ -669,6 +670,8 @@ class Renderer:
         light, frame = face.light, face.frame
         res = self._map_resolution(settings)
         shadow = None
+        if light.shadow_solids is not None:     # shadow linking: the solids that shadow this light
+            casters = self._solid_set(tuple(m for m in scene.shadow_casters if m.name in light.shadow_solids))
         if face.shadow_map:
             shadow, built = self._shadows.get((light.key, frame.key, scene.solids_key, res),
                                               lambda: ShadowMap(gl, frame, casters, res))

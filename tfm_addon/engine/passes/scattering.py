@@ -190,7 +190,7 @@ def run_light_pass(gl: GLContext, *, camera: Camera, plane: ViewPlane, medium: M
     if light is not None:
         frame, intensity, shadow, gobo = light[:4]
         bind_light(prog, frame, intensity, settings.map_resolution, shadow, gobo)
-        set_uniforms(prog, u_light_targets=tuple(light[4]) if len(light) > 4 else (1.0, 1.0))
+        set_uniforms(prog, u_light_targets=tuple(light[4]) if len(light) > 4 else (1.0, 1.0, 1.0))
         if defines.get("SOFT_SHADOW"):
             set_uniforms(prog, u_soft_extent=soft.extent, u_soft_round=int(soft.round),
                          u_area_u=soft.area_u, u_area_v=soft.area_v, u_area_spread=soft.area_spread,

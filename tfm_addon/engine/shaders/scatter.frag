@@ -45,7 +45,8 @@ layout(location = 3) out vec4 o_combined;
 #endif
 
 #if HAS_LIGHT
-uniform vec2 u_light_targets;    // what the light lights: the media (x) and the surfaces (y), 0 or 1
+uniform vec3 u_light_targets;    // what the light lights: the media (x) and the surfaces (y), 0 or 1;
+                                 // z 0: the media cast no shadow from it on the surfaces (shadow linking)
 
 // Radiance arriving at p (q in light space) from the light face past the solids, before the
 // media; t_light is set to the media's transmittance from the light and r to the light distance
@@ -167,7 +168,9 @@ void main() {
 #if SOFT_SHADOW
             g_soft_normal = mat3(u_world_to_light) * n;     // its plane, for the soft shadow's taps
 #endif
-            surface += f * light_arriving(P, qP, r) * u_light_targets.y;
+            vec3 t_light;
+            vec3 li = light_reaching(P, qP, r, t_light);
+            surface += f * li * mix(vec3(1.0), t_light, u_light_targets.z) * u_light_targets.y;
             g_bias_texels = 0.0;
 #if SOFT_SHADOW
             g_soft_normal = vec3(0.0);
