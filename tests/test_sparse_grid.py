@@ -137,3 +137,40 @@ def test_bricks_are_cleaned_as_the_dense_grid_is():
                                  "The density grid has 1 negative voxel; rendered as 0."]
     assert np.array_equal(sg.dense_from_bricks(prepared.grid), np.where(d == 1.0, d, 0))
     assert len(prepared.grid.bricks) == 1 and prepared.bounds == nonzero_bounds(np.where(d == 1.0, d, 0))
+
+
+def test_dense_means_of_the_bricks_are_the_block_means_of_the_padded_grid():
+    d = _blobs(40, count=3)
+    grid = sg.from_dense(d)
+    padded = np.zeros(tuple(8 * c for c in grid.cell_shape), np.float32)
+    padded[1:41, 1:41, 1:41] = d
+    for f in (2, 4):
+        means, to_fine = sg.dense_means(grid, f)
+        n = padded.shape[0] // f
+        assert np.allclose(means, padded.reshape(n, f, n, f, n, f).mean(axis=(1, 3, 5)), atol=1e-6)
+        # block i's centre: index f i - 1 + (f - 1) / 2
+        assert np.allclose(to_fine @ [1, 2, 3, 1], [f - 1 + (f - 1) / 2, 2 * f - 1 + (f - 1) / 2,
+                                                    3 * f - 1 + (f - 1) / 2, 1])
+    assert sg.dense_factor(grid, 48 ** 3 * 4, 2048) == 1 and sg.dense_factor(grid, 48 ** 3 * 4 - 1, 2048) == 2
+
+
+def test_a_sparse_grid_over_the_budget_renders_dense_at_the_finest_resolution_that_fits(renderer):
+    base = scenes.smoke_scene(width=64, height=40, n=16)
+    d = _blobs()
+    dense = dataclasses.replace(base.media[0], density=d, name="blobs",
+                                index_to_world=scenes.grid_to_world(d.shape, 2.0, (0, 0, 1.2)))
+    sparse = dataclasses.replace(dense, sparse=sg.from_dense(d))
+    grid = sparse.sparse
+    budget = 190_000      # under the bricks' 69 x 9³ float32 (201 204 B), above the 36³ half lattice's
+    assert 36 ** 3 * 4 < budget < len(grid.bricks) * 9 ** 3 * 4
+    settings = RenderSettings(view_steps=64, light_steps=64, map_resolution=128, coefficients=8,
+                              max_grid_bytes=budget)
+    out = renderer.render(dataclasses.replace(base, media=(sparse,)), settings)
+    said = [w for w in out.warnings if "sparse grid 'blobs'" in w]
+    assert len(said) == 1 and "dense at 1/2 of its resolution (36x36x36" in said[0], out.warnings
+    full = renderer.render(dataclasses.replace(base, media=(dense,)),
+                           dataclasses.replace(settings, max_grid_bytes=2 ** 30)).combined[..., :3]
+    from tfm_addon.engine.metrics import ssim
+    s = ssim(out.combined[..., :3], full)
+    print(f"SSIM against the full resolution {s:.4f}")
+    assert 0.9 < s < 0.99999        # the same blobs at half their resolution

@@ -63,7 +63,7 @@ from .passes.tfm import (
 )
 from .quality import auto_settings, light_density_integral
 from .scene import Light, Medium, RenderSettings, Scene
-from .sparse_grid import PreparedSparse, grid_bytes, prepare_sparse
+from .sparse_grid import dense_factor, dense_means, grid_bytes, prepare_sparse
 
 
 def prepare_scene(scene: Scene, settings: RenderSettings | None) -> Scene:
@@ -538,7 +538,7 @@ class Renderer:
                 if grid is None:
                     grid = prepare_grid(m.density, np.eye(4), self.gl.max_3d_texture_size, allowance[k],
                                         m.clipping)
-                notes += list(grid.warnings)
+                notes = list(dict.fromkeys(notes + list(grid.warnings)))
                 if grid.is_empty:
                     notes.append("The density grid is empty: only the surfaces are rendered.")
                 self.counters["grid_uploads"] += 1
@@ -576,29 +576,37 @@ class Renderer:
         gpu.key = tuple(_slot_key(s) for s in slots) + ((("fog", fog.key),) if fog is not None else ())
         return gpu, warnings
 
-    def _sparse_grid(self, m: Medium, allowance: int, first: bool) -> tuple[PreparedSparse | None, list[str]]:
-        """The bricks of the medium's grid prepared for upload where it has them and they can be
-        used: the frame's first grid, no emission or colour grid, the index's texture unit, within
-        the memory budget; otherwise (None, the reason, for the report) and the grid is uploaded
-        dense from the medium's coarser ``density``."""
+    def _sparse_grid(self, m: Medium, allowance: int, first: bool) -> tuple[object | None, list[str]]:
+        """The medium's bricks prepared for upload where it has them and they can be used: the
+        frame's first grid, no emission or colour grid, the index's texture unit, within the
+        memory budget. Otherwise the grid is uploaded dense, with a report line saying why: from
+        the bricks' means at the finest resolution the budget holds (``sparse_grid.dense_means``),
+        or, for emission and colour grids (on the coarse copy's lattice), from the coarse copy
+        (None is returned). None and no line without bricks."""
         if m.sparse is None:
             return None, []
-        reason = None
         if m.has_emission or m.color_grid is not None:
-            reason = "it has an emission or colour grid, which only a dense grid carries"
-        elif not first:
+            d = m.density.shape
+            return None, [f"The sparse grid '{m.name}' is rendered at the resolution of its coarse copy "
+                          f"({d[0]}x{d[1]}x{d[2]}, 1/{m.sparse.voxels_per_index:g}): it has an emission or "
+                          f"colour grid, which only a dense grid carries."]
+        grid = prepare_sparse(m.sparse, m.clipping)
+        if not first:
             reason = "only the frame's first density grid can be sparse"
         elif not has_sparse_unit(self.gl):
             reason = "this OpenGL has too few texture units for its brick index"
-        if reason is None:
-            grid = prepare_sparse(m.sparse, m.clipping)
-            if grid.atlas_bytes * 2 <= allowance:      # the budget counts float32 voxels
-                return grid, []
+        elif grid.atlas_bytes * 2 <= allowance:      # the budget counts float32 voxels
+            return grid, []
+        else:
             reason = (f"its {len(grid.grid.bricks)} bricks need {grid.atlas_bytes * 2 // 2**20} MiB, more "
                       f"than the {allowance // 2**20} MiB grid budget")
-        d = m.density.shape
-        return None, [f"The sparse grid '{m.name}' is rendered at the resolution of its coarse copy "
-                      f"({d[0]}x{d[1]}x{d[2]}, 1/{m.sparse.voxels_per_index:g}): {reason}."]
+        f = dense_factor(grid.grid, allowance, self.gl.max_3d_texture_size)
+        dense, to_fine = dense_means(grid.grid, f)
+        n = "x".join(str(k) for k in dense.shape)
+        prepared = prepare_grid(dense, grid.grid.index_to_medium @ to_fine, self.gl.max_3d_texture_size,
+                                allowance, m.clipping)
+        return prepared, [f"The sparse grid '{m.name}' is rendered dense at 1/{f} of its resolution "
+                          f"({n}, the means of {f}x{f}x{f} voxels): {reason}."] + grid.warnings
 
     def _fire(self, medium, seen, warnings: list[str]) -> FireGPU | None:
         """The light the first marched medium's emission casts on the solids the camera sees

@@ -256,6 +256,34 @@ def index_cells(cells: np.ndarray, shape, layout) -> np.ndarray:
     return out
 
 
+def dense_factor(grid: SparseGrid, max_bytes: int, max_side: int) -> int:
+    """The smallest f of 1, 2, 4, 8 whose ``dense_means`` fits ``max_bytes`` of float32 and
+    ``max_side`` voxels a side (padding included); 8 when none does."""
+    sides = np.asarray(grid.cell_shape, np.float64) * CELL
+    for f in (1, 2, 4):
+        if np.prod(sides / f) * 4 <= max_bytes and sides.max() / f + 2 <= max_side:
+            return f
+    return CELL
+
+
+def dense_means(grid: SparseGrid, f: int) -> tuple[np.ndarray, np.ndarray]:
+    """The grid dense at 1/``f`` of its resolution (f divides 8): the means of f³ blocks of the
+    padded lattice (block i covers padded voxels f i .. f i + f - 1), from the bricks, never from
+    a full-resolution copy; with the blocks' index to this grid's index (a block's centre)."""
+    k = CELL // f
+    cs = grid.cell_shape
+    out = np.zeros(tuple(c * k for c in cs), np.float32)
+    view = out.reshape(cs[0], k, cs[1], k, cs[2], k).transpose(0, 2, 4, 1, 3, 5)     # (cx, cy, cz, k, k, k)
+    cells = grid.cells
+    for a in range(0, len(cells), 8192):
+        b = grid.bricks[a:a + 8192, :CELL, :CELL, :CELL]
+        means = b.reshape(len(b), k, f, k, f, k, f).mean(axis=(2, 4, 6), dtype=np.float64)
+        view[cells[a:a + 8192, 0], cells[a:a + 8192, 1], cells[a:a + 8192, 2]] = means
+    to_fine = np.diag([float(f)] * 3 + [1.0])
+    to_fine[:3, 3] = (f - 1) / 2 - 1.0
+    return out, to_fine
+
+
 def dense_from_bricks(grid: SparseGrid) -> np.ndarray:
     """The dense (nx, ny, nz) grid the bricks stand for (tests; small grids only)."""
     cs = grid.cell_shape
