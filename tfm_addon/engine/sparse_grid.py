@@ -48,10 +48,6 @@ class SparseGrid:
         """This grid's voxels per unit of the medium's index space (the coarse copy's factor)."""
         return float(1.0 / np.linalg.norm(np.asarray(self.index_to_medium)[:3, 0]))
 
-    @property
-    def nbytes(self) -> int:
-        return int(self.bricks.nbytes + self.cells.nbytes)
-
 
 def grid_bytes(medium) -> int:
     """The bytes a medium's density counts against the grid budget (float32 voxels, as
