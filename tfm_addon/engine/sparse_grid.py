@@ -58,6 +58,7 @@ def grid_bytes(medium) -> int:
 
 
 def cell_shape(shape) -> tuple[int, int, int]:
+    """Cells a side of a grid of ``shape`` voxels on its padded lattice (= the occupancy grid's)."""
     return tuple(-(-(int(n) + 2) // CELL) for n in shape)
 
 
