@@ -826,6 +826,42 @@ def _(tmpdir):
     receivers.collection_objects[0].light_linking.link_state = 'EXCLUDE'
 
 
+@row("light_linking_one_of_two_volumes", "Point light whose Light Linking receiver collection includes one "
+     "of two Volume objects (the other dark)")
+def _(tmpdir):
+    import bpy
+
+    base()
+    smokes = []
+    # Apart on screen: where a camera ray crosses both, Cycles lights the samples of both by the
+    # linking of one of them.
+    for name, loc in (("Smoke A", (-0.95, 0.0, 0.0)), ("Smoke B", (0.95, 0.3, 0.1))):
+        mat, nt, out = material(name)
+        principled(nt, out)
+        smokes.append(volume_object(tmpdir, name=name, mat=mat, location=loc, scale=(0.6, 0.6, 0.6)))
+    receivers = bpy.data.collections.new("Receivers")
+    receivers.objects.link(smokes[0])
+    bpy.data.objects["Point"].light_linking.receiver_collection = receivers
+
+
+@row("light_linking_excludes_a_cube", "Point light whose Light Linking receiver collection excludes a cube "
+     "beside the smoke (the cube dark, the ground and smoke lit)")
+def _(tmpdir):
+    import bpy
+
+    mat, nt, out = material()
+    principled(nt, out)
+    base()
+    bpy.ops.mesh.primitive_cube_add(size=0.8, location=(1.4, -0.6, -0.85))
+    cube = bpy.context.object
+    cube.data.materials.append(_diffuse("Cube", (0.7, 0.7, 0.7)))
+    volume_object(tmpdir, mat=mat)
+    receivers = bpy.data.collections.new("Receivers")
+    receivers.objects.link(cube)
+    receivers.collection_objects[0].light_linking.link_state = 'EXCLUDE'
+    bpy.data.objects["Point"].light_linking.receiver_collection = receivers
+
+
 def _shadow_linked_spot(tmpdir, excluded: str | None) -> None:
     """A spot past a 6 cm bar into the smoke; its Shadow Linking blocker collection excludes the
     bar or the smoke (``excluded``: 'bar' or 'smoke'; None: no collection), which then casts no

@@ -140,8 +140,9 @@ def receives(states: dict, name: str) -> bool:
 
 def linked(light_object, light: Light, media: list[str], solids: list[str], warnings: list[str]) -> Light:
     """``light`` as its Object ▸ Shading ▸ Light Linking and Shadow Linking collections have it.
-    Receivers: the media or the surfaces it lights none of go dark; a light that lights some of
-    either and not the others is said in ``warnings`` (it lights all of them). Blockers: the
+    Receivers: the media (object names) it lights (``Light.lights_medium`` False where none,
+    ``lit_media`` where some) and the solids it does not (``lights_surfaces`` False where none is
+    lit, ``unlit_solids`` where some are not). Blockers: the
     solids (object names) that shadow it (``Light.shadow_solids``); a collection that leaves out
     every medium: the media shadow no surface from it (``Light.media_shadow_surfaces``), one
     that leaves out some is said in ``warnings``."""
@@ -151,13 +152,16 @@ def linked(light_object, light: Light, media: list[str], solids: list[str], warn
     flags = {}
     if receivers is not None:
         states = link_states(receivers)
-        for what, names, field in (("media", media, "lights_medium"), ("solids", solids, "lights_surfaces")):
-            lit = [receives(states, n) for n in names]
-            if lit and not any(lit):
-                flags[field] = False
-            elif not all(lit):
-                warnings.append(f"Light '{light_object.name}': light linking that lights some {what} and "
-                                f"not others is not rendered (it lights all of them)")
+        lit_media = tuple(n for n in media if receives(states, n))
+        unlit_solids = tuple(n for n in solids if not receives(states, n))
+        if media and not lit_media:
+            flags["lights_medium"] = False
+        elif len(lit_media) < len(media):
+            flags["lit_media"] = lit_media
+        if solids and len(unlit_solids) == len(solids):
+            flags["lights_surfaces"] = False
+        elif unlit_solids:
+            flags["unlit_solids"] = unlit_solids
     if blockers is not None:
         states = link_states(blockers)      # a blocker collection's states read as a receiver one's
         shadowing = tuple(n for n in solids if receives(states, n))

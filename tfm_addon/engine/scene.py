@@ -146,6 +146,8 @@ class Light:
     map): ``radius_m`` a spot's or point light's radius, metres; ``angle_rad`` a sun's angular
     diameter; an area light's ``size_m``, an ellipse (Blender's Disk and Ellipse) where
     ``round_shape``, and its ``spread_rad`` (Blender's Spread: below pi, Cycles' soft-box grid).
+    Light linking that lights some media (solids) and not others: ``lit_media`` the names of the
+    media it lights (None: all), ``unlit_solids`` those of the solids it does not light.
     Shadow linking (Blender's Object ▸ Shading ▸ Shadow Linking): ``shadow_solids`` the names of
     the solids that shadow the light (None: all that cast shadows); ``media_shadow_surfaces``
     False: the media cast no shadow from it on the surfaces, while each still shadows its own
@@ -173,6 +175,8 @@ class Light:
     spread_rad: float = float(np.pi)
     media_shadow_surfaces: bool = True
     shadow_solids: tuple[str, ...] | None = None
+    lit_media: tuple[str, ...] | None = None
+    unlit_solids: tuple[str, ...] = ()
 
     def __post_init__(self):
         if self.kind not in LIGHT_KINDS:
