@@ -31,11 +31,15 @@ if str(ROOT) not in sys.path:
 A_GRID = (0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9)
 B_GRID = tuple(np.round(np.arange(0.2, 1.01, 0.05), 2))
 MAX_OCTAVES = 10
+DIFFUSION_FROM = 16                                          # bounce counts with the diffusion term
+K_GRID = tuple(np.round(np.arange(0.0, 0.501, 0.05), 2))     # the diffusion term's weight
+Z_GRID = (0.5, 0.67, 1.0)                                    # its extrapolated boundary
 
 
-def octave_images(medium: str, tmp: str) -> tuple[np.ndarray, dict[tuple[int, float], np.ndarray]]:
+def octave_images(medium: str, tmp: str) -> tuple[np.ndarray, dict[tuple, np.ndarray]]:
     """The medium's single-scattering TFM image and, per octave n and factor a, the image octave n
-    adds with contribution factor b = 1 (the difference of the sums of n + 1 and n octaves)."""
+    adds with contribution factor b = 1 (the difference of the sums of n + 1 and n octaves); per
+    boundary z (key ("z", z)), the image the diffusion term adds with weight k = 1."""
     import bpy
 
     from tfm_addon.bench import bounces as bn
@@ -63,17 +67,20 @@ def octave_images(medium: str, tmp: str) -> tuple[np.ndarray, dict[tuple[int, fl
                 total = render(ms.Octaves(n + 1, a, 1.0, 0.5))
                 octave[(n, a)] = total - below
                 below = total
+        for z in Z_GRID:
+            octave[("z", z)] = render(ms.Octaves(2, 0.5, 0.0, 0.5, 1.0, z)) - single
     finally:
         ms.FITTED.clear()
         ms.FITTED.update(saved)
     return single, octave
 
 
-def compose(single, octave, count: int, a: float, b: float) -> np.ndarray:
+def compose(single, octave, count: int, a: float, b: float, k: float = 0.0,
+            z: float = Z_GRID[0]) -> np.ndarray:
     image = single.copy()
     for n in range(1, count):
         image += b ** n * octave[(n, a)]
-    return image
+    return image + k * octave[("z", z)]
 
 
 def error(image, cycles) -> tuple[float, float]:
@@ -91,9 +98,14 @@ def main(argv: list[str] | None = None) -> int:
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--bounces", type=int, nargs="+", default=[1, 2, 4, 16, 128])
     parser.add_argument("--json", type=Path, default=None, help="write the fit and its errors here")
+    parser.add_argument("--a-grid", type=float, nargs="+", default=None, help="octave factors a tried")
+    parser.add_argument("--max-octaves", type=int, default=None)
     parser.add_argument("--cache", type=Path, default=None,
                         help="an .npz that keeps the TFM octave images between runs (not the references)")
     args = parser.parse_args(argv)
+    global A_GRID, MAX_OCTAVES
+    A_GRID = tuple(args.a_grid or A_GRID)
+    MAX_OCTAVES = args.max_octaves or MAX_OCTAVES
 
     import tfm_addon
     from tfm_addon.bench import bounces as bn
@@ -106,7 +118,8 @@ def main(argv: list[str] | None = None) -> int:
             for m in media:
                 if f"{m}/single" in z.files:
                     keys = [k for k in z.files if k.startswith(f"{m}/") and k != f"{m}/single"]
-                    images[m] = (z[f"{m}/single"], {(int(k.split("/")[1]), float(k.split("/")[2])): z[k]
+                    images[m] = (z[f"{m}/single"], {(k.split("/")[1] if k.split("/")[1] == "z"
+                                                      else int(k.split("/")[1]), float(k.split("/")[2])): z[k]
                                                      for k in keys})
     missing = [m for m in media if m not in images]
     if missing:
@@ -123,21 +136,24 @@ def main(argv: list[str] | None = None) -> int:
     for n in args.bounces:
         refs = {m: bn.load_reference(m, n)[0].astype(np.float64) for m in images}
         best = None
-        for count, a, b in itertools.product(range(2, MAX_OCTAVES + 1), A_GRID, B_GRID):
-            figures = [error(compose(*images[m], count, a, float(b)), refs[m]) for m in bn.FIT]
+        ks = K_GRID if n >= DIFFUSION_FROM else (0.0,)
+        for count, a, b, k, z in itertools.product(range(2, MAX_OCTAVES + 1), A_GRID, B_GRID, ks, Z_GRID):
+            if k == 0.0 and z != Z_GRID[0]:
+                continue
+            figures = [error(compose(*images[m], count, a, float(b), float(k), z), refs[m]) for m in bn.FIT]
             value = loss(figures)
             if best is None or value < best[0]:
-                best = (value, count, a, float(b))
-        _, count, a, b = best
+                best = (value, count, a, float(b), float(k), z)
+        _, count, a, b, k, z = best
         per_medium = {}
         for m in images:
             ss = error(images[m][0], refs[m])
-            ms_ = error(compose(*images[m], count, a, b), refs[m])
+            ms_ = error(compose(*images[m], count, a, b, k, z), refs[m])
             per_medium[m] = {"fitted_on": m in bn.FIT, "single": ss, "octaves": ms_}
             print(f"{n:4d} bounces {m:16s} {'fit ' if m in bn.FIT else 'held'}  single: SSIM {ss[0]:.4f} "
                   f"brightness {ss[1]:.3f}   octaves: SSIM {ms_[0]:.4f} brightness {ms_[1]:.3f}", flush=True)
-        print(f"{n:4d} bounces: Octaves({count}, {a}, {b}), loss {best[0]:.4f}", flush=True)
-        result[n] = {"count": count, "a": a, "b": b, "media": per_medium}
+        print(f"{n:4d} bounces: Octaves({count}, {a}, {b}, 0.5, {k}, {z}), loss {best[0]:.4f}", flush=True)
+        result[n] = {"count": count, "a": a, "b": b, "k": k, "z": z, "media": per_medium}
     if args.json:
         args.json.write_text(json.dumps(result, indent=1))
     return 0
