@@ -2,14 +2,14 @@
 // Wrenninge et al. 2013): octave n sees the light's transmittance T^(a^n), adds
 // (b albedo (1 - T_through))^n of its light and scatters with anisotropy g c^n, T_through the
 // transmittance of the whole light ray through the media (light that scatters again stays in
-// thick media and leaves thin ones). A diffusion term (weight k) adds the light scattered many
-// times in thick media, which the octaves' T^(a^n) leaves too dark deep inside. OCTAVES 1 (or
+// thick media and leaves thin ones). A diffusion term (weight k albedo^m) adds the light scattered
+// many times in thick media, which the octaves' T^(a^n) leave too dark deep inside. OCTAVES 1 (or
 // undefined) is single scattering.
 #ifndef OCTAVES
 #define OCTAVES 1
 #endif
 uniform vec3 u_octave;     // a, b, c
-uniform vec2 u_diffusion;  // k, z
+uniform vec3 u_diffusion;  // k, z, m
 
 // Diffuse fluence over the light's irradiance at optical depth tau from the light in a slab of
 // optical thickness tau_tot along the light ray (the diffusion approximation, isotropic, boundary
@@ -30,8 +30,9 @@ vec3 diffuse_fluence(vec3 tau, vec3 tau_tot, vec3 albedo) {
 
 // The octaves' sum of contribution x light transmittance x phase at one sample: with one octave
 // T hg(cos_theta, g). t_light: the media's transmittance from the light; tau_through: their optical
-// depth along the whole light ray (light_through); albedo: the medium's sigma_s / sigma_t there.
-vec3 octave_phase(vec3 t_light, vec3 tau_through, float cos_theta, float g, vec3 albedo) {
+// depth along the whole light ray (light_through); tau_view: the view's optical depth from the
+// camera to the sample; albedo: the medium's sigma_s / sigma_t there.
+vec3 octave_phase(vec3 t_light, vec3 tau_through, vec3 tau_view, float cos_theta, float g, vec3 albedo) {
     vec3 s = t_light * hg_phase(cos_theta, g);
 #if OCTAVES > 1
     vec3 t_through = exp(-tau_through);
@@ -49,7 +50,14 @@ vec3 octave_phase(vec3 t_light, vec3 tau_through, float cos_theta, float g, vec3
     if (u_diffusion.x > 0.0) {
         // the light scattered many times, spread evenly over directions
         vec3 tau = -log(max(t_light, vec3(1e-37)));
-        s += u_diffusion.x * diffuse_fluence(tau, max(tau_through, tau), clamp(albedo, 0.0, 1.0))
+        vec3 tau_tot = max(tau_through, tau);
+        // The slab has free faces toward the light and away from it only: where the view enters
+        // the medium nearer (a silhouette, a crease in a lobe's shadow) the light leaks out there
+        // too, the fluence falling as the distance to that face (diffusion: linear, plus z).
+        vec3 z = vec3(u_diffusion.y);
+        vec3 near = min(vec3(1.0), (tau_view + z) / (min(tau, tau_tot - tau) + z));
+        vec3 alb = clamp(albedo, 0.0, 1.0);
+        s += u_diffusion.x * pow(alb, vec3(u_diffusion.z)) * near * diffuse_fluence(tau, tau_tot, alb)
              * (0.25 / PI);
     }
 #endif
