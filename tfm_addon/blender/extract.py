@@ -401,10 +401,14 @@ def degenerate(matrix_world, placed: bool = True) -> str | None:
 
 
 def _light_linking(depsgraph, light_objects: list, lights: list[Light], warnings: list[str]) -> list[Light]:
-    """The lights as their receiver collections let them light the media and the solids
-    (lights.linked), the objects classified as the walk does."""
-    if not any(getattr(getattr(o, "light_linking", None), "receiver_collection", None) is not None
-               for o in light_objects):
+    """The lights as their receiver and blocker collections let them light the media and the solids
+    and be shadowed by them (lights.linked), the objects classified as the walk does."""
+    def has_links(o) -> bool:
+        linking = getattr(o, "light_linking", None)
+        return linking is not None and (linking.receiver_collection is not None
+                                        or linking.blocker_collection is not None)
+
+    if not any(has_links(o) for o in light_objects):
         return lights
     media, solids = [], []
     for ob in depsgraph.objects:

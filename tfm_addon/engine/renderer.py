@@ -53,7 +53,7 @@ from .passes.scattering import (
     run_light_pass,
 )
 from .passes.shadow_map import ShadowMap
-from .passes.solids import SolidsBuffer
+from .passes.solids import SolidsBuffer, unlit_entries
 from .passes.tfm import (
     TransmittanceMap,
     coefficient_textures,
@@ -351,7 +351,7 @@ class Renderer:
         note = attributes.glow_note(medium) if attributes is not None and medium is not None else None
         warnings += [note] if note else []
         casters = self._solid_set(scene.shadow_casters)
-        seen = self._solid_set(scene.camera_meshes)
+        seen = self._solid_set(scene.camera_meshes, lights)
         plan = plan_frame(scene, settings, lights, medium_gpu, casts_shadows=bool(casters.vertex_count),
                           casters_bounds=casters.bounds, seen_bounds=seen.bounds,
                           map_res=self._map_resolution(settings), image_side=map_image_side,
@@ -386,7 +386,8 @@ class Renderer:
         plane = view_plane(scene.camera)
         alpha_seed = settings.view_jitter or 0.0      # the sample's: surfaces of alpha below 1
         gbuffer, built = self._gbuffers.get(
-            (scene.camera.key, tuple(m.key for m in scene.camera_meshes), alpha_seed),
+            (scene.camera.key, tuple(m.key for m in scene.camera_meshes), alpha_seed,
+             tuple(unlit for _, unlit in frame.seen.entries)),      # the hit flags: light linking
             lambda: self._gbuffer_for(scene.camera, plane, frame.seen, alpha_seed))
         self.counters["gbuffers"] += built
         steps.step("gbuffer", t0)
@@ -424,9 +425,11 @@ class Renderer:
             t0 = time.perf_counter()
             run_light_pass(gl, first=(i == 0), light_t=plan.light_t, tfm=plan.tfm,
                            light=(plan.frame, plan.light.intensity_w_per_sr, plan.shadow, plan.gobo,
-                                  (float(plan.light.lights_medium), float(plan.light.lights_surfaces))),
+                                  (float(plan.light.lights_medium), float(plan.light.lights_surfaces),
+                                   float(plan.light.media_shadow_surfaces))),
                            tfm_sigma_t=plan.tfm_sigma_t, medium_shadow=plan.medium_shadow,
-                           soft=soft_extent(plan.light, plan.frame), **common)
+                           soft=soft_extent(plan.light, plan.frame), unlit=self._unlit(plan.light, frame),
+                           **common)
             self.counters["light_passes"] += 1
             steps.step("scattering", t0)
         t0 = time.perf_counter()
@@ -483,10 +486,16 @@ class Renderer:
             cache.fresh.clear()
         return out
 
-    def _solid_set(self, meshes) -> SolidsBuffer:
+    def _solid_set(self, meshes, lights=()) -> SolidsBuffer:
         """The vertex buffer of these meshes (the camera's and the lights' sets are one buffer
-        when every mesh is in both)."""
-        return self._solids.get(tuple(m.key for m in meshes), lambda: SolidsBuffer(self.gl.ctx, meshes))[0]
+        when every mesh is in both), its material table split by what ``lights`` leave unlit
+        (light linking)."""
+        unlit_by = {}
+        for light in lights:
+            for name in light.unlit_solids:
+                unlit_by[name] = unlit_by.get(name, ()) + (light.name,)
+        key = tuple(m.key for m in meshes) + ((tuple(sorted(unlit_by.items())),) if unlit_by else ())
+        return self._solids.get(key, lambda: SolidsBuffer(self.gl.ctx, meshes, unlit_by))[0]
 
     def _medium(self, scene: Scene, settings: RenderSettings) -> tuple[MediaGPU, list[str]]:
         """The frame's media on the GPU: a single homogeneous medium analytically, otherwise
@@ -629,6 +638,16 @@ class Renderer:
 
         return self._attributes.get(key, build)[0]
 
+    @staticmethod
+    def _unlit(light, frame: _Frame) -> tuple:
+        """What ``light`` does not light by its light linking: the seen solids' material table
+        entries (solids.unlit_entries) and the media slots (indices)."""
+        media = ()
+        if light.lit_media is not None and frame.medium_gpu.kind == MEDIUM_GRID:
+            media = tuple(i for i, slot in enumerate(frame.medium_gpu.slots)
+                          if slot.medium.name not in light.lit_media)
+        return unlit_entries(frame.seen.entries, light.name), media
+
     def _map_resolution(self, settings) -> int:
         """The side of the frame's shadow maps, which caps its TFMs': the settings' within the GL's
         limit."""
@@ -641,6 +660,8 @@ class Renderer:
         light, frame = face.light, face.frame
         res = self._map_resolution(settings)
         shadow = None
+        if light.shadow_solids is not None:     # shadow linking: the solids that shadow this light
+            casters = self._solid_set(tuple(m for m in scene.shadow_casters if m.name in light.shadow_solids))
         if face.shadow_map:
             shadow, built = self._shadows.get((light.key, frame.key, scene.solids_key, res),
                                               lambda: ShadowMap(gl, frame, casters, res))
