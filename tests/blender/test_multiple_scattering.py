@@ -33,15 +33,16 @@ def test_held_out_medium_matches_cycles_with_bounces(blank, tmp_path, medium, bo
 @pytest.mark.parametrize("bounces", (16, 128))
 def test_production_scale_cloud_is_near_cycles(blank, tmp_path, bounces):
     """The 40 m white cloud (optical depths of tens to hundreds, held out): single scattering has
-    less than half of Cycles' brightness; the octaves and the diffusion term bring it near, not
-    within the thresholds (docs/multiple_scattering.md: SSIM 0.94 and 0.92, brightness 0.95 and
-    0.90 at 16 and 128 bounces)."""
+    less than half of Cycles' brightness; the octaves and the diffusion term bring its brightness
+    within the threshold, not its SSIM (docs/multiple_scattering.md: brightness 0.99 and 0.94,
+    SSIM 0.944 and 0.925 at 16 and 128 bounces)."""
     cycles, _ = bn.load_reference("cumulus", bounces)
     single = bn.render_tfm("cumulus", 0, str(tmp_path)).image[..., :3]
     ratio_s = metrics.brightness_ratio(single, cycles)
     ssim_m, ratio_m = _figures("cumulus", bounces, tmp_path)
     print(f"cumulus at {bounces} bounces: single {ratio_s:.3f}, octaves SSIM {ssim_m:.4f}, {ratio_m:.3f}")
-    assert ratio_s < 0.5 and abs(ratio_m - 1.0) < 0.15 and ssim_m >= 0.9, (ratio_s, ssim_m, ratio_m)
+    assert ratio_s < 0.5 and abs(ratio_m - 1.0) <= BRIGHTNESS_TOL and ssim_m >= 0.92, \
+        (ratio_s, ssim_m, ratio_m)
 
 
 def test_volume_bounces_read_from_cycles_unless_set(blank, addon):

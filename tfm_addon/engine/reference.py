@@ -29,13 +29,16 @@ The model (units: metres, watts, radians; colours are scene-linear RGB):
   medium. Several media add their coefficients; the phase is their sigma_s-weighted mixture.
   Grid voxels that are NaN, infinite, negative or below ``Medium.clipping`` are 0 (attribute
   grids: NaN and infinite voxels).
-- View rays: ``view_steps`` midpoint samples over the part of the valid range in front of the first
-  solid and inside the union of the media's bounds. At each sample the in-scattered radiance is
-  ``T_view * sigma_s * D * dt * (sum_lights phase * I * spot * gobo * V * T_light / r^2 + ambient)``
-  with Henyey-Greenstein phase; ``T_light`` is a ``light_steps`` midpoint march toward the light
-  over the part of that segment inside the medium's bounds (analytic for a homogeneous medium).
-  A colour grid C multiplies sigma_s per channel at the sample (not the extinction).
-- Emission: ``T_view * L_e(p) * dt`` at every sample, zero-density ones included, with
+- View rays: ``view_steps`` steps over the part of the valid range in front of the first solid and
+  inside the union of the media's bounds, the coefficients read at each step's midpoint and taken
+  as constant over it. A step's in-scattered radiance is ``W * sigma_s * D * (sum_lights phase * I
+  * spot * gobo * V * T_light / r^2 + ambient)``, W = ``T_before * (1 - exp(-sigma_t dt)) /
+  sigma_t`` its exact share of the view transmittance (per channel), with Henyey-Greenstein phase;
+  the lights are read where the camera sees into the step on average (the mean of the depth in it
+  weighted by the view transmittance); ``T_light`` is a ``light_steps`` midpoint march toward the
+  light over the part of that segment inside the medium's bounds (analytic for a homogeneous
+  medium). A colour grid C multiplies sigma_s per channel at the sample (not the extinction).
+- Emission: ``W * L_e(p)`` at every step, zero-density ones included, with
   ``L_e = emission_color * max(strength, 0) + tint * B``, B the blackbody term
   ``1e-6 sigma_SB / pi * ((1 - b) + b T^4) * bb(T)`` where the intensity b > 0 (Cycles' Principled
   Volume); each grid-driven quantity is ``scale * max(G, 0) + offset``, strength trilinear in G,
@@ -631,6 +634,20 @@ def _shade_surfaces(p: np.ndarray, view_dir: np.ndarray, tri: np.ndarray, solids
     return radiance
 
 
+def _step_integral(x: np.ndarray) -> np.ndarray:
+    """(1 - exp(-x)) / x, the mean view transmittance over a step of optical depth x."""
+    small = x < 1e-4
+    return np.where(small, 1.0 - 0.5 * x, -np.expm1(-x) / np.where(small, 1.0, x))
+
+
+def _seen_fraction(x: np.ndarray) -> np.ndarray:
+    """Where in a step of optical depth x the camera sees on average, as a fraction of the step:
+    the mean of s weighted by exp(-x s), s in [0, 1]."""
+    small = x < 1e-4
+    xs = np.where(small, 1.0, x)
+    return np.where(small, 0.5 - x / 12.0, 1.0 / xs - 1.0 / np.expm1(xs))
+
+
 def _march_view(o: np.ndarray, d: np.ndarray, t0: np.ndarray, t1: np.ndarray, media: _Media,
                 solids: _Solids, lights: list[_Light], ambient: np.ndarray,
                 view_steps: int) -> tuple[np.ndarray, np.ndarray]:
@@ -647,10 +664,15 @@ def _march_view(o: np.ndarray, d: np.ndarray, t0: np.ndarray, t1: np.ndarray, me
     tints = [f.attribute(m.color_grid, p).reshape(n, steps, 3) if m.color_grid is not None else 1.0
              for f, m in zip(media.fields, media.media, strict=True)]
     ss = sum(dm[:, :, None] * sc * c for dm, sc, c in zip(dens, media.sigma_s, tints, strict=True))
-    tau = (np.cumsum(ext, axis=1) - 0.5 * ext) * dt[:, None, None]
-    t_view = np.exp(-tau)
-    t_end = np.exp(-ext.sum(axis=1) * dt[:, None])
-    weight = t_view * dt[:, None, None]                              # (n, steps, 3)
+    # Each step's exact share of its source terms (the extinction constant over it): the view
+    # transmittance before it times its integral over the step, (1 - exp(-x)) / x dt, x = ext dt.
+    x = ext * dt[:, None, None]
+    tau_before = np.cumsum(x, axis=1) - x
+    t_end = np.exp(-x.sum(axis=1))
+    weight = np.exp(-tau_before) * dt[:, None, None] * _step_integral(x)      # (n, steps, 3)
+    # The lights are read where the camera sees into each step on average.
+    t_lit = t0[:, None] + (np.arange(steps) + _seen_fraction(x.mean(axis=2))) * dt[:, None]
+    p_lit = (o[:, None, :] + t_lit[:, :, None] * d[:, None, :]).reshape(-1, 3)
     emitted = np.zeros((n, 3))
     for f, m, ins in zip(media.fields, media.media, inside, strict=True):
         if m.has_emission and ins.any():
@@ -661,7 +683,7 @@ def _march_view(o: np.ndarray, d: np.ndarray, t0: np.ndarray, t1: np.ndarray, me
     any_dens = sum(dm for dm in dens) > 0
     if lights and any(np.any(sc != 0) for sc in media.sigma_s):
         active = np.flatnonzero(any_dens.reshape(-1))
-        pa = p[active]
+        pa = p_lit[active]
         da = np.repeat(d, steps, axis=0)[active]
         dens_a = [dm.reshape(-1)[active] for dm in dens]
         tint_a = [c if np.isscalar(c) else c.reshape(-1, 3)[active] for c in tints]

@@ -16,6 +16,22 @@ const float NO_HIT = 1e30;
 #define EXP2_RGB(v) exp2(v)
 #endif
 
+// ---- a view step of constant extinction sigma_t and length dt ----
+// The integral of the view transmittance exp(-sigma_t s) over the step, s in [0, dt] from its
+// start, given e = exp(-sigma_t dt): (1 - e) / sigma_t, dt where sigma_t dt is small. Each source
+// term of the step times it, times the transmittance before the step, is the step's exact share.
+vec3 step_integral(vec3 sigma_t, float dt, vec3 e) {
+    vec3 x = sigma_t * dt;
+    return mix((1.0 - e) / max(sigma_t, vec3(1e-30)), dt * (1.0 - x * (0.5 - x / 6.0)),
+               lessThan(x, vec3(1e-2)));
+}
+
+// Where in such a step the camera sees on average, as a fraction of dt: the mean of s / dt weighted
+// by exp(-x s / dt), x = sigma_t dt: 1/2 where x is small, 1/x where it is large.
+float seen_fraction(float x) {
+    return x < 0.5 ? 0.5 - x / 12.0 + x * x * x / 720.0 : 1.0 / x - 1.0 / (exp(x) - 1.0);
+}
+
 // ---- the medium: an oriented box (a grid's index box, or the [-1, 1] cube) ----
 uniform mat4 u_world_to_box;
 uniform vec3 u_box_lo;

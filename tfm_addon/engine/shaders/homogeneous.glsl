@@ -5,7 +5,9 @@
 #if HAS_LIGHT
 // The light of this pass scattered toward the camera along the part cs of the ray (o, d) by a
 // homogeneous medium (sigma_t, sigma_s, g), seen through exp(-sigma_t (t - t0)): u_view_steps
-// samples, spaced uniformly in the light's map space where ``projective`` (method, section 4.2).
+// steps, spaced uniformly in the light's map space where ``projective`` (method, section 4.2),
+// each weighted by its exact share of the view transmittance and lit as seen from the camera on
+// average (the march in scatter.frag).
 vec3 homogeneous_light(vec3 o, vec3 d, vec2 cs, float t0, vec3 sigma_t, vec3 sigma_s, float g,
                        float step_at, bool projective) {
     vec3 scatter = vec3(0.0);
@@ -35,15 +37,18 @@ vec3 homogeneous_light(vec3 o, vec3 d, vec2 cs, float t0, vec3 sigma_t, vec3 sig
             u_next = s_next * w_in / ((1.0 - s_next) * w_out + s_next * w_in);
         }
         float dt = (u_next - s_prev) * span;
+        float t_start = cs.x + s_prev * span;
+        float at = (u_mid - s_prev) * span / max(dt, 1e-30);    // the sample's place in the step
         s_prev = u_next;
-        float t = cs.x + u_mid * span;
+        float t = t_start + 2.0 * at * seen_fraction(dot(sigma_t, vec3(dt / 3.0))) * dt;
         vec3 q = oq + dq * t;
         float r;
         vec3 t_light;
         vec3 li = light_reaching(o + d * t, q, r, t_light);
         if (any(greaterThan(li, vec3(0.0)))) {
             vec3 tau_v = sigma_t * (t - t0);
-            scatter += exp(-tau_v) * sigma_s * dt * li * u_light_targets.x
+            vec3 w_step = exp(-sigma_t * (t_start - t0)) * step_integral(sigma_t, dt, exp(-sigma_t * dt));
+            scatter += w_step * sigma_s * li * u_light_targets.x
                        * octave_phase(t_light, light_through(o + d * t, q, r), tau_v, -dot(light_travel(q, r), dq),
                                       g, sigma_s / max(sigma_t, vec3(1e-12)));
         }

@@ -272,19 +272,21 @@ void main() {
             st += u_fog_sigma_t;
             any_d = true;           // the fog fills the empty cells: no skipping
 #endif
+            // The step's exact share of its source terms: the view transmittance's integral over
+            // it (the extinction constant there), for this sample and those it skips.
+            vec3 w_step = EXP_RGB(-tau) * step_integral(st, dt, EXP_RGB(-st * dt));
 #if EMISSION
-            vec3 tv_e = EXP_RGB(-(tau + 0.5 * st * dt));     // for this sample and those it skips
 #if PACKED_DENSITY == 1 && EMISSION == 2
-            glow += tv_e * emission_of(pk);     // 0 outside the emitting voxels' box: no constant part
+            glow += w_step * emission_of(pk);     // 0 outside the emitting voxels' box: no constant part
 #elif PACKED_DENSITY == 1
-            if (t >= emit.x && t <= emit.y) glow += tv_e * emission_of(pk);
+            if (t >= emit.x && t <= emit.y) glow += w_step * emission_of(pk);
 #else
-            if (t >= emit.x && t <= emit.y) glow += tv_e * emission_at_index(ob + db * t);
+            if (t >= emit.x && t <= emit.y) glow += w_step * emission_at_index(ob + db * t);
 #endif
 #if GLOW_BLOCKS
             // The constant part, where Cycles' volume mesh is (emission.glsl glow_at).
             float in_glow = glow_at(ob + db * t);
-            glow += tv_e * u_emission_const * in_glow;
+            glow += w_step * u_emission_const * in_glow;
 #endif
 #endif
 #if N_MEDIA == 1
@@ -296,15 +298,15 @@ void main() {
                 if (t < dens_seg.x) t_skip = min(t_skip, dens_seg.x);       // before the density's box
                 else if (t <= dens_seg.y) t_skip = min(t_skip, skip_empty(ob, db, t));
                 int next = max(i + 1, int(ceil((t_skip - seg.x) / dt - step_at - 0.001)));
-                glow += float(min(next, u_view_steps) - i - 1) * tv_e * u_emission_const * in_glow;
+                glow += float(min(next, u_view_steps) - i - 1) * w_step * u_emission_const * in_glow;
 #else
                 int next = max(i + 1, int(ceil((skip_empty(ob, db, t) - seg.x) / dt - step_at - 0.001)));
 #endif
 #if EMISSION && EMISSION != 2 && !GLOW_BLOCKS
                 // The samples skipped (no density, no emitting voxel near) glow with the constant
-                // part of the emission alone, under this sample's transmittance (st is 0).
+                // part of the emission alone, each with this step's share (st is 0).
                 glow += float(samples_within(emit, i + 1, min(next, u_view_steps), seg.x, dt, step_at))
-                    * tv_e * emission_constant();
+                    * w_step * emission_constant();
 #endif
                 i = next - 1;
             }
@@ -321,24 +323,23 @@ void main() {
 #if WORLD_FOG
                 ss += u_fog_sigma_s;
 #endif
-#if EMISSION
-                vec3 tv = tv_e;             // the same value: tau and st have not changed since
-#else
-                vec3 tv = EXP_RGB(-(tau + 0.5 * st * dt));
-#endif
                 vec3 src = vec3(0.0);
 #if FIRST_PASS
                 src += ss * u_ambient;
 #endif
 #if HAS_LIGHT
-                vec3 q = oq + dq * t;
+                // The light is read where the camera sees into the step on average (that depth
+                // times 2 step_at: the mean over antialiasing samples), not at the density's sample.
+                float t_l = seg.x + (float(i) + 2.0 * step_at * seen_fraction(dot(st, vec3(dt / 3.0)))) * dt;
+                vec3 p_l = o + d * t_l;
+                vec3 q = oq + dq * t_l;
                 float r;
                 vec3 t_light;
-                vec3 li = light_reaching(p, q, r, t_light);
+                vec3 li = light_reaching(p_l, q, r, t_light);
                 if (any(greaterThan(li, vec3(0.0)))) {
                     float c = -dot(light_travel(q, r), dq);
-                    vec3 tau_through = light_through(p, q, r);
-                    vec3 tau_v = tau + 0.5 * st * dt;
+                    vec3 tau_through = light_through(p_l, q, r);
+                    vec3 tau_v = tau + st * (t_l - seg.x - float(i) * dt);
                     vec3 ssp = vec3(0.0);
                     for (int m = 0; m < N_MEDIA; ++m) {
                         vec3 sigma_s = u_med_sigma_s[m] * (m == 0 ? tint0 : vec3(1.0));
@@ -353,7 +354,7 @@ void main() {
                     src += li * ssp * u_light_targets.x;
                 }
 #endif
-                scatter += tv * dt * src;
+                scatter += w_step * src;
                 tau += st * dt;
 #if GREY_EXTINCTION
                 if (tau.r > 6.9078) break;                             // view transmittance < 1e-3
@@ -364,7 +365,7 @@ void main() {
         }
         transmittance = EXP_RGB(-tau);
 #if EMISSION
-        scatter += glow * dt;
+        scatter += glow;
 #endif
 #else
         // Homogeneous: analytic transmittance and ambient term.
