@@ -50,7 +50,6 @@ EXPECT: dict[str, str] = {
     "blackbody_node": "emits and scatters: its own emission is not scattered by it",
     "clamp": "gives a medium where the grids are empty, up to Cycles' volume bounds",
     "mix_float": "gives a medium where the grids are empty, up to Cycles' volume bounds",
-    "area_spread": "its spread is rendered approximately",
 }
 # 'wrong': TFM renders the row, wrongly, and says nothing: a defect this suite found. The value
 # says what differs from Cycles.

@@ -54,6 +54,9 @@ vec3 light_reaching(vec3 p, vec3 q, out float r, out vec3 t_light) {
     r = light_distance(q);
     t_light = vec3(1.0);
     if (!in_face(q)) return vec3(0.0);
+#if SOFT_SHADOW
+    soft_next();        // the point's light sample (soft_shadow.glsl)
+#endif
     float emit = emission_profile(q, r);
     if (emit <= 0.0) return vec3(0.0);
     vec2 uv = light_uv(q);

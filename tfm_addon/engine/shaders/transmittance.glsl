@@ -11,6 +11,9 @@ uniform sampler2D u_coef2;
 uniform sampler2D u_coef3;
 
 #if LIGHT_T == 0
+#if SOFT_SHADOW
+vec2 g_tfm_domain = vec2(0.0);     // K in, K out of the last filtered read (soft_tfm_lookup)
+#endif
 // F at the far end of the last lookup's light ray (x = 1, cos(j pi) = (-1)^j: the transmittance
 // through the whole medium there), for the multiple-scattering octaves (octaves.glsl).
 float g_tfm_end = 1.0;
@@ -96,7 +99,11 @@ float tfm_texel(ivec2 c, float r) {
 // (one fetch per texture; mixes domains where neighbouring texels differ).
 float tfm_filtered(vec2 uv, float r) {
     vec4 zero = vec4(0.0);
-    return tfm_series(texture(u_krange, uv),
+    vec4 kc = texture(u_krange, uv);
+#if SOFT_SHADOW
+    g_tfm_domain = kc.xy;
+#endif
+    return tfm_series(kc,
 #if N_TARGETS > 0
                       texture(u_coef0, uv),
 #else
@@ -146,18 +153,36 @@ float tfm_lookup(vec2 uv, float r) {
 }
 
 #if SOFT_SHADOW
-// F averaged over the light's shape (soft_shadow.glsl): the map read through points of the shape,
-// each offset by the spread of the middle of the medium along the centre ray (between its entry
-// and the sample, or its exit): one tap for a point of the medium, eight for a surface.
+// The spread (soft_shadow.glsl) of the middle of the medium along the light ray to a point at r:
+// between the entry k.x of the ray's K range and the point, or its exit k.y; 0 without medium.
+float medium_spread(vec2 k, float r) {
+    return k.y > k.x ? max(soft_spread(max(0.5 * (k.x + min(k.y, r)), 1e-3 * r), r), 0.0) : 0.0;
+}
+
+// F averaged over the light's shape: the map read through points of the shape, each offset by
+// the medium's spread. A point of the medium reads it through its light sample's point, with the
+// K range the previous sample along the view ray read (a step away; the first reads the centre);
+// a surface through 4 taps with the K range at the centre (read in the loop, which a point of the
+// medium skips), weighted as an area light with a spread sends from each (spread_tap).
 float soft_tfm_lookup(vec3 q, vec2 uv, float r) {
-    vec2 k = texelFetch(u_krange, ivec2(uv * vec2(textureSize(u_krange, 0))), 0).xy;
-    float s = k.y > k.x ? max(soft_spread(max(0.5 * (k.x + min(k.y, r)), 1e-3 * r), r), 0.0) : 0.0;
-    vec2 scale = soft_uv_scale(q, r, vec4(0.0, 0.0, u_tan_half)) * s;
-    vec2 rnd = soft_random();
-    int n = soft_taps(4);
-    float f = 0.0;
-    for (int i = 0; i < n; ++i) f += tfm_filtered(uv + light_point(i, n, rnd) * scale, r);
-    return f / float(n);
+    vec2 scale = soft_uv_scale(q, r, vec4(0.0, 0.0, u_tan_half));
+    float f = tfm_filtered(uv + g_soft_e * scale * medium_spread(g_tfm_domain, r), r);
+    vec2 rnd = soft_taps_start();
+    int n = surface_taps(4);
+    float sum = 0.0;
+    float weights = 0.0;
+    for (int i = 0; i < n; ++i) {
+        float s = medium_spread(texelFetch(u_krange, ivec2(uv * vec2(textureSize(u_krange, 0))), 0).xy, r);
+        float w = 1.0;
+#if AREA_SPREAD
+        vec2 e = spread_tap(q, i, n, rnd, w);
+#else
+        vec2 e = light_point(i, n, rnd);
+#endif
+        sum += w * tfm_filtered(uv + e * scale * s, r);
+        weights += w;
+    }
+    return weights > 0.0 ? sum / weights : f;
 }
 #endif
 #endif
