@@ -36,11 +36,15 @@ uniform vec3 u_area_v;         // of its area), as vectors
 uniform vec2 u_area_spread;    // AREA_SPREAD 1: tan of half its spread and Cycles' normalisation
                                // 1 / (tan h - h)
 
-// Solid angle of the triangle (a, b, c) seen from the origin (Van Oosterom and Strackee).
-float triangle_solid_angle(vec3 a, vec3 b, vec3 c) {
-    float la = length(a), lb = length(b), lc = length(c);
-    float den = la * lb * lc + dot(a, b) * lc + dot(a, c) * lb + dot(b, c) * la;
-    return 2.0 * atan(abs(dot(a, cross(b, c))), den);
+// Solid angle of the quadrilateral (a, b, c, d) seen from the origin, its triangles (a, b, c) and
+// (a, c, d) (Van Oosterom and Strackee: tan(omega / 2) = N / D each), their half angles added as
+// the arguments of D + iN multiplied (one atan; their sum is below pi for a light seen in front).
+float quad_solid_angle(vec3 a, vec3 b, vec3 c, vec3 d) {
+    float la = length(a), lb = length(b), lc = length(c), ld = length(d);
+    float ac = dot(a, c);
+    float n1 = abs(dot(a, cross(b, c))), d1 = la * lb * lc + dot(a, b) * lc + ac * lb + dot(b, c) * la;
+    float n2 = abs(dot(a, cross(c, d))), d2 = la * lc * ld + ac * ld + dot(a, d) * lc + dot(c, d) * la;
+    return 2.0 * atan(n1 * d2 + n2 * d1, d1 * d2 - n1 * n2);
 }
 
 uniform vec2 u_soft_extent;
@@ -54,7 +58,7 @@ vec2 g_tap_turn;                   // cos, sin of the next tap's angle (light_po
 const vec2 SOFT_STEP = vec2(0.7548777, 0.5698403);     // the R2 sequence's step
 
 vec2 g_soft_e;                     // the light sample's point of the light's shape (soft_next)
-vec2 g_soft_e2;                    // a second point, the first's numbers shifted by one half
+float g_soft_blocker = -1.0;        // the depth of the last blocker a point of the medium found, metres
 
 // Taps of a lit surface: ``surface``; none for a point of the medium (it reads g_soft_e alone).
 int surface_taps(int surface) { return dot(g_soft_normal, g_soft_normal) > 0.0 ? surface : 0; }
@@ -68,6 +72,7 @@ void soft_start() {
     v.x += v.y * v.z; v.y += v.z * v.x;
     g_soft_rnd = vec2(v.xy & 0xffffffu) / 16777216.0;
     g_soft_turn = vec2(cos(2.0 * PI * g_soft_rnd.y), sin(2.0 * PI * g_soft_rnd.y));
+    g_soft_blocker = u_soft_near;
 }
 
 // The next light sample (light_reaching calls it once per point lit): two numbers in [0, 1), the
@@ -79,7 +84,6 @@ void soft_next() {
     g_soft_turn = vec2(g_soft_turn.x * turn.x - g_soft_turn.y * turn.y,
                        g_soft_turn.y * turn.x + g_soft_turn.x * turn.y);
     g_soft_e = u_soft_round == 1 ? sqrt(g_soft_rnd.x) * g_soft_turn : 2.0 * g_soft_rnd - 1.0;
-    g_soft_e2 = u_soft_round == 1 ? -sqrt(fract(g_soft_rnd.x + 0.5)) * g_soft_turn : 2.0 * fract(g_soft_rnd + 0.5) - 1.0;
 }
 
 // A surface's taps from the light sample's numbers: every read of the light's shape for one
@@ -146,11 +150,14 @@ float blocker_spread(float z, float r, vec2 e, float reach) {
 float soft_visibility(vec3 q, vec2 uv, float r, float bias) {
     vec4 rect = u_face_ortho == 1 ? u_shadow_rect : vec4(0.0, 0.0, u_tan_half);
     vec2 scale = soft_uv_scale(q, r, rect);
-    float reach = soft_spread(u_face_ortho == 1 ? 0.0 : u_soft_near, r);
-    // A point of the medium: a blocker on the ray from g_soft_e, the shadow test from g_soft_e2.
-    vec2 e = g_soft_e * scale;
-    float s = blocker_spread(texture(u_shadow, uv + e * reach).r, r - bias, g_soft_e, reach);
-    float v = texture(u_shadow_depth, vec3(uv + g_soft_e2 * scale * s, (r - bias) / u_shadow_far));
+    float reach = soft_spread(u_soft_near, r);
+    // A point of the medium: the map where the ray from g_soft_e crosses the depth of the last
+    // blocker found along the view ray (none yet: the nearest caster's), one read; what it finds
+    // closer than the point shadows it and is the next point's blocker.
+    float z = texture(u_shadow, uv + g_soft_e * scale * max(soft_spread(g_soft_blocker, r - bias), 0.0)).r;
+    bool shadowed = z < r - bias;
+    g_soft_blocker = shadowed ? z : g_soft_blocker;
+    float v = shadowed ? 0.0 : 1.0;
     // A surface: the blocker search, then the filter (its receiver's plane at each tap).
     vec2 rnd = soft_taps_start();
     float spread = 0.0;
@@ -240,7 +247,7 @@ float area_emission(vec3 q, float r) {
     vec3 c0 = -q - u_area_u - u_area_v, c1 = -q + u_area_u - u_area_v;
     vec3 c2 = -q + u_area_u + u_area_v, c3 = -q - u_area_u + u_area_v;
     float area = 4.0 * length(cross(u_area_u, u_area_v));
-    return (triangle_solid_angle(c0, c1, c2) + triangle_solid_angle(c0, c2, c3)) / max(area, 1e-30);
+    return quad_solid_angle(c0, c1, c2, c3) / max(area, 1e-30);
 #endif
 }
 #endif

@@ -162,7 +162,7 @@ float medium_spread(vec2 k, float r) {
 // F averaged over the light's shape: the map read through points of the shape, each offset by
 // the medium's spread. A point of the medium reads it through its light sample's point, with the
 // K range the previous sample along the view ray read (a step away; the first reads the centre);
-// a surface through 4 taps with the K range at the centre (read in the loop, which a point of the
+// a surface through 4 taps with the K range at the centre (read in a loop, which a point of the
 // medium skips), weighted as an area light with a spread sends from each (spread_tap).
 float soft_tfm_lookup(vec3 q, vec2 uv, float r) {
     vec2 scale = soft_uv_scale(q, r, vec4(0.0, 0.0, u_tan_half));
@@ -171,8 +171,10 @@ float soft_tfm_lookup(vec3 q, vec2 uv, float r) {
     int n = surface_taps(4);
     float sum = 0.0;
     float weights = 0.0;
+    vec2 k = g_tfm_domain;
+    for (int i = 0; i < min(n, 1); ++i) k = texelFetch(u_krange, ivec2(uv * vec2(textureSize(u_krange, 0))), 0).xy;
+    float s = medium_spread(k, r);
     for (int i = 0; i < n; ++i) {
-        float s = medium_spread(texelFetch(u_krange, ivec2(uv * vec2(textureSize(u_krange, 0))), 0).xy, r);
         float w = 1.0;
 #if AREA_SPREAD
         vec2 e = spread_tap(q, i, n, rnd, w);
