@@ -171,7 +171,10 @@ float soft_visibility(vec3 q, vec2 uv, float r, float bias) {
         blockers += b > 0.0 ? 1.0 : 0.0;
     }
     spread = blockers > 0.0 ? spread / blockers : 0.0;
-    int m = n > 0 ? (spread * max(scale.x, scale.y) * u_map_res > 0.5 ? n : 1) : 0;
+    // The filter: a tap per shadow-map texel across the penumbra, 1 to 8 (one where no blocker was
+    // found or the penumbra is under a texel: the sharp test).
+    int m = min(int(ceil(2.0 * spread * max(scale.x, scale.y) * u_map_res)), 8);
+    m = n > 0 ? max(m, 1) : 0;
     rnd = soft_taps_start();
     float sum = 0.0;
     for (int k = 0; k < m; ++k) {
@@ -244,10 +247,19 @@ float area_emission(vec3 q, float r) {
 #if AREA_SPREAD
     return area_spread_emission(q);
 #else
-    vec3 c0 = -q - u_area_u - u_area_v, c1 = -q + u_area_u - u_area_v;
-    vec3 c2 = -q + u_area_u + u_area_v, c3 = -q - u_area_u + u_area_v;
-    float area = 4.0 * length(cross(u_area_u, u_area_v));
-    return quad_solid_angle(c0, c1, c2, c3) / max(area, 1e-30);
+    // Beyond 8 half diagonals h of the light: the point's cos / r^2 with its second-order term
+    // over the rectangle (within 4e-4); nearer, the solid angle (a loop that a group of pixels all
+    // far from the light skips).
+    vec2 s = vec2(dot(q, u_area_u), dot(q, u_area_v));
+    float h2 = dot(u_area_u, u_area_u) + dot(u_area_v, u_area_v);
+    float r2 = r * r;
+    float e = dot(q, u_emit_axis) / (r2 * r) * (1.0 + (15.0 * dot(s, s) / r2 - 3.0 * h2) / (6.0 * r2));
+    for (int i = 0; i < (r2 < 64.0 * h2 ? 1 : 0); ++i) {
+        vec3 c0 = -q - u_area_u - u_area_v, c1 = -q + u_area_u - u_area_v;
+        vec3 c2 = -q + u_area_u + u_area_v, c3 = -q - u_area_u + u_area_v;
+        e = quad_solid_angle(c0, c1, c2, c3) / max(4.0 * length(cross(u_area_u, u_area_v)), 1e-30);
+    }
+    return e;
 #endif
 }
 #endif
