@@ -168,12 +168,13 @@ void main() {
             // as its depth changes across one where the light grazes it (slope-scaled).
             g_bias_texels = surface_bias_texels(dot(n, L));
 #if SOFT_SHADOW
-            g_soft_normal = mat3(u_world_to_light) * n;     // its plane, for the soft shadow's taps
+            g_soft_normal = mat3(u_world_to_light) * n;     // its plane, for the soft shadow's samples
+            soft_surface(qP, light_distance(qP));           // its light samples (transmittance.glsl)
 #endif
             surface += f * light_arriving(P, qP, r) * u_light_targets.y;
             g_bias_texels = 0.0;
 #if SOFT_SHADOW
-            g_soft_normal = vec3(0.0);
+            soft_surface_end();
 #endif
         }
 #endif
