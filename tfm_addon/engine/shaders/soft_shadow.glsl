@@ -96,7 +96,7 @@ void soft_next() {
 // Map coordinates per unit of (light point in units of the extent) x spread, at q.
 vec2 soft_uv_scale(vec3 q, float r, vec4 rect_half) {
     if (u_face_ortho == 1) return u_soft_extent * 0.5 / rect_half.zw;
-    return u_soft_extent * 0.5 / (u_tan_half * max(-q.z / max(r, 1e-30), 1e-3));
+    return (u_soft_extent * 0.5 / u_tan_half) * (r / max(-q.z, 1e-3 * r));
 }
 
 // The spread of a point at distance z seen past toward a receiver at r (see the top).
@@ -199,8 +199,8 @@ float area_emission(vec3 q, float r) {
     // the point's cos / r^2 with its second-order term over the rectangle, within 0.1 %.
     vec2 s = vec2(dot(q, u_area_u), dot(q, u_area_v));
     float h2 = dot(u_area_u, u_area_u) + dot(u_area_v, u_area_v);
-    float r2 = r * r;
-    return dot(q, u_emit_axis) / (r2 * r) * (1.0 + (15.0 * dot(s, s) / r2 - 3.0 * h2) / (6.0 * r2));
+    float inv2 = 1.0 / (r * r);
+    return dot(q, u_emit_axis) * inv2 / r * (1.0 + (2.5 * dot(s, s) * inv2 - 0.5 * h2) * inv2);
 #else
     vec3 c0 = -q - u_area_u - u_area_v, c1 = -q + u_area_u - u_area_v;
     vec3 c2 = -q + u_area_u + u_area_v, c3 = -q - u_area_u + u_area_v;
