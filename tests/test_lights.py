@@ -216,8 +216,9 @@ def test_a_gl_with_16_texture_units_renders_three_grids_and_names_the_fourth(fre
     info["GL_MAX_TEXTURE_IMAGE_UNITS"] = 16        # moderngl keeps this dict: the GL now says 16
     assert bindings.max_grids(fresh.gl) == 3
     always = {n: u for n, u in bindings.UNIT.items()
-              if u not in bindings.GRID_UNITS[3:] and n not in ("u_glow", "u_fire")}
+              if u not in bindings.GRID_UNITS[3:] and n not in ("u_glow", "u_fire", "u_brick_index")}
     assert not bindings.has_glow_unit(fresh.gl)
+    assert not bindings.has_sparse_unit(fresh.gl)   # a sparse grid: uploaded dense from its coarse copy
     assert not has_fire_unit(fresh.gl)      # a fire's light on the solids: said, not rendered
     assert max(always.values()) < 16, always
     media = tuple(_smoke(center=(x, 0.0, 1.2), size=1.0, seed=i + 1, name=f"S{i}")

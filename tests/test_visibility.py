@@ -34,6 +34,13 @@ def renders(renderer):
              "bar_neither": _with(scene, "Bar", cast_shadow=False, visible_camera=False),
              "ground_unseen": _with(scene, "Ground", visible_camera=False),
              "ground_holdout": _with(scene, "Ground", holdout=True)}
+    # Shadow linking (the light's blockers): every solid but the bar; no medium for the surfaces.
+    light = scene.lights[0]
+    cases["bar_unlinked"] = dataclasses.replace(scene, lights=(dataclasses.replace(
+        light, shadow_solids=("Ground",)),) + scene.lights[1:])
+    cases["media_unlinked"] = dataclasses.replace(scene, lights=(dataclasses.replace(
+        light, media_shadow_surfaces=False),) + scene.lights[1:])
+    cases["no_media"] = dataclasses.replace(scene, media=())
     out = {name: renderer.render(s, SETTINGS) for name, s in cases.items()}
     # Where the camera sees the ground.
     out["ground_px"] = out["full"].combined[:, :, 3] == 1.0
@@ -49,6 +56,19 @@ def test_the_scene_has_a_shaft_and_a_ground(renders):
 def test_no_shadow_removes_the_bar_shaft(renders):
     assert np.abs(renders["bar_no_shadow"].combined - renders["no_bar"].combined).max() <= 1e-6
     assert np.array_equal(renders["bar_neither"].combined, renders["no_bar"].combined)
+
+
+def test_shadow_linking_leaves_out_the_bar_or_the_media(renders):
+    """A light whose blockers leave out the bar renders as a bar that casts no shadow; one whose
+    blockers leave out the media lights the surfaces as if there were none, while the media keep
+    their own shadows (the scattering is unchanged)."""
+    assert np.abs(renders["bar_unlinked"].combined - renders["bar_no_shadow"].combined).max() <= 1e-6
+    unlinked, full, bare = renders["media_unlinked"], renders["full"], renders["no_media"]
+    np.testing.assert_allclose(unlinked.passes["scattering"], full.passes["scattering"], atol=1e-6)
+    ground = renders["ground_px"]
+    lit = bare.passes["surfaces"][ground]
+    np.testing.assert_allclose(unlinked.passes["surfaces"][ground], lit, atol=1e-5 * lit.max())
+    assert (lit - full.passes["surfaces"][ground]).max() > 0.2 * lit.max()   # the smoke's shadow
 
 
 def test_hidden_from_camera_is_seen_through(renders):

@@ -54,9 +54,10 @@ def test_light_ray_visibility_matches_cycles(blank, tmp_path, flag):
     assert ssim >= 0.98 and abs(ratio - 1.0) <= 0.03
 
 
-def test_light_linking_is_read_or_said(blank):
+def test_light_linking_is_read(blank):
     """A receiver collection that excludes every solid darkens the surfaces for that light; one that
-    lights one solid and not another is said, as is a blocker collection (shadow linking)."""
+    includes one solid leaves the other unlit; a blocker collection (shadow linking) that excludes
+    one solid leaves the other shadowing the light."""
     bpy.ops.object.light_add(type='SPOT')
     spot = bpy.context.object
     solids = []
@@ -73,8 +74,15 @@ def test_light_linking_is_read_or_said(blank):
     assert ex.lights[0].lights_surfaces is False and ex.lights[0].lights_medium is True
     assert not any("linking" in w for w in ex.all_warnings), ex.all_warnings
     receivers.collection_objects[0].light_linking.link_state = 'INCLUDE'
-    spot.light_linking.blocker_collection = bpy.data.collections.new("Blockers")
+    blockers = bpy.data.collections.new("Blockers")
+    spot.light_linking.blocker_collection = blockers
     ex = _mod("extract").extract(bpy.context.evaluated_depsgraph_get())
     assert ex.lights[0].lights_surfaces is True
-    assert len([w for w in ex.all_warnings if "'Spot'" in w and "light linking" in w]) == 1, ex.all_warnings
-    assert len([w for w in ex.all_warnings if "'Spot'" in w and "shadow linking" in w]) == 1, ex.all_warnings
+    assert ex.lights[0].unlit_solids == (solids[1].name,)     # the included cube alone is lit
+    assert not any("linking" in w for w in ex.all_warnings), ex.all_warnings
+    assert ex.lights[0].shadow_solids is None        # an empty blocker collection: everything shadows
+    blockers.objects.link(solids[0])
+    blockers.collection_objects[0].light_linking.link_state = 'EXCLUDE'
+    ex = _mod("extract").extract(bpy.context.evaluated_depsgraph_get())
+    assert ex.lights[0].shadow_solids == (solids[1].name,) and ex.lights[0].media_shadow_surfaces
+    assert not any("shadow linking" in w for w in ex.all_warnings), ex.all_warnings

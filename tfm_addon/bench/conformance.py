@@ -825,6 +825,70 @@ def _(tmpdir):
     receivers.collection_objects[0].light_linking.link_state = 'EXCLUDE'
 
 
+@row("light_linking_one_of_two_volumes", "Point light whose Light Linking receiver collection includes one "
+     "of two Volume objects (the other dark)")
+def _(tmpdir):
+    import bpy
+
+    base()
+    smokes = []
+    # Apart on screen: where a camera ray crosses both, Cycles lights the samples of both by the
+    # linking of one of them.
+    for name, loc in (("Smoke A", (-0.95, 0.0, 0.0)), ("Smoke B", (0.95, 0.3, 0.1))):
+        mat, nt, out = material(name)
+        principled(nt, out)
+        smokes.append(volume_object(tmpdir, name=name, mat=mat, location=loc, scale=(0.6, 0.6, 0.6)))
+    receivers = bpy.data.collections.new("Receivers")
+    receivers.objects.link(smokes[0])
+    bpy.data.objects["Point"].light_linking.receiver_collection = receivers
+
+
+@row("light_linking_excludes_a_cube", "Point light whose Light Linking receiver collection excludes a cube "
+     "beside the smoke (the cube dark, the ground and smoke lit)")
+def _(tmpdir):
+    import bpy
+
+    mat, nt, out = material()
+    principled(nt, out)
+    base()
+    bpy.ops.mesh.primitive_cube_add(size=0.8, location=(1.4, -0.6, -0.85))
+    cube = bpy.context.object
+    cube.data.materials.append(_diffuse("Cube", (0.7, 0.7, 0.7)))
+    volume_object(tmpdir, mat=mat)
+    receivers = bpy.data.collections.new("Receivers")
+    receivers.objects.link(cube)
+    receivers.collection_objects[0].light_linking.link_state = 'EXCLUDE'
+    bpy.data.objects["Point"].light_linking.receiver_collection = receivers
+
+
+def _shadow_linked_spot(tmpdir, excluded: str | None) -> None:
+    """A spot past a 6 cm bar into the smoke; its Shadow Linking blocker collection excludes the
+    bar or the smoke (``excluded``: 'bar' or 'smoke'; None: no collection), which then casts no
+    shadow from it."""
+    import bpy
+
+    mat, nt, out = material()
+    principled(nt, out)
+    base(lights=None)
+    spot = light('SPOT', (0.0, -0.4, 3.2))
+    _bar(1.8)
+    bar = bpy.context.object
+    smoke = volume_object(tmpdir, mat=mat)
+    if excluded is None:
+        return
+    blockers = bpy.data.collections.new("Blockers")
+    blockers.objects.link(bar if excluded == 'bar' else smoke)
+    spot.light_linking.blocker_collection = blockers
+    blockers.collection_objects[0].light_linking.link_state = 'EXCLUDE'
+
+
+for _what in ('bar', 'smoke'):
+    ROWS.append(Row(id=f"shadow_linking_excludes_{_what}",
+                    title=f"Spot light past a bar into the smoke, its Shadow Linking blocker collection "
+                          f"excluding the {_what} (no shadow from it)",
+                    build=lambda tmpdir, what=_what: _shadow_linked_spot(tmpdir, what)))
+
+
 @row("area_spread", "Area light 1 m, Spread 60° (Cycles' soft-box grid)")
 def _(tmpdir):
     mat, nt, out = material()

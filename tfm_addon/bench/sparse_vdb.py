@@ -2,11 +2,12 @@
 
 Writes (once, by code) a float grid whose active box is ``--side``³ voxels with about
 ``--active`` million active voxels (blobs of smoke scattered in the box, the rest inactive), then
-renders it in a fresh Blender process (bpy as a module, the add-on from this checkout) at 640x360
+renders it in fresh Blender processes (bpy as a module, the add-on from this checkout) at 640x360
 through ``bpy.ops.render.render``: the seconds from the render call to the written frame and the
 peak resident memory above the process before the call (sampled every 5 ms), with the frame's
-report lines (the read's downsampling among them). The grid is dense once read (docs/blender.md,
-"Volumes"): these are the dense path's figures for such a file.
+report lines. Two paths take turns (``--repeats`` each): the sparse one (the grid read as bricks
+at full resolution, docs/blender.md "Volumes") and the dense one (the same file read dense at
+reduced resolution, as for a grid that is not sparse enough: the sparse rule switched off).
 """
 
 from __future__ import annotations
@@ -18,12 +19,15 @@ import sys
 
 import numpy as np
 
-CHILD = r"""
+SETUP = r"""
 import json, os, sys, threading, time
-root, vdb, side = sys.argv[-3], sys.argv[-2], int(sys.argv[-1])
+root, vdb, side, path = sys.argv[-4], sys.argv[-3], int(sys.argv[-2]), sys.argv[-1]
 sys.path.insert(0, root); sys.path.insert(0, os.path.join(root, "tests", "blender"))
-import bpy, tfm_addon
+import bpy, numpy as np, tfm_addon
 tfm_addon.register()
+from tfm_addon.blender import volumes
+if path == "dense":
+    volumes.SPARSE_MAX_FILL = -1.0          # never sparse: read dense at reduced resolution
 from blender_helpers import smoke, SETTINGS
 from tfm_addon.blender import scene_builder, final_render
 import tempfile
@@ -36,7 +40,9 @@ ob = made["medium"]
 ob.data.filepath = vdb
 voxel = 2.0 / side                        # the smoke's 2 m box, centred at (0, 0, 1.2)
 ob.matrix_world = ((1, 0, 0, -1.0), (0, 1, 0, -1.0), (0, 0, 1, 0.2), (0, 0, 0, 1))
+"""
 
+CHILD = SETUP + r"""
 def rss():
     with open("/proc/self/statm") as f:
         return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
@@ -55,9 +61,77 @@ seconds = time.perf_counter() - start
 stop[0] = True; t.join()
 print("RESULT " + json.dumps({"seconds": seconds, "rss_peak_above": peak[0] - before,
       "before": before, "messages": final_render.last_messages,
-      "timings": final_render.last_timings}), flush=True)
+      "timings": final_render.last_timings, "load": os.getloadavg()[0]}), flush=True)
 os._exit(0)
 """
+
+
+VIEWPORT_CHILD = SETUP + r"""
+from tfm_addon.blender import viewport
+from tfm_addon.blender.changes import Change
+from tfm_addon.blender.camera import camera_from_view, without_scale
+samples = int(os.environ.get("TFM_VIEW_SAMPLES", "4"))
+
+def view_camera(dg, w, h):
+    cam = scene.camera.evaluated_get(dg)
+    view = np.linalg.inv(without_scale(cam.matrix_world))
+    return camera_from_view(view, np.array(cam.calc_matrix_camera(dg, x=w, y=h)), w, h)
+
+# Blender's thread as a loop of Python callbacks: each step's gap is how long it was held (by our
+# calls, or by another thread holding Python's lock).
+holds, events = [], {}
+session = viewport.ViewportSession()
+start = time.perf_counter()
+last = start
+dg = bpy.context.evaluated_depsgraph_get()
+session.update(dg)
+events["first update (s)"] = session.update_s
+camera = view_camera(dg, 640, 360)
+session.request(camera, samples)
+first, told, waiting, before = None, set(), None, None
+while time.perf_counter() - start < 300:
+    now = time.perf_counter()
+    holds.append((now - last, last - start))
+    frame = session.frame()
+    if frame is not None and first is None:
+        first = now - start
+    news = ({"preview"} if volumes.grid_cache.previews else set()) | (
+        {"read"} if not volumes.grid_cache.reading else set())
+    if news - told:                            # what the add-on's timer does: tag, Blender updates
+        name = "+".join(sorted(news - told))
+        told |= news
+        events[f"{name} done (s)"] = now - start
+        ob.data.update_tag()
+        dg = bpy.context.evaluated_depsgraph_get()
+        session.update(dg, Change.MEDIUM)      # the flags view_update's depsgraph would give
+        events[f"update after the {name} (s)"] = session.update_s
+        session.request(camera, samples)
+        waiting, before = name, frame
+    if waiting and frame is not None and frame is not before:
+        events[f"first image after the {waiting} (s)"] = now - start
+        waiting, before = None, None
+    if "read" in told and waiting is None and frame.samples == samples and session.view.state == "idle":
+        events[f"{samples} samples (s)"] = now - start
+        break
+    last = time.perf_counter()
+    time.sleep(0.002)
+events["first image (before the read) (s)"] = first
+events["longest hold of the main loop (ms)"] = 1e3 * max(h for h, _ in holds[1:])
+events["holds over 50 ms (ms at s)"] = " ".join(f"{1e3 * h:.0f}@{t:.1f}" for h, t in holds[1:] if h > 0.05)
+events["warnings"] = session.warnings
+print("RESULT " + json.dumps(events), flush=True)
+os._exit(0)
+"""
+
+
+def viewport_once(root: str, vdb: str, side: int) -> dict:
+    """A Rendered viewport's first images of the grid (ViewportSession, as the engine drives it)."""
+    done = subprocess.run([sys.executable, "-c", VIEWPORT_CHILD, root, vdb, str(side), "sparse"],
+                          capture_output=True, text=True, timeout=900)
+    for line in done.stdout.splitlines():
+        if line.startswith("RESULT "):
+            return json.loads(line[7:])
+    raise RuntimeError(done.stdout[-3000:] + done.stderr[-3000:])
 
 
 def write_sparse_vdb(path: str, side: int, active_millions: float, seed: int = 5) -> int:
@@ -94,6 +168,17 @@ def write_sparse_vdb(path: str, side: int, active_millions: float, seed: int = 5
     return int(grid.activeVoxelCount())
 
 
+def render_once(root: str, vdb: str, side: int, path: str) -> dict:
+    """One first final frame in a fresh Blender process: 'sparse' or 'dense'."""
+    env = dict(os.environ, MALLOC_MMAP_THRESHOLD_="65536")
+    done = subprocess.run([sys.executable, "-c", CHILD, root, vdb, str(side), path],
+                          capture_output=True, text=True, timeout=3600, env=env)
+    for line in done.stdout.splitlines():
+        if line.startswith("RESULT "):
+            return json.loads(line[7:])
+    raise RuntimeError(done.stdout[-3000:] + done.stderr[-3000:])
+
+
 def main(argv=None) -> None:
     import argparse
 
@@ -101,25 +186,35 @@ def main(argv=None) -> None:
     parser.add_argument("--side", type=int, default=1024)
     parser.add_argument("--active", type=float, default=32.0, help="millions of active voxels")
     parser.add_argument("--vdb", default="/tmp/tfm_sparse_bench.vdb")
+    parser.add_argument("--repeats", type=int, default=2, help="frames per path, taking turns")
+    parser.add_argument("--paths", default="dense,sparse")
+    parser.add_argument("--viewport", action="store_true", help="a Rendered viewport's first images")
     args = parser.parse_args(argv)
     root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
     if not os.path.exists(args.vdb):
         active = write_sparse_vdb(args.vdb, args.side, args.active)
         print(f"wrote {args.vdb}: {args.side}³ box, {active / 1e6:.1f} M active voxels", flush=True)
-    env = dict(os.environ, MALLOC_MMAP_THRESHOLD_="65536")
-    done = subprocess.run([sys.executable, "-c", CHILD, root, args.vdb, str(args.side)],
-                          capture_output=True, text=True, timeout=3600, env=env)
-    for line in done.stdout.splitlines():
-        if line.startswith("RESULT "):
-            r = json.loads(line[7:])
-            print(f"first final frame 640x360: {r['seconds']:.1f} s, "
+    if args.viewport:
+        r = viewport_once(root, args.vdb, args.side)
+        print(f"viewport, load average {os.getloadavg()[0]:.1f}:")
+        for k, v in r.items():
+            print(f"  {k}: {v:.2f}" if isinstance(v, float) else f"  {k}: {v}")
+        return
+    results: dict[str, list] = {}
+    for _ in range(args.repeats):
+        for path in args.paths.split(","):
+            r = render_once(root, args.vdb, args.side, path)
+            results.setdefault(path, []).append(r)
+            print(f"{path}: first final frame 640x360: {r['seconds']:.1f} s, "
                   f"peak {r['rss_peak_above'] / 2**30:.2f} GiB above the process "
-                  f"({r['before'] / 2**30:.2f} GiB before)")
+                  f"({r['before'] / 2**30:.2f} GiB before), load average {r['load']:.1f}", flush=True)
             for level, message in r["messages"]:
                 print(f"  {level}: {message}")
             print("  timings: " + ", ".join(f"{k} {v:.2f} s" for k, v in sorted(r["timings"].items())))
-            return
-    raise RuntimeError(done.stdout[-3000:] + done.stderr[-3000:])
+    for path, rs in results.items():
+        print(f"{path}: fastest {min(r['seconds'] for r in rs):.1f} s, median "
+              f"{sorted(r['seconds'] for r in rs)[len(rs) // 2]:.1f} s, largest peak "
+              f"{max(r['rss_peak_above'] for r in rs) / 2**30:.2f} GiB")
 
 
 if __name__ == "__main__":

@@ -401,10 +401,14 @@ def degenerate(matrix_world, placed: bool = True) -> str | None:
 
 
 def _light_linking(depsgraph, light_objects: list, lights: list[Light], warnings: list[str]) -> list[Light]:
-    """The lights as their receiver collections let them light the media and the solids
-    (lights.linked), the objects classified as the walk does."""
-    if not any(getattr(getattr(o, "light_linking", None), "receiver_collection", None) is not None
-               for o in light_objects):
+    """The lights as their receiver and blocker collections let them light the media and the solids
+    and be shadowed by them (lights.linked), the objects classified as the walk does."""
+    def has_links(o) -> bool:
+        linking = getattr(o, "light_linking", None)
+        return linking is not None and (linking.receiver_collection is not None
+                                        or linking.blocker_collection is not None)
+
+    if not any(has_links(o) for o in light_objects):
         return lights
     media, solids = [], []
     for ob in depsgraph.objects:
@@ -629,6 +633,16 @@ def _sigma(material, settings, label: str, notes: list[str], available=None) -> 
     return dict(fields=fields, grid=None, constant=False, grids=grids)
 
 
+def _may_read_sparse(read: dict) -> bool:
+    """Whether the volume's material lets its density be read as bricks (volumes.read_sparse): an
+    affine material without emission (volumes.read_grid_set reads bricks only where no other grid
+    is read), which the renderer's sparse path renders in full."""
+    fields = read["fields"]
+    emits = any(isinstance(v, GridValue) and (v.grid is not None or v.offset > 0.0)
+                for v in (fields.get("emission_strength"), fields.get("blackbody_intensity")))
+    return read.get("graph") is None and not read["constant"] and not emits
+
+
 def _drop_missing(fields: dict, extras: dict, label: str, notes: list[str],
                   why: str = "was not found") -> dict:
     """Fields whose grids were not read fall back to their constants, with a note."""
@@ -682,7 +696,8 @@ def _volume_medium(instance, cache: GridCache, notes: list[str], simplify: int =
         found = kept.grid(memo) if memo is not None else None
         if found is None:
             found = cache.read(volume, preferred, _label(instance), generated=generated,
-                               extras=tuple(read["grids"]))
+                               extras=tuple(read["grids"]), sparse=_may_read_sparse(read),
+                               wait=depsgraph is None or depsgraph.mode == 'RENDER')
             if memo is not None:
                 kept.keep_grid(memo, found, owners)
         grid, grid_notes = found
@@ -780,11 +795,14 @@ def _grid_medium(matrix_world, grid, read: dict, label: str, notes: list[str], s
                              fields.get("temperature")) if isinstance(v, GridValue) and v.grid}
     used |= {fields["color_grid"]} if fields.get("color_grid") else set()
     extras = {name: a for name, a in available.items() if name in used}
+    sparse = getattr(grid, "sparse", None)
+    if sparse is not None:
+        simplify = 0         # bricks: the whole resolution, whatever Simplify asks
     density, index_to_object = simplify_grid(grid.density, grid.index_to_object, simplify)
     if simplify > 0:
         extras = _simplify_extras(extras, simplify)
     medium = Medium(density=density, index_to_world=matrix_world @ index_to_object, grids=extras,
-                    clipping=clipping,
+                    clipping=clipping, sparse=sparse,
                     source_key=digest(grid.key, sorted(extras), simplify) if grid.key else None, **fields)
     if constant_emits(medium):     # it glows where there is no density: over Cycles' volume mesh
         if grid.bounds is not None:         # drawn by its object's mesh (a fluid domain's cube)

@@ -91,9 +91,6 @@ def light(light_object, matrix_world, warnings: list[str]) -> Light:
     if getattr(data, "use_nodes", False):
         warnings.append(f"Light '{name}': light nodes (an IES profile among them) are not rendered (its "
                         f"colour and power are used)")
-    linking = getattr(light_object, "light_linking", None)
-    if linking is not None and getattr(linking, "blocker_collection", None) is not None:
-        warnings.append(f"Light '{name}': shadow linking is not rendered (everything shadows it)")
     kind = data.type
     if kind == 'SPOT':
         return spot_light(light_object, matrix_world, warnings)
@@ -139,20 +136,41 @@ def receives(states: dict, name: str) -> bool:
 
 
 def linked(light_object, light: Light, media: list[str], solids: list[str], warnings: list[str]) -> Light:
-    """``light`` as its Object ▸ Shading ▸ Light Linking receiver collection lets it light the media
-    and the solids (object names): the media or the surfaces it lights none of go dark; a light that
-    lights some of either and not the others is said in ``warnings`` (it lights all of them)."""
+    """``light`` as its Object ▸ Shading ▸ Light Linking and Shadow Linking collections have it.
+    Receivers: the media (object names) it lights (``Light.lights_medium`` False where none,
+    ``lit_media`` where some) and the solids it does not (``lights_surfaces`` False where none is
+    lit, ``unlit_solids`` where some are not). Blockers: the
+    solids (object names) that shadow it (``Light.shadow_solids``); a collection that leaves out
+    every medium: the media shadow no surface from it (``Light.media_shadow_surfaces``), one
+    that leaves out some is said in ``warnings``."""
     linking = getattr(light_object, "light_linking", None)
-    collection = None if linking is None else getattr(linking, "receiver_collection", None)
-    if collection is None:
-        return light
-    states = link_states(collection)
+    receivers = None if linking is None else getattr(linking, "receiver_collection", None)
+    blockers = None if linking is None else getattr(linking, "blocker_collection", None)
     flags = {}
-    for what, names, field in (("media", media, "lights_medium"), ("solids", solids, "lights_surfaces")):
-        lit = [receives(states, n) for n in names]
-        if lit and not any(lit):
-            flags[field] = False
-        elif not all(lit):
-            warnings.append(f"Light '{light_object.name}': light linking that lights some {what} and not "
-                            f"others is not rendered (it lights all of them)")
+    if receivers is not None:
+        states = link_states(receivers)
+        lit_media = tuple(n for n in media if receives(states, n))
+        unlit_solids = tuple(n for n in solids if not receives(states, n))
+        if media and not lit_media:
+            flags["lights_medium"] = False
+        elif len(lit_media) < len(media):
+            flags["lit_media"] = lit_media
+        if solids and len(unlit_solids) == len(solids):
+            flags["lights_surfaces"] = False
+        elif unlit_solids:
+            flags["unlit_solids"] = unlit_solids
+    if blockers is not None:
+        states = link_states(blockers)      # a blocker collection's states read as a receiver one's
+        shadowing = tuple(n for n in solids if receives(states, n))
+        if len(shadowing) < len(solids):
+            flags["shadow_solids"] = shadowing
+        shadowing = [n for n in media if receives(states, n)]
+        if media and not shadowing:
+            flags["media_shadow_surfaces"] = False
+            if len(media) > 1:
+                warnings.append(f"Light '{light_object.name}': shadow linking that leaves out the media: "
+                                f"they still shadow one another from it (not the surfaces)")
+        elif len(shadowing) < len(media):
+            warnings.append(f"Light '{light_object.name}': shadow linking that leaves out some media and "
+                            f"not others is not rendered (they all shadow it)")
     return replace(light, **flags) if flags else light

@@ -70,6 +70,8 @@ def plan_faces(scene: Scene, settings: RenderSettings, light: Light, media: Medi
     # Fog that absorbs takes all the light coming from infinitely far (a sun's), as in Cycles.
     sunless = fog and max(media.fog.sigma_t) > 0.0
     unit = settings.method == "UNSHADOWED" or not light.cast_shadow
+    solid_names = {m.name for m in scene.shadow_casters}
+    blocked = light.shadow_solids is None or any(n in solid_names for n in light.shadow_solids)
     side_cap = image_side or max(scene.camera.width_px, scene.camera.height_px)
     faces, culled = [], 0
     for frame in light_faces(light, boxes, casters_bounds):
@@ -96,7 +98,7 @@ def plan_faces(scene: Scene, settings: RenderSettings, light: Light, media: Medi
         elif media.kind in (MEDIUM_BOX, MEDIUM_EVERYWHERE):
             if everywhere or reached:
                 light_t = LIGHT_T_UNIT if unit else LIGHT_T_ANALYTIC
-        shadow_map = bool(casts_shadows and light.cast_shadow)
+        shadow_map = bool(casts_shadows and light.cast_shadow and blocked)
         faces.append(FacePlan(light, frame, reached, shadow_map, light_t, side))
     return faces, culled
 

@@ -229,7 +229,8 @@ def medium_stats(scene: Scene) -> MediumStats | None:
         hit = t1 > t0
         if hit.any():
             view_len = float(((t1 - t0) * np.linalg.norm(d, axis=1))[hit].max())
-    return MediumStats(optical_depth=tau_max, light_voxels=light_len, view_voxels=view_len,
+    per = 1.0 if m.sparse is None else m.sparse.voxels_per_index     # a coarse copy's voxel: more
+    return MediumStats(optical_depth=tau_max, light_voxels=light_len * per, view_voxels=view_len * per,
                        sharpness=0.0 if grid is None else grid[2])
 
 

@@ -38,6 +38,7 @@ from .passes.bindings import (
     MediumGPU,
     MediumSlot,
     gobo_texture,
+    has_sparse_unit,
     max_grids,
     pass_state,
 )
@@ -53,7 +54,7 @@ from .passes.scattering import (
     run_light_pass,
 )
 from .passes.shadow_map import ShadowMap
-from .passes.solids import SolidsBuffer
+from .passes.solids import SolidsBuffer, unlit_entries
 from .passes.tfm import (
     TransmittanceMap,
     coefficient_textures,
@@ -62,6 +63,7 @@ from .passes.tfm import (
 )
 from .quality import auto_settings, light_density_integral
 from .scene import Light, Medium, RenderSettings, Scene
+from .sparse_grid import dense_factor, dense_means, grid_bytes, prepare_sparse
 
 
 def prepare_scene(scene: Scene, settings: RenderSettings | None) -> Scene:
@@ -351,7 +353,7 @@ class Renderer:
         note = attributes.glow_note(medium) if attributes is not None and medium is not None else None
         warnings += [note] if note else []
         casters = self._solid_set(scene.shadow_casters)
-        seen = self._solid_set(scene.camera_meshes)
+        seen = self._solid_set(scene.camera_meshes, lights)
         plan = plan_frame(scene, settings, lights, medium_gpu, casts_shadows=bool(casters.vertex_count),
                           casters_bounds=casters.bounds, seen_bounds=seen.bounds,
                           map_res=self._map_resolution(settings), image_side=map_image_side,
@@ -386,7 +388,8 @@ class Renderer:
         plane = view_plane(scene.camera)
         alpha_seed = settings.view_jitter or 0.0      # the sample's: surfaces of alpha below 1
         gbuffer, built = self._gbuffers.get(
-            (scene.camera.key, tuple(m.key for m in scene.camera_meshes), alpha_seed),
+            (scene.camera.key, tuple(m.key for m in scene.camera_meshes), alpha_seed,
+             tuple(unlit for _, unlit in frame.seen.entries)),      # the hit flags: light linking
             lambda: self._gbuffer_for(scene.camera, plane, frame.seen, alpha_seed))
         self.counters["gbuffers"] += built
         steps.step("gbuffer", t0)
@@ -424,9 +427,11 @@ class Renderer:
             t0 = time.perf_counter()
             run_light_pass(gl, first=(i == 0), light_t=plan.light_t, tfm=plan.tfm,
                            light=(plan.frame, plan.light.intensity_w_per_sr, plan.shadow, plan.gobo,
-                                  (float(plan.light.lights_medium), float(plan.light.lights_surfaces))),
+                                  (float(plan.light.lights_medium), float(plan.light.lights_surfaces),
+                                   float(plan.light.media_shadow_surfaces))),
                            tfm_sigma_t=plan.tfm_sigma_t, medium_shadow=plan.medium_shadow,
-                           soft=soft_extent(plan.light, plan.frame), **common)
+                           soft=soft_extent(plan.light, plan.frame), unlit=self._unlit(plan.light, frame),
+                           **common)
             self.counters["light_passes"] += 1
             steps.step("scattering", t0)
         t0 = time.perf_counter()
@@ -483,10 +488,16 @@ class Renderer:
             cache.fresh.clear()
         return out
 
-    def _solid_set(self, meshes) -> SolidsBuffer:
+    def _solid_set(self, meshes, lights=()) -> SolidsBuffer:
         """The vertex buffer of these meshes (the camera's and the lights' sets are one buffer
-        when every mesh is in both)."""
-        return self._solids.get(tuple(m.key for m in meshes), lambda: SolidsBuffer(self.gl.ctx, meshes))[0]
+        when every mesh is in both), its material table split by what ``lights`` leave unlit
+        (light linking)."""
+        unlit_by = {}
+        for light in lights:
+            for name in light.unlit_solids:
+                unlit_by[name] = unlit_by.get(name, ()) + (light.name,)
+        key = tuple(m.key for m in meshes) + ((tuple(sorted(unlit_by.items())),) if unlit_by else ())
+        return self._solids.get(key, lambda: SolidsBuffer(self.gl.ctx, meshes, unlit_by))[0]
 
     def _medium(self, scene: Scene, settings: RenderSettings) -> tuple[MediaGPU, list[str]]:
         """The frame's media on the GPU: a single homogeneous medium analytically, otherwise
@@ -523,17 +534,19 @@ class Renderer:
             media = [m for m in media if m.density is None or m.grid_key in kept]
             grids = {k: v for k, v in grids.items() if k in kept}
         allowance, budget_note = grid_allowances(
-            {k: (m.density.size * 4, m.name) for k, m in grids.items()}, settings.max_grid_bytes)
+            {k: (grid_bytes(m), m.name) for k, m in grids.items()}, settings.max_grid_bytes)
         if budget_note:
             warnings.append(budget_note)
         textures: dict[str, MediumGPU] = {}
         for k, m in grids.items():
-            key = (k, allowance[k], self.gl.max_3d_texture_size)
+            key = (k, allowance[k], self.gl.max_3d_texture_size, not textures)
 
-            def build(m=m, k=k, key=key):
-                grid = prepare_grid(m.density, np.eye(4), self.gl.max_3d_texture_size, allowance[k],
-                                    m.clipping)
-                notes = list(grid.warnings)
+            def build(m=m, k=k, key=key, first=not textures):
+                grid, notes = self._sparse_grid(m, allowance[k], first)
+                if grid is None:
+                    grid = prepare_grid(m.density, np.eye(4), self.gl.max_3d_texture_size, allowance[k],
+                                        m.clipping)
+                notes = list(dict.fromkeys(notes + list(grid.warnings)))
                 if grid.is_empty:
                     notes.append("The density grid is empty: only the surfaces are rendered.")
                 self.counters["grid_uploads"] += 1
@@ -570,6 +583,38 @@ class Renderer:
         gpu.fog = fog
         gpu.key = tuple(_slot_key(s) for s in slots) + ((("fog", fog.key),) if fog is not None else ())
         return gpu, warnings
+
+    def _sparse_grid(self, m: Medium, allowance: int, first: bool) -> tuple[object | None, list[str]]:
+        """The medium's bricks prepared for upload where it has them and they can be used: the
+        frame's first grid, no emission or colour grid, the index's texture unit, within the
+        memory budget. Otherwise the grid is uploaded dense, with a report line saying why: from
+        the bricks' means at the finest resolution the budget holds (``sparse_grid.dense_means``),
+        or, for emission and colour grids (on the coarse copy's lattice), from the coarse copy
+        (None is returned). None and no line without bricks."""
+        if m.sparse is None:
+            return None, []
+        if m.has_emission or m.color_grid is not None:
+            d = m.density.shape
+            return None, [f"The sparse grid '{m.name}' is rendered at the resolution of its coarse copy "
+                          f"({d[0]}x{d[1]}x{d[2]}, 1/{m.sparse.voxels_per_index:g}): it has an emission or "
+                          f"colour grid, which only a dense grid carries."]
+        grid = prepare_sparse(m.sparse, m.clipping)
+        if not first:
+            reason = "only the frame's first density grid can be sparse"
+        elif not has_sparse_unit(self.gl):
+            reason = "this OpenGL has too few texture units for its brick index"
+        elif grid.atlas_bytes * 2 <= allowance:      # the budget counts float32 voxels
+            return grid, []
+        else:
+            reason = (f"its {len(grid.grid.bricks)} bricks need {grid.atlas_bytes * 2 // 2**20} MiB, more "
+                      f"than the {allowance // 2**20} MiB grid budget")
+        f = dense_factor(grid.grid, allowance, self.gl.max_3d_texture_size)
+        dense, to_fine = dense_means(grid.grid, f)
+        n = "x".join(str(k) for k in dense.shape)
+        prepared = prepare_grid(dense, grid.grid.index_to_medium @ to_fine, self.gl.max_3d_texture_size,
+                                allowance, m.clipping)
+        return prepared, [f"The sparse grid '{m.name}' is rendered dense at 1/{f} of its resolution "
+                          f"({n}, the means of {f}x{f}x{f} voxels): {reason}."] + grid.warnings
 
     def _fire(self, medium, seen, warnings: list[str]) -> FireGPU | None:
         """The light the first marched medium's emission casts on the solids the camera sees
@@ -629,6 +674,16 @@ class Renderer:
 
         return self._attributes.get(key, build)[0]
 
+    @staticmethod
+    def _unlit(light, frame: _Frame) -> tuple:
+        """What ``light`` does not light by its light linking: the seen solids' material table
+        entries (solids.unlit_entries) and the media slots (indices)."""
+        media = ()
+        if light.lit_media is not None and frame.medium_gpu.kind == MEDIUM_GRID:
+            media = tuple(i for i, slot in enumerate(frame.medium_gpu.slots)
+                          if slot.medium.name not in light.lit_media)
+        return unlit_entries(frame.seen.entries, light.name), media
+
     def _map_resolution(self, settings) -> int:
         """The side of the frame's shadow maps, which caps its TFMs': the settings' within the GL's
         limit."""
@@ -641,6 +696,8 @@ class Renderer:
         light, frame = face.light, face.frame
         res = self._map_resolution(settings)
         shadow = None
+        if light.shadow_solids is not None:     # shadow linking: the solids that shadow this light
+            casters = self._solid_set(tuple(m for m in scene.shadow_casters if m.name in light.shadow_solids))
         if face.shadow_map:
             shadow, built = self._shadows.get((light.key, frame.key, scene.solids_key, res),
                                               lambda: ShadowMap(gl, frame, casters, res))

@@ -146,6 +146,12 @@ class Light:
     map): ``radius_m`` a spot's or point light's radius, metres; ``angle_rad`` a sun's angular
     diameter; an area light's ``size_m``, an ellipse (Blender's Disk and Ellipse) where
     ``round_shape``, and its ``spread_rad`` (Blender's Spread: below pi, Cycles' soft-box grid).
+    Light linking that lights some media (solids) and not others: ``lit_media`` the names of the
+    media it lights (None: all), ``unlit_solids`` those of the solids it does not light.
+    Shadow linking (Blender's Object ▸ Shading ▸ Shadow Linking): ``shadow_solids`` the names of
+    the solids that shadow the light (None: all that cast shadows); ``media_shadow_surfaces``
+    False: the media cast no shadow from it on the surfaces, while each still shadows its own
+    samples (as Cycles renders a medium left out of the light's blockers).
     """
 
     matrix_world: np.ndarray
@@ -167,6 +173,10 @@ class Light:
     angle_rad: float = 0.0
     round_shape: bool = False
     spread_rad: float = float(np.pi)
+    media_shadow_surfaces: bool = True
+    shadow_solids: tuple[str, ...] | None = None
+    lit_media: tuple[str, ...] | None = None
+    unlit_solids: tuple[str, ...] = ()
 
     def __post_init__(self):
         if self.kind not in LIGHT_KINDS:
@@ -183,10 +193,11 @@ class Light:
     @cached_property
     def key(self) -> str:
         """Everything the light's shadow maps and TFMs depend on: its kind and geometry
-        (placement, cone). Colour, power, blend, gobo and use_tfm do not change what those maps
-        hold."""
+        (placement, cone) and the solids that shadow it. Colour, power, blend, gobo and use_tfm
+        do not change what those maps hold."""
         cone = (self.spot_size_rad, tuple(float(s) for s in self.cone_scale)) if self.kind == "SPOT" else None
-        return _digest(self.kind, self.matrix_world, cone)
+        blockers = () if self.shadow_solids is None else (self.shadow_solids,)
+        return _digest(self.kind, self.matrix_world, cone, *blockers)
 
     @cached_property
     def gobo_key(self) -> str | None:
@@ -318,6 +329,11 @@ class Medium:
 
     ``lights_surfaces``: the emission lights the solids too (Cycles does, even with no bounces,
     unless the object's Diffuse ray visibility is off), approximated by engine/fire_light.py.
+
+    ``sparse``: the density at full resolution as bricks (an ``engine.sparse_grid.SparseGrid``,
+    a big grid that is mostly empty), which the renderer uploads in place of ``density``; the
+    ``density`` is then a coarser copy (block means) that everything else reads (statistics,
+    bounds), and ``sparse.index_to_medium`` maps the bricks' index space into its own.
     """
 
     sigma_a: RGB = (0.1, 0.1, 0.1)
@@ -340,6 +356,7 @@ class Medium:
     emission_grid: str | None = None
     shader: object | None = None
     lights_surfaces: bool = False
+    sparse: object | None = None
 
     def __post_init__(self):
         if self.density is not None:
@@ -410,7 +427,13 @@ class Medium:
             return None
         if self.source_key is not None:
             return _digest("source", self.source_key, self.density.shape, float(self.clipping))
-        return _digest(self.density, float(self.clipping))
+        return _digest(self.density, float(self.clipping), *self._sparse_parts)
+
+    @property
+    def _sparse_parts(self) -> tuple:
+        """What the bricks add to a content key (nothing without them)."""
+        s = self.sparse
+        return () if s is None else ("sparse", s.shape, s.cells, s.bricks, s.index_to_medium)
 
     @cached_property
     def density_key(self) -> str:
@@ -420,7 +443,7 @@ class Medium:
         if self.source_key is not None:
             return _digest("source", self.source_key, self.index_to_world, self.density.shape,
                            float(self.clipping))
-        return _digest(self.density, self.index_to_world, float(self.clipping))
+        return _digest(self.density, self.index_to_world, float(self.clipping), *self._sparse_parts)
 
     @cached_property
     def key(self) -> str:

@@ -4,18 +4,20 @@ from __future__ import annotations
 
 import numpy as np
 
+from .. import sparse_grid
 from ..boxes import nonzero_bounds
 from ..gl_context import GLContext, mat4_bytes, set_matrix, set_uniforms
 from ..light import LightFrame
 from ..medium_grid import PreparedGrid
 from ..scene import Medium
+from ..sparse_grid import PreparedSparse
 
 # Texture units of the light, map and probe passes, one table so that no two textures share a
 # unit (the composite pass, a program that reads nothing else, takes its three inputs from 11-13).
 UNIT = {"u_gb0": 0, "u_gb1": 1, "u_density": 2, "u_shadow": 3, "u_gobo": 4, "u_krange": 5,
         "u_coef0": 6, "u_coef1": 7, "u_coef2": 8, "u_coef3": 9, "u_attrs": 10, "u_color_grid": 11,
         "u_density1": 12, "u_density2": 13, "u_shadow_depth": 14, "u_occupancy": 15, "u_density3": 16,
-        "u_glow": 17, "u_fire": 18,
+        "u_glow": 17, "u_fire": 18, "u_brick_index": 19,
         # the probe pass reads no G-buffer: its points take the G-buffer's unit
         "u_points": 0}
 # Uniform blocks: the solids' material table and the microfacet tables (shaders/surface.glsl).
@@ -46,6 +48,13 @@ def has_glow_unit(gl: GLContext) -> bool:
     """Whether this GL has the texture unit of the glow blocks (u_glow, above the 16 that GL 3.3
     guarantees: a constant emission then glows over the grid's box, said in the report)."""
     return UNIT["u_glow"] < int(gl.ctx.info.get("GL_MAX_TEXTURE_IMAGE_UNITS", 16))
+
+
+def has_sparse_unit(gl: GLContext) -> bool:
+    """Whether this GL has the texture unit of a sparse grid's brick index (u_brick_index, above
+    the 16 that GL 3.3 guarantees: without it a sparse grid is uploaded dense, at its coarse copy's
+    resolution, said in the report)."""
+    return UNIT["u_brick_index"] < int(gl.ctx.info.get("GL_MAX_TEXTURE_IMAGE_UNITS", 16))
 
 
 def max_grids(gl: GLContext) -> int:
@@ -85,14 +94,22 @@ class MediumGPU:
     the texture's index space to the medium's own (a downsampled grid), so instances of one
     grid share the texture, each with its own ``index_to_world``."""
 
-    def __init__(self, gl: GLContext, medium: Medium | None, grid: PreparedGrid | None,
+    sparse = False
+    brick_index = None
+
+    def __init__(self, gl: GLContext, medium: Medium | None, grid: PreparedGrid | PreparedSparse | None,
                  grid_format: str | None = None):
         grid_format = grid_format or GRID_FORMAT
         self.texture = None
         self.index_scale = np.eye(4)
         self.density_scale = 1.0
         self.occupancy = None
-        if medium is None or (grid is not None and grid.is_empty):
+        if isinstance(grid, PreparedSparse) and not grid.is_empty:
+            self.kind = MEDIUM_GRID
+            self._upload_sparse(gl, grid)
+            world_to_box = np.linalg.inv(np.asarray(medium.index_to_world) @ self.index_scale)
+            lo, hi = grid.bounds
+        elif medium is None or (grid is not None and grid.is_empty):
             self.kind = MEDIUM_NONE
             world_to_box, lo, hi = np.eye(4), (0, 0, 0), (0, 0, 0)
         elif grid is not None:
@@ -125,6 +142,40 @@ class MediumGPU:
         self.box_to_world = np.linalg.inv(world_to_box)
         self.lo, self.hi = tuple(float(x) for x in lo), tuple(float(x) for x in hi)
 
+    def _upload_sparse(self, gl: GLContext, grid: PreparedSparse) -> None:
+        """The atlas of the bricks (R16, density / its maximum, as a dense grid's texture), the
+        index of their slots per cell and the occupancy of those cells (sparse_grid.py)."""
+        g = grid.grid
+        self.sparse = True
+        self._gl = gl
+        self.grid_format = "R16"
+        self.index_scale = np.asarray(g.index_to_medium, np.float64)
+        self.grid_size = tuple(int(n) + 2 for n in g.shape)
+        self.density_scale = max(grid.max_value, 1e-30)
+        layout = sparse_grid.atlas_layout(len(g.bricks), gl.max_3d_texture_size)
+        atlas = sparse_grid.pack_atlas(g.bricks, layout,
+                                       lambda v: stored_values(v, np.uint16, self.density_scale))
+        self.atlas_size = atlas.shape[::-1]
+        self.texture = gl.texture3d_r16(atlas)         # the host's thread runs meanwhile
+        self.texture.repeat_x = self.texture.repeat_y = self.texture.repeat_z = False
+        self.texture.filter = (gl.ctx.LINEAR, gl.ctx.LINEAR)
+        del atlas
+        index = sparse_grid.index_cells(g.cells, g.shape, layout)
+        self.brick_index = gl.ctx.texture3d(index.shape[2::-1], 4, index, dtype="u1")
+        self.brick_index.filter = (gl.ctx.NEAREST, gl.ctx.NEAREST)
+        occ = self.occupancy_cells = np.ascontiguousarray(index[..., 3] * np.uint8(255))
+        self.occupancy_size = occ.shape[::-1]
+        self.occupancy = gl.ctx.texture3d(self.occupancy_size, 1, occ.tobytes(), dtype="f1")
+        self.occupancy.filter = (gl.ctx.NEAREST, gl.ctx.NEAREST)
+        self.occupancy.repeat_x = self.occupancy.repeat_y = self.occupancy.repeat_z = False
+
+    def bind_sparse(self, prog) -> None:
+        """A sparse grid's index and sizes (it reads as grid slot 0)."""
+        if self.sparse:
+            set_uniforms(prog, u_sparse_size=tuple(float(x) for x in self.grid_size),
+                         u_atlas_size=tuple(float(x) for x in self.atlas_size))
+            self.brick_index.use(UNIT["u_brick_index"])
+
     has_level1 = False
 
     def ensure_level1(self) -> bool:
@@ -135,7 +186,8 @@ class MediumGPU:
         with an odd side gets no level: the GL resamples an odd axis linearly rather than
         averaging pairs of voxels (Mesa: [1, 4, 9, 16, 25] -> [3.25, 18.25]), which brightened a
         voxel-scale pattern on a 63^3 grid by 5 %; its light marches read level 0."""
-        if self.texture is None or self.has_level1 or any(int(s) % 2 for s in self.grid_size):
+        if (self.texture is None or self.sparse or self.has_level1
+                or any(int(s) % 2 for s in self.grid_size)):
             return False
         self._gl.build_level1(self.texture)       # the GIL released meanwhile
         self.texture.filter = (self._gl.ctx.LINEAR_MIPMAP_NEAREST, self._gl.ctx.LINEAR)
@@ -165,9 +217,10 @@ class MediumGPU:
                          u_occupancy_block=float(OCCUPANCY_BLOCK), u_density_scale=self.density_scale)
             self.texture.use(UNIT["u_density"])
             self.occupancy.use(UNIT["u_occupancy"])
+            self.bind_sparse(prog)
 
     def release(self) -> None:
-        for t in (self.texture, self.occupancy, self.occupancy1):
+        for t in (self.texture, self.occupancy, self.occupancy1, self.brick_index):
             if t is not None:
                 t.release()
 
@@ -177,14 +230,19 @@ def stored_grid(density: np.ndarray, numpy_type, scale: float) -> np.ndarray:
     fastest, divided by ``scale`` (a normalised integer type: rounded to the nearest step): scaled
     and converted in the grid's own order, then transposed in the stored type."""
     nx, ny, nz = density.shape
+    out = np.zeros((nx + 2, ny + 2, nz + 2), numpy_type)
+    out[1:-1, 1:-1, 1:-1] = stored_values(density, numpy_type, scale)
+    return np.ascontiguousarray(out.transpose(2, 1, 0))
+
+
+def stored_values(density: np.ndarray, numpy_type, scale: float) -> np.ndarray:
+    """Densities as a grid texture stores them: divided by ``scale``, a normalised integer type
+    rounded to the nearest step (the float values; the caller's array converts them)."""
     if np.issubdtype(numpy_type, np.integer):
         values = density * np.float32(np.iinfo(numpy_type).max / scale)
         values += np.float32(0.5)
-    else:
-        values = density * np.float32(1.0 / scale)
-    out = np.zeros((nx + 2, ny + 2, nz + 2), numpy_type)
-    out[1:-1, 1:-1, 1:-1] = values
-    return np.ascontiguousarray(out.transpose(2, 1, 0))
+        return values.astype(numpy_type)
+    return (density * np.float32(1.0 / scale)).astype(numpy_type)
 
 
 def occupancy(padded_zyx: np.ndarray, block: int = OCCUPANCY_BLOCK, below: int = 0,
@@ -342,6 +400,8 @@ class MediaGPU:
         if self.kind != MEDIUM_GRID:
             return {}
         fog = {"WORLD_FOG": 1} if self.fog is not None else {}
+        if self.grids and self.grids[0].sparse:
+            fog["SPARSE_GRID"] = 1
         index = {id(g): i for i, g in enumerate(self.grids)}
         slots = [index[id(s.grid)] if s.grid is not None else -1 for s in self.slots]
         slots += [-1] * (MAX_MEDIA - len(slots))
@@ -391,6 +451,8 @@ class MediaGPU:
         _set_arrays(prog, u_grid_sizes=sizes, u_grid_scales=scales)
         for g, unit in zip(self.grids, GRID_UNITS, strict=False):
             g.texture.use(unit)
+        if self.grids:
+            self.grids[0].bind_sparse(prog)
 
     def release(self) -> None:
         pass

@@ -129,7 +129,8 @@ def run_light_pass(gl: GLContext, *, camera: Camera, plane: ViewPlane, medium: M
                    medium_gpu: MediaGPU, settings: RenderSettings, ambient, first: bool,
                    light=None, light_t: int = LIGHT_T_NONE, tfm=None, tfm_sigma_t=None,
                    attributes=None, active=None, compose=None, sums=None,
-                   medium_shadow: bool = True, ambient_surface=None, soft=None, fire=None) -> None:
+                   medium_shadow: bool = True, ambient_surface=None, soft=None, fire=None,
+                   unlit=((0, 0, 0, 0), ())) -> None:
     """Add one pass into the bound ScatteringTargets. ``light`` is (face, intensity, ShadowMap
     or None, gobo texture or None[, (weight on the media, weight on the surfaces)]) or None for the
     ambient-only first pass (``ambient``: the world radiance the media scatter on the first pass,
@@ -144,7 +145,9 @@ def run_light_pass(gl: GLContext, *, camera: Camera, plane: ViewPlane, medium: M
     ``medium_shadow`` False: no solid shadows a point of the media from this face
     (light.solids_may_shadow), their samples skip the shadow map. ``soft``: the light's size
     across the face (light.soft_extent) or None: soft shadows from its shadow map and TFM. ``fire``
-    (passes/fire.FireGPU or None): the emitting medium's light on the solids, added by the first pass."""
+    (passes/fire.FireGPU or None): the emitting medium's light on the solids, added by the first pass.
+    ``unlit`` (light linking): the material table entries the light does not light (solids.
+    unlit_entries' bits) and the media slots it does not light (their indices)."""
     medium_kind = medium_gpu.kind
     if light is not None and light_t == LIGHT_T_NONE and not first:
         medium_kind = MEDIUM_NONE          # this light never reaches the medium
@@ -204,7 +207,12 @@ def run_light_pass(gl: GLContext, *, camera: Camera, plane: ViewPlane, medium: M
     if light is not None:
         frame, intensity, shadow, gobo = light[:4]
         bind_light(prog, frame, intensity, settings.map_resolution, shadow, gobo)
-        set_uniforms(prog, u_light_targets=tuple(light[4]) if len(light) > 4 else (1.0, 1.0))
+        set_uniforms(prog, u_light_targets=tuple(light[4]) if len(light) > 4 else (1.0, 1.0, 1.0),
+                     u_unlit_entries=tuple(unlit[0]))
+        slots = prog.get("u_med_unlit", None)
+        if slots is not None:
+            values = [float(i in unlit[1]) for i in range(slots.array_length)]
+            slots.value = values if len(values) > 1 else values[0]
         if defines.get("SOFT_SHADOW"):
             set_uniforms(prog, u_soft_extent=soft.extent,
                          u_area_u=soft.area_u, u_area_v=soft.area_v, u_area_spread=soft.area_spread,

@@ -21,20 +21,31 @@ def solids_vertices(meshes: tuple[Mesh, ...]) -> np.ndarray:
     return np.concatenate(rows) if rows else np.zeros((0, WIDTH), np.float32)
 
 
-def hit_flags(meshes: tuple[Mesh, ...]) -> tuple[list[float], list]:
+def hit_flags(meshes: tuple[Mesh, ...], unlit_by: dict | None = None) -> tuple[list[float], list]:
     """Per mesh, the G-buffer's hit flag: 2 for a holdout, 1 + 2 k for a surface that is entry k
-    of the material table; and the table (the distinct surfaces, at most MAX_MATERIALS: the rest
+    of the material table; and the table's entries, (surface, the lights that do not light it:
+    ``unlit_by`` by mesh name, light linking): the distinct ones, at most MAX_MATERIALS (the rest
     share the last entry)."""
+    unlit_by = unlit_by or {}
     table: dict = {}
     flags = []
     for mesh in meshes:
         if mesh.holdout:
             flags.append(2.0)
             continue
-        surface = mesh.shading
-        k = table.setdefault(surface, min(len(table), MAX_MATERIALS - 1))
+        k = table.setdefault((mesh.shading, unlit_by.get(mesh.name, ())), min(len(table), MAX_MATERIALS - 1))
         flags.append(1.0 + 2.0 * k)
     return flags, list(table)
+
+
+def unlit_entries(entries: list, light_name: str) -> tuple[int, int, int, int]:
+    """The material table's entries a light does not light (light linking), as 128 bits: bit k
+    of word k // 32 for entry k."""
+    words = [0, 0, 0, 0]
+    for k, (_, unlit_by) in enumerate(entries[:MAX_MATERIALS]):
+        if light_name in unlit_by:
+            words[k // 32] |= 1 << (k % 32)
+    return tuple(words)
 
 
 def _world_normals(mesh: Mesh, keep: np.ndarray) -> np.ndarray:
@@ -92,10 +103,12 @@ class SolidsBuffer:
     """The solids' vertices on the GPU, shared by the shadow-map and G-buffer passes, and their
     material table (``materials``, the light passes' uniform block); ``parts``:
     per mesh, its world bounds and (k, 3, 3) float32 world triangles (None beyond
-    KEEP_TRIANGLES), for light.solids_may_shadow."""
+    KEEP_TRIANGLES), for light.solids_may_shadow; ``entries``: the table's (surface, lights
+    that do not light it) (``hit_flags``)."""
 
-    def __init__(self, ctx, meshes: tuple[Mesh, ...]):
-        flags, surfaces = hit_flags(meshes)
+    def __init__(self, ctx, meshes: tuple[Mesh, ...], unlit_by: dict | None = None):
+        flags, self.entries = hit_flags(meshes, unlit_by)
+        surfaces = [surface for surface, _ in self.entries]
         self.materials = ctx.buffer(material_table(surfaces))
         blocks = [b for b in _mesh_blocks(meshes, flags) if len(b)]
         self.parts = []

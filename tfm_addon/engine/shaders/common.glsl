@@ -36,9 +36,39 @@ vec2 box_interval(vec3 o, vec3 d) {
     return vec2(max(max(tmin.x, tmin.y), tmin.z), min(min(tmax.x, tmax.y), tmax.z));
 }
 
+// The stored density of grid slot 0 (u_density) at texture coordinates ``tc`` of its padded
+// lattice, level ``lod``. SPARSE_GRID 1 (engine/sparse_grid.py): u_density is an atlas of 9^3
+// bricks, one per non-empty 8^3 cell of the lattice, found through u_brick_index; a brick holds
+// every voxel trilinear reads inside its cell, so the hardware filters within it; a cell without
+// one is 0. It has no level 1: every level reads level 0.
+#ifndef SPARSE_GRID
+#define SPARSE_GRID 0
+#endif
+#if SPARSE_GRID
+uniform usampler3D u_brick_index;  // per cell: its brick's slot (xyz) and 1 in a, or 0
+uniform vec3 u_sparse_size;        // the padded lattice's size, voxels
+uniform vec3 u_atlas_size;         // the atlas's size, voxels
+float sparse_density(vec3 tc) {
+    vec3 p = tc * u_sparse_size - 0.5;       // padded voxel position (centres at integers)
+    ivec3 cell = ivec3(floor(p / 8.0));
+    if (any(lessThan(cell, ivec3(0))) || any(greaterThanEqual(cell, textureSize(u_brick_index, 0))))
+        return 0.0;
+    uvec4 slot = texelFetch(u_brick_index, cell, 0);
+    if (slot.a == 0u) return 0.0;
+    return textureLod(u_density, (vec3(slot.xyz) * 9.0 + (p - vec3(cell) * 8.0) + 0.5) / u_atlas_size, 0.0).r;
+}
+#endif
+float grid0(vec3 tc, float lod) {
+#if SPARSE_GRID
+    return sparse_density(tc);
+#else
+    return textureLod(u_density, tc, lod).r;
+#endif
+}
+
 // Density at a point given in box (grid index) space: trilinear between voxel centres.
 float density_at_index(vec3 idx) {
-    return textureLod(u_density, (idx + 1.5) / u_grid_size, 0.0).r * u_density_scale;
+    return grid0((idx + 1.5) / u_grid_size, 0.0) * u_density_scale;
 }
 
 // Empty-space skipping: u_occupancy's R is 1 where a cell of u_occupancy_block^3 padded voxels may
@@ -93,7 +123,7 @@ float grid_fetch(int slot, vec3 idx) {
 #if N_GRIDS > 3
     if (slot == 3) return textureLod(u_density3, (idx + 1.5) / u_grid_sizes[3], 0.0).r * u_grid_scales[3];
 #endif
-    return textureLod(u_density, (idx + 1.5) / u_grid_sizes[0], 0.0).r * u_grid_scales[0];
+    return grid0((idx + 1.5) / u_grid_sizes[0], 0.0) * u_grid_scales[0];
 }
 
 // Each medium's grid slot (-1: a box of density 1), fixed when the program is compiled, so that
@@ -148,7 +178,7 @@ float grid_ray_lod(GridRay g, float spacing, float width) {
 // box) the media's weighted density there.
 float ray_density(GridRay g, float t) {
 #if N_MEDIA == 1
-    if (MEDIA_SLOT[0] >= 0) return textureLod(u_density, g.tc0 + g.tcd * t, g.lod).r * g.scale;
+    if (MEDIA_SLOT[0] >= 0) return grid0(g.tc0 + g.tcd * t, g.lod) * g.scale;
 #endif
     return weighted_density(g.o + g.d * t);
 }

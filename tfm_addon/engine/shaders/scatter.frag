@@ -45,7 +45,18 @@ layout(location = 3) out vec4 o_combined;
 #endif
 
 #if HAS_LIGHT
-uniform vec2 u_light_targets;    // what the light lights: the media (x) and the surfaces (y), 0 or 1
+uniform vec3 u_light_targets;    // what the light lights: the media (x) and the surfaces (y), 0 or 1;
+                                 // z 0: the media cast no shadow from it on the surfaces (shadow linking)
+uniform uvec4 u_unlit_entries;   // bit k: the light does not light material table entry k (light linking)
+#ifdef N_MEDIA
+uniform float u_med_unlit[MAX_MEDIA];   // 1: the light does not light that medium (light linking)
+#endif
+
+// 1 where the light lights the surface of G-buffer hit flag ``flag`` (1 + 2 k), else 0.
+float lights_entry(float flag) {
+    int k = int(floor((flag - 1.0) * 0.5 + 0.5));
+    return float(((u_unlit_entries[k >> 5] >> uint(k & 31)) & 1u) == 0u);
+}
 
 // Radiance arriving at p (q in light space) from the light face past the solids, before the
 // media; t_light is set to the media's transmittance from the light and r to the light distance
@@ -171,7 +182,10 @@ void main() {
             g_soft_normal = mat3(u_world_to_light) * n;     // its plane, for the soft shadow's samples
             soft_surface(qP, light_distance(qP));           // its light samples (transmittance.glsl)
 #endif
-            surface += f * light_arriving(P, qP, r) * u_light_targets.y;
+            vec3 t_light;
+            vec3 li = light_reaching(P, qP, r, t_light);
+            surface += f * li * mix(vec3(1.0), t_light, u_light_targets.z) * u_light_targets.y
+                       * lights_entry(g1.w);
             g_bias_texels = 0.0;
 #if SOFT_SHADOW
             soft_surface_end();
@@ -250,7 +264,7 @@ void main() {
 #if PACKED_DENSITY
                 D[m] = m == 0 ? packed_density(pk) : medium_density(m, p);
 #elif N_MEDIA == 1
-                D[m] = MEDIA_SLOT[0] >= 0 ? textureLod(u_density, vray.tc0 + vray.tcd * t, 0.0).r * vray.scale
+                D[m] = MEDIA_SLOT[0] >= 0 ? grid0(vray.tc0 + vray.tcd * t, 0.0) * vray.scale
                                           : medium_density(m, p);
 #else
                 D[m] = medium_density(m, p);
@@ -327,15 +341,17 @@ void main() {
                 vec3 li = light_reaching(p, q, r, t_light);
                 if (any(greaterThan(li, vec3(0.0)))) {
                     float c = -dot(light_travel(q, r), dq);
-                    vec3 t_through = light_through(p, q, r);
+                    vec3 tau_through = light_through(p, q, r);
+                    vec3 tau_v = tau + 0.5 * st * dt;
                     vec3 ssp = vec3(0.0);
                     for (int m = 0; m < N_MEDIA; ++m) {
                         vec3 sigma_s = u_med_sigma_s[m] * (m == 0 ? tint0 : vec3(1.0));
-                        ssp += sigma_s * D[m] * octave_phase(t_light, t_through, c, u_med_g[m],
-                                                             sigma_s / max(u_med_sigma_t[m], vec3(1e-12)));
+                        ssp += sigma_s * (D[m] * (1.0 - u_med_unlit[m]))
+                               * octave_phase(t_light, tau_through, tau_v, c, u_med_g[m],
+                                              sigma_s / max(u_med_sigma_t[m], vec3(1e-12)));
                     }
 #if WORLD_FOG
-                    ssp += u_fog_sigma_s * octave_phase(t_light, t_through, c, u_fog_g,
+                    ssp += u_fog_sigma_s * octave_phase(t_light, tau_through, tau_v, c, u_fog_g,
                                                         u_fog_sigma_s / max(u_fog_sigma_t, vec3(1e-12)));
 #endif
                     src += li * ssp * u_light_targets.x;
