@@ -153,6 +153,16 @@ float surface_visibility(vec3 q, float r) {
     return soft_shadowed(at, receiver_depth(q, r, at) - shadow_bias(r)) ? 0.0 : 1.0;
 }
 
+// Whether a point of the light's shape may light q through a spot's cone: q within the cone
+// widened by the angle the shape's extent subtends from it (in the cone's scaled space).
+bool spot_reaches(vec3 q) {
+    vec3 s = vec3(q.xy / u_cone_scale, q.z);
+    float d = length(s);
+    float sin_w = min(max(u_soft_extent.x, u_soft_extent.y) / (min(u_cone_scale.x, u_cone_scale.y) * d), 1.0);
+    float sin_h = sqrt(max(1.0 - u_cos_half * u_cos_half, 0.0));
+    return -s.z > d * (u_cos_half * sqrt(1.0 - sin_w * sin_w) - sin_h * sin_w);
+}
+
 // The spot cone's falloff at q seen from the light sample's point.
 float soft_spot_falloff(vec3 q) {
     return g_surface_shape >= 0.0 ? g_surface_shape : spot_falloff(q - vec3(g_soft_e * u_soft_extent, 0.0));

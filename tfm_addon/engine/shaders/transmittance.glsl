@@ -246,9 +246,13 @@ vec3 light_transmittance(vec3 p, vec3 q, float r) {
 // which then reads their means; soft_shadow.glsl): the solids' visibility and the spot cone or a
 // spread area light's emission over SOFT_SURFACE_SAMPLES of them, the map's F over a
 // SOFT_SURFACE_MAP_SHARE of as many, weighted by what a spread area light sends from each. Only
-// the face that lights q takes them.
+// the face that lights q takes them (a spot's: only within reach of its cone).
 void soft_surface(vec3 q, float r) {
+#if FACE_PROFILE == 0
+    int n = spot_reaches(q) ? SOFT_SURFACE_SAMPLES : 0;     // a spot's one face: its cone
+#else
     int n = in_face(q) ? SOFT_SURFACE_SAMPLES : 0;
+#endif
     float vis = 0.0;
     float shape = 0.0;
     for (int k = 0; k < n; ++k) {
