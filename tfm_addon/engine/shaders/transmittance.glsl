@@ -270,7 +270,9 @@ void soft_surface(vec3 q, float r) {
     g_tfm_domain = texelFetch(u_krange, ivec2(uv * vec2(textureSize(u_krange, 0))), 0).xy;
     float f = 0.0;
     float weights = 0.0;
-    for (int k = 0; k < n / SOFT_SURFACE_MAP_SHARE; ++k) {
+    // No medium along the centre's ray: the map's reads are skipped (F 1, as at the centre).
+    int m = g_tfm_domain.y > g_tfm_domain.x ? n / SOFT_SURFACE_MAP_SHARE : 0;
+    for (int k = 0; k < m; ++k) {
         soft_next();
 #if AREA_SPREAD
         float w = area_emission(q, r);
