@@ -101,12 +101,12 @@ def test_size_edit_rebuilds_no_map(renderer):
         assert np.abs(second - first).max() > 0.01 * first.max(), kind
 
 
-@pytest.mark.parametrize("height, tolerance", [(3.0, 0.007), (5.0, 0.004)])
+@pytest.mark.parametrize("height, tolerance", [(2.0, 0.02), (4.0, 0.005)])
 def test_area_light_irradiance_follows_its_rectangle(renderer, height, tolerance):
-    """A 1 x 1 m area light 3 m above a white ground (its solid angle: the ground within 6 half
-    diagonals) or 5 m (beyond them: the expansion of its emission): the ground's brightness across
+    """A 1 x 1 m area light 2 m above a white ground (its solid angle: the ground within 3.5 half
+    diagonals) or 4 m (beyond them: the expansion of its emission): the ground's brightness across
     16 m against the integral of cos cos / d^2 over the rectangle (independent numerics), both
-    normalised by their mean: within 0.7 % and 0.4 % everywhere (the ground's cosine is read at the
+    normalised by their mean: within 2 % and 0.5 % everywhere (the ground's cosine is read at the
     light's centre), where the point's cos / r^2 law is off by more than twice that."""
     width = 16.0
     camera = Camera(matrix_world=look_at((0.0, 0.0, 5.0), (0.0, 0.0, 0.0), up=(0.0, 1.0, 0.0)),

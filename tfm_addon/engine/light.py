@@ -410,9 +410,9 @@ class Softness(NamedTuple):
     area_spread: tuple[float, float] = (0.0, 0.0)
 
 
-# Beyond this many half diagonals of an area light, the second-order expansion of its emission is
-# within 0.1 % of the solid angle (shaders/soft_shadow.glsl area_emission).
-AREA_EXPANSION_REACH = 6.0
+# Beyond this many half diagonals of an area light, the fourth-order expansion of its emission is
+# within 0.2 % of the solid angle (shaders/soft_shadow.glsl area_emission).
+AREA_EXPANSION_REACH = 3.5
 
 
 def area_emission_far(soft: Softness, position, boxes, solids_near: float | None, fog: bool) -> bool:

@@ -205,12 +205,18 @@ float area_emission(vec3 q, float r) {
     return area_spread_emission(q);
 #else
 #if AREA_FAR
-    // Everything the face lights beyond 6 half diagonals h of the light (light.area_emission_far):
-    // the point's cos / r^2 with its second-order term over the rectangle, within 0.1 %.
-    vec2 s = vec2(dot(q, u_area_u), dot(q, u_area_v));
-    float h2 = dot(u_area_u, u_area_u) + dot(u_area_v, u_area_v);
-    float inv2 = 1.0 / (r * r);
-    return dot(q, u_emit_axis) * inv2 / r * (1.0 + (2.5 * dot(s, s) * inv2 - 0.5 * h2) * inv2);
+    // Everything the face lights beyond 3.5 half diagonals of the light (light.area_emission_far):
+    // the point's cos / r^2 with the second- and fourth-order terms of its mean over the rectangle
+    // (the Gegenbauer series of 1 / |q - x|^3, averaged over x), within 0.2 %.
+    float a2 = dot(u_area_u, u_area_u), b2 = dot(u_area_v, u_area_v);
+    float ua = dot(q, u_area_u), vb = dot(q, u_area_v);
+    float A = ua * ua, B = vb * vb;
+    float i2 = 1.0 / (r * r);
+    float t2 = (2.5 * (A + B) * i2 - 0.5 * (a2 + b2)) * i2;
+    float t4 = 1.875 * i2 * i2 * ((4.2 * (A * A + B * B) + 14.0 * A * B) * i2 * i2
+                                  - (A * (2.8 * a2 + 14.0 / 9.0 * b2) + B * (14.0 / 9.0 * a2 + 2.8 * b2)) * i2
+                                  + 0.2 * (a2 * a2 + b2 * b2) + 2.0 / 9.0 * a2 * b2);
+    return dot(q, u_emit_axis) * i2 / r * (1.0 + t2 + t4);
 #else
     vec3 c0 = -q - u_area_u - u_area_v, c1 = -q + u_area_u - u_area_v;
     vec3 c2 = -q + u_area_u + u_area_v, c3 = -q - u_area_u + u_area_v;
