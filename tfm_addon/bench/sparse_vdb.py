@@ -89,8 +89,15 @@ events["first update (s)"] = session.update_s
 camera = view_camera(dg, 640, 360)
 session.request(camera, samples)
 first, told, waiting, before = None, set(), None, None
+stacks = os.environ.get("TFM_STALL_STACKS")
+if stacks:
+    import faulthandler
+    stacks = open(stacks, "w")
 while time.perf_counter() - start < 300:
     now = time.perf_counter()
+    if stacks:
+        stacks.write(f"--- {now - start:.3f}\n"); stacks.flush()
+        faulthandler.dump_traceback_later(0.035, file=stacks)
     holds.append((now - last, last - start))
     frame = session.frame()
     if frame is not None and first is None:

@@ -65,7 +65,8 @@ def foreign_wheels(paths: list[str] | None = None) -> list[str]:
 
 
 def create_context():
-    """A standalone OpenGL >= 3.3 context, current on the calling thread. On Linux the EGL device
+    """A standalone OpenGL >= 3.3 context, current on the calling thread, whose slow GL calls
+    release Python's GIL (``ReleasingLoader``, its ``extra``). On Linux the EGL device
     is TFM_EGL_DEVICE's index when set (glcontext's ``device_index``: the order of
     eglQueryDevicesEXT); a device that cannot be used falls back to the default one and
     ``device_note`` says so."""
@@ -92,19 +93,117 @@ def create_context():
         attempts.append((backend, {"backend": backend} if backend else {}))
     for backend, kwargs in attempts:
         try:
-            ctx = moderngl.create_standalone_context(require=330, **kwargs)
-        except Exception as exc:  # moderngl raises plain Exceptions
+            loader = _standalone(**kwargs)
+            ctx = moderngl.create_standalone_context(require=330, context=loader)
+        except Exception as exc:  # moderngl raises plain Exceptions (glcontext too)
             errors.append(f"{backend or 'default'}: {exc}")
             if "device_index" in kwargs:
                 device_note = (f"{EGL_DEVICE_ENV}={index} cannot be used ({exc}); "
                                "the default device renders")
             continue
+        ctx.extra = loader          # the ReleasingLoader moderngl calls the GL through
         return ctx
     hint = ("install an OpenGL driver with EGL (on Debian/Ubuntu: apt install libegl1 libgl1-mesa-dri)"
             if sys.platform.startswith("linux") else "update the graphics driver")
     raise GLUnavailableError(
         "The TFM renderer needs OpenGL 3.3, but no OpenGL context could be created ("
         + "; ".join(errors) + f"). To fix: {hint}.")
+
+
+_c = ctypes
+_ENUM, _INT, _PTR, _SIZE = _c.c_uint, _c.c_int, _c.c_void_p, _c.c_ssize_t
+# The GL calls that can take long on a software GL, with their arguments: llvmpipe compiles a
+# program's GLSL at glLinkProgram (30-170 ms for the light pass) and its machine code at the first
+# draw of each variant, rasterises until a read or glFinish, allocates and copies in the texture and
+# buffer calls. moderngl calls them holding Python's GIL; GLContext's moderngl context calls them
+# through ctypes, which releases it (``ReleasingLoader``).
+RELEASED_CALLS = {
+    "glCompileShader": (_ENUM,), "glLinkProgram": (_ENUM,), "glFinish": (), "glClear": (_ENUM,),
+    "glDrawArrays": (_ENUM, _INT, _INT), "glDrawArraysInstanced": (_ENUM, _INT, _INT, _INT),
+    "glDrawElements": (_ENUM, _INT, _ENUM, _PTR),
+    "glDrawElementsInstanced": (_ENUM, _INT, _ENUM, _PTR, _INT),
+    "glReadPixels": (_INT, _INT, _INT, _INT, _ENUM, _ENUM, _PTR),
+    "glGetTexImage": (_ENUM, _INT, _ENUM, _ENUM, _PTR),
+    "glTexImage2D": (_ENUM, _INT, _INT, _INT, _INT, _INT, _ENUM, _ENUM, _PTR),
+    "glTexImage3D": (_ENUM, _INT, _INT, _INT, _INT, _INT, _INT, _ENUM, _ENUM, _PTR),
+    "glTexSubImage2D": (_ENUM, _INT, _INT, _INT, _INT, _INT, _ENUM, _ENUM, _PTR),
+    "glTexSubImage3D": (_ENUM,) + (_INT,) * 7 + (_ENUM, _ENUM, _PTR),
+    "glGenerateMipmap": (_ENUM,),
+    "glBufferData": (_ENUM, _SIZE, _PTR, _ENUM), "glBufferSubData": (_ENUM, _SIZE, _SIZE, _PTR),
+    "glGetBufferSubData": (_ENUM, _SIZE, _SIZE, _PTR),
+}
+_FUNCTION_TYPE = _c.WINFUNCTYPE if sys.platform == "win32" else _c.CFUNCTYPE
+
+
+class ReleasingLoader:
+    """A glcontext context for moderngl (``create_context(context=...)``) whose GL entry points
+    named in ``RELEASED_CALLS`` are ctypes callbacks calling the GL through ctypes: moderngl's C
+    code calls them with the GIL held, the callback's ctypes call releases it while the GL works
+    (so a compile, a first draw or a read-back on the GL thread stops no other Python thread).
+    Everything else is the wrapped context's. ``released`` counts the calls made so, by name."""
+
+    def __init__(self, inner):
+        self.inner = inner
+        self.released = dict.fromkeys(RELEASED_CALLS, 0)
+        self._callbacks = []            # kept alive as long as moderngl may call them
+
+    def __getattr__(self, name):        # release, __enter__, __exit__, load ...
+        return getattr(self.inner, name)
+
+    def load_opengl_function(self, name: str) -> int:
+        address = self.inner.load_opengl_function(name)
+        args = RELEASED_CALLS.get(name)
+        if not address or args is None:
+            return address
+        kind = _FUNCTION_TYPE(None, *args)
+        gl = kind(address)
+
+        def call(*values):
+            self.released[name] += 1
+            gl(*values)                 # a ctypes call: the GIL is released while the GL works
+        callback = kind(call)
+        self._callbacks.append(callback)
+        return _c.cast(callback, _c.c_void_p).value
+
+
+def _standalone(backend: str | None = None, **kwargs) -> ReleasingLoader:
+    """A standalone glcontext context (what moderngl makes for ``backend``, ``kwargs``) for
+    moderngl through ``ReleasingLoader``."""
+    import glcontext
+
+    if backend == "egl":
+        _initialise_egl(kwargs.get("device_index", 0))
+    make = glcontext.get_backend_by_name(backend) if backend else glcontext.default_backend()
+    return ReleasingLoader(make(mode="standalone", glversion=330, **kwargs))
+
+
+EGL_PLATFORM_DEVICE_EXT = 0x313F
+
+
+def _initialise_egl(index: int) -> bool:
+    """Initialise the EGL display of device ``index`` (the one glcontext's EGL backend opens)
+    through ctypes, with the GIL released: there the driver is loaded (for llvmpipe, LLVM: 20-60
+    ms), which inside glcontext's create would stop every other Python thread; glcontext's own
+    eglInitialize of that display then finds it initialised. False where it could not (glcontext
+    then does it all)."""
+    import ctypes.util
+
+    try:
+        egl = ctypes.CDLL(ctypes.util.find_library("EGL") or "libEGL.so.1")
+        address = egl.eglGetProcAddress
+        address.restype, address.argtypes = ctypes.c_void_p, [ctypes.c_char_p]
+        query = ctypes.CFUNCTYPE(ctypes.c_uint, ctypes.c_int, ctypes.c_void_p, ctypes.POINTER(ctypes.c_int))(
+            address(b"eglQueryDevicesEXT"))
+        display = ctypes.CFUNCTYPE(ctypes.c_void_p, ctypes.c_uint, ctypes.c_void_p, ctypes.c_void_p)(
+            address(b"eglGetPlatformDisplayEXT"))
+        initialise = egl.eglInitialize
+        initialise.restype, initialise.argtypes = ctypes.c_uint, [ctypes.c_void_p] * 3
+        devices, count = (ctypes.c_void_p * 32)(), ctypes.c_int(0)
+        if not query(32, devices, ctypes.byref(count)) or not 0 <= index < count.value:
+            return False
+        return bool(initialise(display(EGL_PLATFORM_DEVICE_EXT, devices[index], None), None, None))
+    except (OSError, AttributeError, TypeError, ValueError):   # no libEGL, no device extension
+        return False
 
 
 _GL_FUNCTIONS: dict = {}
@@ -164,6 +263,7 @@ class GLContext:
 
     def __init__(self):
         self.ctx = create_context()
+        self.loader = self.ctx.extra        # ReleasingLoader: counts the calls made GIL-free
         self.device_note = device_note
         GLContext.live += 1
         self.thread_id = threading.get_ident()
