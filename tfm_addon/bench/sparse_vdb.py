@@ -219,7 +219,8 @@ def main(argv=None) -> None:
                         help="viewport: 'released' (slow GL calls release the GIL), 'moderngl', or both "
                              "(comma-separated, taking turns)")
     parser.add_argument("--stacks", default="", help="viewport: write the stacks of the loop's waits "
-                                                     "over 35 ms to FILE.CALLS.REPEAT")
+                        "over 35 ms to FILE.CALLS.REPEAT (faulthandler, which reads running threads' "
+                        "stacks without Python's lock: a diagnosis that can crash the child)")
     args = parser.parse_args(argv)
     root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
     if not os.path.exists(args.vdb):
