@@ -113,7 +113,7 @@ def create_context():
 
 _ENUM, _INT, _PTR, _SIZE = ctypes.c_uint, ctypes.c_int, ctypes.c_void_p, ctypes.c_ssize_t
 # The GL calls that can take long on a software GL, with their arguments: llvmpipe compiles a
-# program's GLSL at glLinkProgram (30-170 ms for the light pass) and its machine code at the first
+# program's GLSL at glLinkProgram (20-80 ms for the light pass) and its machine code at the first
 # draw of each variant, rasterises until a read or glFinish, allocates and copies in the texture and
 # buffer calls. moderngl calls them holding Python's GIL; GLContext's moderngl context calls them
 # through ctypes, which releases it (``ReleasingLoader``).
