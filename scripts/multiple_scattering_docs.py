@@ -38,7 +38,7 @@ def table(tmp: str) -> list[str]:
     from tfm_addon.engine import metrics
 
     lines = ["| medium | fitted on | bounces | single scattering: SSIM | brightness | "
-             "octaves: SSIM | brightness |", "|---|---|---|---|---|---|---|"]
+             "multiple scattering: SSIM | brightness |", "|---|---|---|---|---|---|---|"]
     for medium in (*bn.FIT, *bn.HELD_OUT):
         single = bn.render_tfm(medium, 0, os.path.join(tmp, medium)).image[..., :3]
         for n in bn.BOUNCES:
@@ -92,7 +92,7 @@ def picture(tmp: str, samples: int, out: Path) -> list[str]:
 
     white = white_of(cycles)
     panels = [(images[0], f"TFM single scattering, {min(warm[0]):.2f} s"),
-              (images[PICTURE_BOUNCES], f"TFM, {PICTURE_BOUNCES} bounces (octaves), "
+              (images[PICTURE_BOUNCES], f"TFM, {PICTURE_BOUNCES} bounces (octaves, diffusion), "
                                         f"{min(warm[PICTURE_BOUNCES]):.2f} s"),
               (cycles, f"Cycles, {PICTURE_BOUNCES} volume bounces, {samples} spp, {cycles_s:.0f} s")]
     tiles = []
@@ -110,7 +110,7 @@ def picture(tmp: str, samples: int, out: Path) -> list[str]:
     lines = [
         f"- {PICTURE_MEDIUM} at {SIZE[0]}x{SIZE[1]} against Cycles at {PICTURE_BOUNCES} volume bounces "
         f"({samples} spp, {cycles_s:.1f} s): single scattering SSIM {ss[0]:.4f}, brightness {ss[1]:.3f}; "
-        f"octaves SSIM {ms[0]:.4f}, brightness {ms[1]:.3f}.",
+        f"multiple scattering SSIM {ms[0]:.4f}, brightness {ms[1]:.3f}.",
         f"- TFM frame (Auto quality, 16 samples), fastest of {REPEATS} after the first: single scattering "
         f"{min(warm[0]):.3f} s, {PICTURE_BOUNCES} bounces {min(warm[PICTURE_BOUNCES]):.3f} s: "
         f"**{min(warm[PICTURE_BOUNCES]) / min(warm[0]):.2f}×**; first frames (maps built) "

@@ -81,3 +81,24 @@ def test_thin_media_let_the_octaves_light_out(renderer):
         multi = multi.passes["scattering"].sum()
         gains.append(multi / single)
     assert 1.0 < gains[0] < 1.1 and gains[1] > gains[0] + 0.2, gains
+
+
+def test_diffusion_term_lights_thick_media_only(renderer):
+    """The diffusion term (k) adds nothing to a thin puff and light to a thick one, in proportion to
+    k; with k = 0 the octaves are unchanged."""
+    gains = []
+    for scale in (0.1, 3.0):
+        scene = scenes.smoke_scene(width=48, height=32, n=24, sigma_s=(2.0 * scale,) * 3,
+                                   sigma_a=(0.2 * scale,) * 3, with_bar=False)
+
+        def scatter(k, scene=scene):
+            o = Octaves(2, a=0.5, b=0.0, c=0.5, k=k, z=0.5)
+            out = renderer.render(scene, dataclasses.replace(SETTINGS, volume_bounces=16, octaves=o))
+            return out.passes["scattering"].astype(np.float64)
+
+        single = renderer.render(scene, SETTINGS).passes["scattering"].astype(np.float64)
+        np.testing.assert_allclose(scatter(0.0), single, rtol=1e-5, atol=1e-6 * single.max())
+        once, twice = scatter(0.5), scatter(1.0)
+        np.testing.assert_allclose(twice - single, 2.0 * (once - single), rtol=1e-3, atol=1e-5 * single.max())
+        gains.append(twice.sum() / single.sum())
+    assert gains[0] < 1.01 and gains[1] > 1.2, gains

@@ -9,9 +9,9 @@ from tfm_addon.engine import metrics
 
 SSIM_MIN = 0.95
 BRIGHTNESS_TOL = 0.10
-# Held-out media within the thresholds at 16 and 128 bounces; the dense sunlit cloud is not (its
-# own test below, docs/multiple_scattering.md).
-PASSING = ("white_smoke", "grey_smoke_spot", "fog_sun")
+# Held-out media within the thresholds at 16 and 128 bounces; the 40 m cloud is not (its own test
+# below, docs/multiple_scattering.md).
+PASSING = ("white_smoke", "dense_cloud_sun", "grey_smoke_spot", "fog_sun")
 CASES = [(m, n) for m in PASSING for n in (16, 128)]
 
 
@@ -30,15 +30,18 @@ def test_held_out_medium_matches_cycles_with_bounces(blank, tmp_path, medium, bo
     assert ssim >= SSIM_MIN and abs(ratio - 1.0) <= BRIGHTNESS_TOL, (ssim, ratio)
 
 
-def test_dense_sunlit_cloud_is_nearer_cycles_than_single_scattering(blank, tmp_path):
-    """The optically thick white cloud under a sun (held out): single scattering has about half of
-    Cycles' brightness at 128 bounces; the octaves close most of the gap, not all of it."""
-    cycles, _ = bn.load_reference("dense_cloud_sun", 128)
-    single = bn.render_tfm("dense_cloud_sun", 0, str(tmp_path)).image[..., :3]
+@pytest.mark.parametrize("bounces", (16, 128))
+def test_production_scale_cloud_is_near_cycles(blank, tmp_path, bounces):
+    """The 40 m white cloud (optical depths of tens to hundreds, held out): single scattering has
+    less than half of Cycles' brightness; the octaves and the diffusion term bring it near, not
+    within the thresholds (docs/multiple_scattering.md: SSIM 0.94 and 0.92, brightness 0.95 and
+    0.90 at 16 and 128 bounces)."""
+    cycles, _ = bn.load_reference("cumulus", bounces)
+    single = bn.render_tfm("cumulus", 0, str(tmp_path)).image[..., :3]
     ratio_s = metrics.brightness_ratio(single, cycles)
-    ssim_m, ratio_m = _figures("dense_cloud_sun", 128, tmp_path)
-    print(f"dense_cloud_sun at 128 bounces: single {ratio_s:.3f}, octaves SSIM {ssim_m:.4f}, {ratio_m:.3f}")
-    assert ratio_s < 0.6 and ssim_m >= SSIM_MIN and abs(ratio_m - 1.0) < 0.2, (ratio_s, ssim_m, ratio_m)
+    ssim_m, ratio_m = _figures("cumulus", bounces, tmp_path)
+    print(f"cumulus at {bounces} bounces: single {ratio_s:.3f}, octaves SSIM {ssim_m:.4f}, {ratio_m:.3f}")
+    assert ratio_s < 0.5 and abs(ratio_m - 1.0) < 0.15 and ssim_m >= 0.9, (ratio_s, ssim_m, ratio_m)
 
 
 def test_volume_bounces_read_from_cycles_unless_set(blank, addon):

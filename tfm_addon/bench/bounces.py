@@ -51,6 +51,40 @@ def _noise_cloud(tmpdir: str, *, density: float, color: float, light: str = 'POI
     cf.cube_medium(mat)
 
 
+def cumulus_grid(n: int = 64, *, noise_scale: float = 2.0, detail: float = 1.0,
+                 ramp=(0.95, 1.35)) -> np.ndarray:
+    """A cumulus-like density in [0, 1] on n^3 voxels: Blender's Noise Texture (engine/textures.py,
+    the same function) plus a spherical Gradient, over [-1, 1]^3, through a clamped Map Range
+    ``ramp`` -> 0..1."""
+    from ..engine import textures
+
+    x = np.linspace(-1.0, 1.0, n)
+    p = np.stack(np.meshgrid(x, x, x, indexing="ij"), axis=-1).reshape(-1, 3)
+    value = textures.noise(p, scale=noise_scale, detail=detail, color=False)[0] + textures.gradient(
+        p, 'SPHERICAL')
+    return np.clip((value - ramp[0]) / (ramp[1] - ramp[0]), 0.0, 1.0).reshape(n, n, n).astype(np.float32)
+
+
+def _production_cloud(tmpdir: str, *, density: float, size: float = 40.0, **shape) -> None:
+    """A white cloud ``size`` metres wide (a .vdb written here from ``cumulus_grid``) under a sun,
+    ``density`` per metre at its densest; the conformance scene (camera, ground) scaled by
+    size / 2 m around it, the camera nearer by half."""
+    import bpy
+
+    scale = size / 2.0
+    mat, nt, out = cf.material("Cumulus")
+    cf.principled(nt, out, Density=density, Color=(1.0, 1.0, 1.0, 1.0))
+    cf.base(lights='SUN')
+    grid = cumulus_grid(**shape)
+    cf.volume_object(tmpdir, "Cumulus", {"density": grid}, mat=mat, voxel=size / (grid.shape[0] - 1))
+    cam = bpy.context.scene.camera
+    cam.location = cam.location * (0.5 * scale)
+    cam.data.clip_end = 1000.0
+    ground = bpy.data.objects["Plane"]
+    ground.location = ground.location * scale
+    ground.scale = (scale,) * 3
+
+
 def _fog(tmpdir: str, *, density: float, color: float, light: str = 'POINT') -> None:
     mat, nt, out = cf.material("Fog")
     cf.principled(nt, out, Density=density, Color=(color, color, color, 1.0))
@@ -68,6 +102,10 @@ MEDIA: dict[str, tuple[Callable[[str], None], str, float]] = {
     "cloud": (lambda d: _noise_cloud(d, density=3.0, color=1.0),
               "noise cloud (Noise Texture → Map Range 0–3), white (albedo 1)", 1.0),
     "fog_box": (lambda d: _fog(d, density=0.8, color=0.9), "2 m fog box, Density 0.8, Color 0.9", 0.9),
+    "dense_smoke": (lambda d: _puff(d, density=12.0, color=1.0),
+                    "smoke puff, Density 12, white (optical depth ~30), point light", 1.0),
+    "dark_smoke": (lambda d: _puff(d, density=6.0, color=0.5),
+                   "smoke puff, Density 6, Color 0.5 (optical depth ~15), point light", 0.5),
     # held out
     "white_smoke": (lambda d: _puff(d, density=1.5, color=1.0),
                     "smoke puff, Density 1.5, white (albedo 1), point light", 1.0),
@@ -77,9 +115,12 @@ MEDIA: dict[str, tuple[Callable[[str], None], str, float]] = {
                         "smoke puff, Density 2, Color 0.6, spot light", 0.6),
     "fog_sun": (lambda d: _fog(d, density=1.5, color=1.0, light='SUN'),
                 "2 m fog box, Density 1.5, white, lit by a sun", 1.0),
+    "cumulus": (lambda d: _production_cloud(d, density=12.0),
+                "40 m cloud (a 64^3 .vdb of noise rounded by a spherical gradient), white, up to "
+                "Density 12 (optical depths of tens to hundreds), lit by a sun", 1.0),
 }
-FIT = ("thin_smoke", "thick_smoke", "cloud", "fog_box")
-HELD_OUT = ("white_smoke", "dense_cloud_sun", "grey_smoke_spot", "fog_sun")
+FIT = ("thin_smoke", "thick_smoke", "cloud", "fog_box", "dense_smoke", "dark_smoke")
+HELD_OUT = ("white_smoke", "dense_cloud_sun", "grey_smoke_spot", "fog_sun", "cumulus")
 
 
 def build(medium: str, tmpdir: str, bounces: int) -> None:

@@ -12,6 +12,13 @@ isotropic. Light that
 scattered many times has travelled through less medium on average, spreads forward less and is
 brighter in the shadowed parts of the medium: the octaves stand in for it with no new map.
 
+In thick media light scatters hundreds of times and the octaves' T^(a^n) leaves their inside too
+dark. From 16 bounces on a diffusion term adds k albedo^m times the diffuse fluence of a slab as
+thick as the light ray's optical depth through the media there (the diffusion approximation with
+the boundary extrapolated by z, absorption from the albedo), from the same two map values, lowered
+where the view enters the medium nearer than the slab's faces (a silhouette, a crease in a lobe's
+shadow: light leaks out there too).
+
 ``octaves(bounces)`` is the rule: Cycles' Volume Bounces in, the octave count and (a, b, c) out,
 fitted against Cycles (scripts/fit_octaves.py, docs/multiple_scattering.md). 0 bounces is single
 scattering, exactly the single-scattering image.
@@ -26,24 +33,31 @@ from dataclasses import dataclass
 class Octaves:
     """``count`` octaves (1: single scattering); octave n scales the light transmittance's
     optical depth by ``a``^n, the contribution by (``b`` albedo (1 - T_through))^n and the anisotropy
-    by ``c``^n."""
+    by ``c``^n; the diffusion term weighs ``k`` albedo^``m``, ``z`` its extrapolated boundary (an
+    optical depth)."""
 
     count: int = 1
     a: float = 1.0
     b: float = 0.0
     c: float = 1.0
+    k: float = 0.0
+    z: float = 0.67
+    m: float = 0.0
 
 
 SINGLE = Octaves()
 
 # Fitted against Cycles (scripts/fit_octaves.py on bench/bounces.FIT; docs/multiple_scattering.md):
-# bounce count -> octaves; a count between two rows takes the lower row. At 16 and 128 bounces the
-# fitting media's Cycles images agree within 0.1 %, so 128 keeps 16's constants.
+# bounce count -> octaves; a count between two rows takes the lower row. From 16 bounces on the
+# diffusion term carries the light that scatters many times in thick media; at 128 it is larger
+# (only it may grow: more bounces never give less light), as Cycles' thick media are brighter at
+# 128 bounces than at 16.
 FITTED: dict[int, Octaves] = {
     1: Octaves(2, 0.7, 0.65, 0.5),
     2: Octaves(2, 0.4, 0.8, 0.5),
     4: Octaves(2, 0.5, 1.0, 0.5),
-    16: Octaves(4, 0.5, 0.6, 0.5),
+    16: Octaves(2, 0.4, 0.7, 0.5, k=0.45, z=0.3, m=1.0),
+    128: Octaves(2, 0.4, 0.7, 0.5, k=0.55, z=0.3, m=1.0),
 }
 
 
@@ -63,6 +77,8 @@ def bind(prog, o: Octaves) -> None:
     """octaves.glsl's uniforms."""
     if "u_octave" in prog:
         prog["u_octave"].value = (float(o.a), float(o.b), float(o.c))
+    if "u_diffusion" in prog:
+        prog["u_diffusion"].value = (float(o.k), float(o.z), float(o.m))
 
 
 def notes(scene, settings) -> list[str]:
@@ -70,5 +86,7 @@ def notes(scene, settings) -> list[str]:
     o = for_settings(settings)
     if o.count <= 1 or not scene.media:
         return []
+    diffusion = " and a diffusion term" if o.k > 0.0 else ""
     return [f"Volume Bounces {settings.volume_bounces}: multiple scattering approximated by {o.count} "
-            "octaves of the single scattering; light that surfaces reflect into the media is not rendered"]
+            f"octaves of the single scattering{diffusion}; light that surfaces reflect into the media is "
+            "not rendered"]

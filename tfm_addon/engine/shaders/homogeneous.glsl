@@ -42,9 +42,9 @@ vec3 homogeneous_light(vec3 o, vec3 d, vec2 cs, float t0, vec3 sigma_t, vec3 sig
         vec3 t_light;
         vec3 li = light_reaching(o + d * t, q, r, t_light);
         if (any(greaterThan(li, vec3(0.0)))) {
-            vec3 tv = exp(-sigma_t * (t - t0));
-            scatter += tv * sigma_s * dt * li * u_light_targets.x
-                       * octave_phase(t_light, light_through(o + d * t, q, r), -dot(light_travel(q, r), dq),
+            vec3 tau_v = sigma_t * (t - t0);
+            scatter += exp(-tau_v) * sigma_s * dt * li * u_light_targets.x
+                       * octave_phase(t_light, light_through(o + d * t, q, r), tau_v, -dot(light_travel(q, r), dq),
                                       g, sigma_s / max(sigma_t, vec3(1e-12)));
         }
     }

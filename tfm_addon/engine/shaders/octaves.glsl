@@ -2,18 +2,40 @@
 // Wrenninge et al. 2013): octave n sees the light's transmittance T^(a^n), adds
 // (b albedo (1 - T_through))^n of its light and scatters with anisotropy g c^n, T_through the
 // transmittance of the whole light ray through the media (light that scatters again stays in
-// thick media and leaves thin ones). OCTAVES 1 (or undefined) is single scattering.
+// thick media and leaves thin ones). A diffusion term (weight k albedo^m) adds the light scattered
+// many times in thick media, which the octaves' T^(a^n) leave too dark deep inside. OCTAVES 1 (or
+// undefined) is single scattering.
 #ifndef OCTAVES
 #define OCTAVES 1
 #endif
 uniform vec3 u_octave;     // a, b, c
+uniform vec3 u_diffusion;  // k, z, m
+
+// Diffuse fluence over the light's irradiance at optical depth tau from the light in a slab of
+// optical thickness tau_tot along the light ray (the diffusion approximation, isotropic, boundary
+// extrapolated by z): 3 albedo / (kappa^2 - 1) (e^-tau - e^z S), S the homogeneous solution
+// sinh(kappa (tau_tot + z - tau)) / sinh(kappa (tau_tot + 2 z)), kappa^2 = 3 (1 - albedo).
+vec3 diffuse_fluence(vec3 tau, vec3 tau_tot, vec3 albedo) {
+    float z = u_diffusion.y;
+    vec3 k2 = 3.0 * (1.0 - albedo);
+    k2 = mix(k2, vec3(1.02), lessThan(abs(k2 - 1.0), vec3(0.02)));    // removable singularity at 1
+    vec3 kap = sqrt(max(k2, vec3(1e-8)));
+    vec3 a = tau_tot + z - max(tau, vec3(0.0));
+    vec3 b = tau_tot + 2.0 * z;
+    // sinh(kap a) / sinh(kap b) without overflow; a / b as kappa -> 0
+    vec3 s = mix(exp(kap * (a - b)) * (1.0 - exp(-2.0 * kap * a)) / max(1.0 - exp(-2.0 * kap * b), vec3(1e-6)),
+                 a / b, lessThan(kap, vec3(1e-3)));
+    return max(3.0 * albedo / (k2 - 1.0) * (exp(-tau) - exp(z) * s), vec3(0.0));
+}
 
 // The octaves' sum of contribution x light transmittance x phase at one sample: with one octave
-// T hg(cos_theta, g). t_light: the media's transmittance from the light; t_through: along the
-// whole light ray (light_through); albedo: the medium's sigma_s / sigma_t there.
-vec3 octave_phase(vec3 t_light, vec3 t_through, float cos_theta, float g, vec3 albedo) {
+// T hg(cos_theta, g). t_light: the media's transmittance from the light; tau_through: their optical
+// depth along the whole light ray (light_through); tau_view: the view's optical depth from the
+// camera to the sample; albedo: the medium's sigma_s / sigma_t there.
+vec3 octave_phase(vec3 t_light, vec3 tau_through, vec3 tau_view, float cos_theta, float g, vec3 albedo) {
     vec3 s = t_light * hg_phase(cos_theta, g);
 #if OCTAVES > 1
+    vec3 t_through = exp(-tau_through);
     vec3 log_t = log2(max(t_light, vec3(1e-30)));
     vec3 step_b = u_octave.y * clamp(albedo, 0.0, 1.0) * (1.0 - t_through);
     float an = 1.0;
@@ -25,21 +47,35 @@ vec3 octave_phase(vec3 t_light, vec3 t_through, float cos_theta, float g, vec3 a
         gn *= u_octave.z;
         s += bn * exp2(an * log_t) * hg_phase(cos_theta, gn);
     }
+    if (u_diffusion.x > 0.0) {
+        // the light scattered many times, spread evenly over directions
+        vec3 tau = -log(max(t_light, vec3(1e-37)));
+        vec3 tau_tot = max(tau_through, tau);
+        // The slab has free faces toward the light and away from it only: where the view enters
+        // the medium nearer (a silhouette, a crease in a lobe's shadow) the light leaks out there
+        // too, the fluence falling as the distance to that face (diffusion: linear, plus z).
+        vec3 z = vec3(u_diffusion.y);
+        vec3 near = min(vec3(1.0), (tau_view + z) / (min(tau, tau_tot - tau) + z));
+        vec3 alb = clamp(albedo, 0.0, 1.0);
+        s += u_diffusion.x * pow(alb, vec3(u_diffusion.z)) * near * diffuse_fluence(tau, tau_tot, alb)
+             * (0.25 / PI);
+    }
 #endif
     return s;
 }
 
 #if OCTAVES > 1 && HAS_LIGHT
-// The media's transmittance along the whole light ray through p (q: p in light space, r: its
+// The media's optical depth along the whole light ray through p (q: p in light space, r: its
 // light distance), from where the ray enters them to where it leaves (or meets a solid). Called
 // after light_transmittance(p, q, r): a map gives it from the same lookup (its series at the far
-// end); otherwise the transmittance from the light to where the ray leaves the media beyond p.
+// end, without the underflow of its transmittance); otherwise from the light to where the ray
+// leaves the media beyond p.
 vec3 light_through(vec3 p, vec3 q, float r) {
 #if LIGHT_T == 0
     // the map's far end, from the lookup light_transmittance(p, q, r) made (transmittance.glsl)
-    return EXP2_RGB(u_tfm_exponent * log2(max(g_tfm_end, 1e-30)));
+    return -u_tfm_exponent * log(max(g_tfm_end, 1e-30));
 #elif MEDIUM == 2
-    return vec3(0.0);       // fog everywhere: no way out
+    return vec3(1e30);       // fog everywhere: no way out
 #else
     vec3 dir = toward_light(p, q, r);
 #if MEDIUM == 3
@@ -47,12 +83,12 @@ vec3 light_through(vec3 p, vec3 q, float r) {
 #else
     float beyond = box_interval(p, -dir).y;
 #endif
-    if (beyond <= 0.0) return light_transmittance(p, q, r);
+    if (beyond <= 0.0) return -log(max(light_transmittance(p, q, r), vec3(1e-37)));
     vec3 pe = p - dir * beyond;
     vec3 qe = light_space(pe);
-    return light_transmittance(pe, qe, light_distance(qe));
+    return -log(max(light_transmittance(pe, qe, light_distance(qe)), vec3(1e-37)));
 #endif
 }
 #else
-vec3 light_through(vec3 p, vec3 q, float r) { return vec3(1.0); }
+vec3 light_through(vec3 p, vec3 q, float r) { return vec3(0.0); }
 #endif

@@ -337,16 +337,17 @@ void main() {
                 vec3 li = light_reaching(p, q, r, t_light);
                 if (any(greaterThan(li, vec3(0.0)))) {
                     float c = -dot(light_travel(q, r), dq);
-                    vec3 t_through = light_through(p, q, r);
+                    vec3 tau_through = light_through(p, q, r);
+                    vec3 tau_v = tau + 0.5 * st * dt;
                     vec3 ssp = vec3(0.0);
                     for (int m = 0; m < N_MEDIA; ++m) {
                         vec3 sigma_s = u_med_sigma_s[m] * (m == 0 ? tint0 : vec3(1.0));
                         ssp += sigma_s * (D[m] * (1.0 - u_med_unlit[m]))
-                               * octave_phase(t_light, t_through, c, u_med_g[m],
+                               * octave_phase(t_light, tau_through, tau_v, c, u_med_g[m],
                                               sigma_s / max(u_med_sigma_t[m], vec3(1e-12)));
                     }
 #if WORLD_FOG
-                    ssp += u_fog_sigma_s * octave_phase(t_light, t_through, c, u_fog_g,
+                    ssp += u_fog_sigma_s * octave_phase(t_light, tau_through, tau_v, c, u_fog_g,
                                                         u_fog_sigma_s / max(u_fog_sigma_t, vec3(1e-12)));
 #endif
                     src += li * ssp * u_light_targets.x;
