@@ -244,8 +244,8 @@ vec3 light_transmittance(vec3 p, vec3 q, float r) {
 #endif
 // A lit surface's light samples (scatter.frag, once per pixel and sample, before light_arriving,
 // which then reads their means; soft_shadow.glsl): the solids' visibility and the spot cone or a
-// spread area light's emission over SOFT_SURFACE_SAMPLES of them, the map's F over a
-// SOFT_SURFACE_MAP_SHARE of as many, weighted by what a spread area light sends from each. Only
+// spread area light's emission over SOFT_SURFACE_SAMPLES of them, the map's F over a third as
+// many (SOFT_SURFACE_MAP_SHARE), weighted by what a spread area light sends from each. Only
 // the face that lights q takes them (a spot's: only within reach of its cone).
 void soft_surface(vec3 q, float r) {
 #if FACE_PROFILE == 0
