@@ -172,7 +172,7 @@ def test_a_warning_is_said_once_per_animation_render(blank, tmp_path):
     made = _smoke_in_blender(tmp_path)
     made["lights"][0].data.shadow_soft_size = 0.0
     area = bpy.data.lights.new("Panel", 'AREA')
-    area.spread = 1.0                                   # a spread the engine does not render
+    area.use_nodes = True                               # light nodes, which the engine does not render
     bpy.context.scene.collection.objects.link(bpy.data.objects.new("Panel", area))
     scene = bpy.context.scene
     scene.frame_start, scene.frame_end = 1, 3
@@ -187,9 +187,9 @@ def test_a_warning_is_said_once_per_animation_render(blank, tmp_path):
     finally:
         bpy.app.handlers.render_post.remove(handler)
     assert len(list(tmp_path.glob("frame_*.exr"))) == 3
-    assert len([m for m in told if "'Panel'" in m and "spread" in m]) == 1, told
+    assert len([m for m in told if "'Panel'" in m and "light nodes" in m]) == 1, told
     render_passes(tmp_path, "still")         # a new job: said again
-    assert any("'Panel'" in m and "spread" in m for level, m in _messages())
+    assert any("'Panel'" in m and "light nodes" in m for level, m in _messages())
 
 
 def test_a_frame_whose_result_exceeds_the_budget_is_refused_before_rendering(blank, tmp_path, monkeypatch):

@@ -8,6 +8,7 @@ it, the test fails with the row's figures and asks for the row to be flipped (de
 expected failure that fails as soon as it matches (delete its line in ``conformance.WRONG``).
 """
 
+import bpy
 import pytest
 
 from tfm_addon.bench import conformance
@@ -51,3 +52,23 @@ def test_auto_samples_keep_a_dense_medium_as_bright_as_cycles(blank, tmp_path):
     comparison = conformance.compare(row, result.image, cycles)
     print(_figures(row, comparison, result))
     assert abs(comparison.ratios[0] - 1.0) <= 0.01, _figures(row, comparison, result)
+
+
+def test_soft_sun_row_fails_with_a_sharp_sun(blank, tmp_path):
+    """The soft_sun row can fail: the same scene with the sun's angle 0 (a sharp shadow, as dark as
+    the bar is wide, where Cycles' 3-degree sun spreads it over a penumbra wider than the bar) is
+    below the row's SSIM threshold against the stored reference."""
+    import dataclasses
+
+    row = next(r for r in ROWS if r.id == "soft_sun")
+
+    def sharp_sun(tmpdir):
+        row.build(tmpdir)
+        for light in bpy.data.lights:
+            light.angle = 0.0
+
+    cycles, _ = conformance.load_reference(row.id)
+    result = conformance.render_tfm(dataclasses.replace(row, build=sharp_sun), str(tmp_path))
+    comparison = conformance.compare(row, result.image, cycles)
+    print("sharp sun: " + _figures(row, comparison, result))
+    assert comparison.ssim < conformance.SSIM_MIN, _figures(row, comparison, result)

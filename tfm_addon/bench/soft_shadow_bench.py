@@ -4,16 +4,16 @@ area light (0.6 x 0.3 m) and a sun (3 degrees), each frame against the same ligh
 
     python -m tfm_addon.bench.soft_shadow_bench [--repeats 3] [--sizes 960x540 320x180]
 
-Frames reuse their maps (a size edit rebuilds none), so the times are the light passes'; medians of
+Frames reuse their maps (a size edit rebuilds none), so the times are the light passes'; minima of
 interleaved repetitions of the process's CPU time (every GL thread's: on a shared machine the wall
-clock follows the other jobs' load, CPU time much less)."""
+clock follows the other jobs' load, CPU time much less, and its minimum least: a repetition that
+shared its cores' caches with another job is slower, none is faster)."""
 
 from __future__ import annotations
 
 import argparse
 import dataclasses
 import math
-import statistics
 import time
 
 from ..engine import Light, Renderer, RenderSettings
@@ -38,14 +38,14 @@ def lights() -> dict[str, tuple[Light, Light]]:
 
 
 def _cpu_side_by_side(renderer, scenes: dict, repeats: int) -> dict[str, float]:
-    """Median CPU seconds of a frame of each scene, the repetitions interleaved."""
+    """The least CPU seconds of a frame of each scene, the repetitions interleaved."""
     samples: dict[str, list[float]] = {k: [] for k in scenes}
     for _ in range(repeats):
         for k, scene in scenes.items():
             t0 = time.process_time()
             renderer.render(scene, SETTINGS)
             samples[k].append(time.process_time() - t0)
-    return {k: statistics.median(v) for k, v in samples.items()}
+    return {k: min(v) for k, v in samples.items()}
 
 
 def run(sizes: list[tuple[int, int]], repeats: int, log=print) -> list[dict]:

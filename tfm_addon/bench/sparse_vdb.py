@@ -8,6 +8,9 @@ peak resident memory above the process before the call (sampled every 5 ms), wit
 report lines. Two paths take turns (``--repeats`` each): the sparse one (the grid read as bricks
 at full resolution, docs/blender.md "Volumes") and the dense one (the same file read dense at
 reduced resolution, as for a grid that is not sparse enough: the sparse rule switched off).
+``--viewport`` measures a Rendered viewport instead: its first images and the longest waits of a
+loop standing for Blender's thread, with the slow GL calls releasing Python's GIL or moderngl
+calling the GL itself (``--calls released,moderngl`` takes turns).
 """
 
 from __future__ import annotations
@@ -78,20 +81,37 @@ def view_camera(dg, w, h):
     return camera_from_view(view, np.array(cam.calc_matrix_camera(dg, x=w, y=h)), w, h)
 
 # Blender's thread as a loop of Python callbacks: each step's gap is how long it was held (by our
-# calls, or by another thread holding Python's lock).
+# calls, or by another thread holding Python's lock), less the time it waited for a CPU (Linux's
+# run-queue delay of the thread: a loaded machine's share, not a hold).
+if os.environ.get("TFM_BENCH_CALLS") == "moderngl":  # moderngl calls the GL itself, holding the GIL
+    from tfm_addon.engine import gl_context
+    gl_context.RELEASED_CALLS.clear()
+sched = os.open(f"/proc/self/task/{threading.get_native_id()}/schedstat", os.O_RDONLY)
+
+def cpu_wait():
+    return int(os.pread(sched, 200, 0).split()[1]) * 1e-9
+
 holds, events = [], {}
 session = viewport.ViewportSession()
 start = time.perf_counter()
-last = start
+last, last_wait = start, cpu_wait()
 dg = bpy.context.evaluated_depsgraph_get()
 session.update(dg)
 events["first update (s)"] = session.update_s
 camera = view_camera(dg, 640, 360)
 session.request(camera, samples)
 first, told, waiting, before = None, set(), None, None
+stacks = os.environ.get("TFM_BENCH_STACKS")    # every thread's stack whenever the loop waits 35 ms
+if stacks:
+    import faulthandler
+    stacks = open(stacks, "w")
 while time.perf_counter() - start < 300:
     now = time.perf_counter()
-    holds.append((now - last, last - start))
+    if stacks:
+        stacks.write(f"--- {now - start:.3f}\n"); stacks.flush()
+        faulthandler.dump_traceback_later(0.035, file=stacks)
+    wait = cpu_wait()
+    holds.append((now - last, last - start, wait - last_wait))
     frame = session.frame()
     if frame is not None and first is None:
         first = now - start
@@ -113,21 +133,27 @@ while time.perf_counter() - start < 300:
     if "read" in told and waiting is None and frame.samples == samples and session.view.state == "idle":
         events[f"{samples} samples (s)"] = now - start
         break
-    last = time.perf_counter()
+    last, last_wait = time.perf_counter(), cpu_wait()
     time.sleep(0.002)
 events["first image (before the read) (s)"] = first
-events["longest hold of the main loop (ms)"] = 1e3 * max(h for h, _ in holds[1:])
-events["holds over 50 ms (ms at s)"] = " ".join(f"{1e3 * h:.0f}@{t:.1f}" for h, t in holds[1:] if h > 0.05)
+events["longest hold of the main loop (ms)"] = 1e3 * max(h for h, _, _ in holds[1:])
+events["longest hold less its wait for a CPU (ms)"] = 1e3 * max(h - w for h, _, w in holds[1:])
+events["holds over 50 ms (ms at s, of which waiting for a CPU)"] = " ".join(
+    f"{1e3 * h:.0f}@{t:.1f}({1e3 * w:.0f})" for h, t, w in holds[1:] if h > 0.05)
 events["warnings"] = session.warnings
 print("RESULT " + json.dumps(events), flush=True)
 os._exit(0)
 """
 
 
-def viewport_once(root: str, vdb: str, side: int) -> dict:
-    """A Rendered viewport's first images of the grid (ViewportSession, as the engine drives it)."""
+def viewport_once(root: str, vdb: str, side: int, calls: str = "released", stacks: str = "") -> dict:
+    """A Rendered viewport's first images of the grid (ViewportSession, as the engine drives it).
+    ``calls``: 'released' (the slow GL calls release the GIL, gl_context.ReleasingLoader) or
+    'moderngl' (moderngl calls the GL itself); ``stacks``: a file for the stacks of the loop's
+    waits over 35 ms."""
+    env = dict(os.environ, TFM_BENCH_CALLS=calls, TFM_BENCH_STACKS=stacks)
     done = subprocess.run([sys.executable, "-c", VIEWPORT_CHILD, root, vdb, str(side), "sparse"],
-                          capture_output=True, text=True, timeout=900)
+                          capture_output=True, text=True, timeout=900, env=env)
     for line in done.stdout.splitlines():
         if line.startswith("RESULT "):
             return json.loads(line[7:])
@@ -186,19 +212,28 @@ def main(argv=None) -> None:
     parser.add_argument("--side", type=int, default=1024)
     parser.add_argument("--active", type=float, default=32.0, help="millions of active voxels")
     parser.add_argument("--vdb", default="/tmp/tfm_sparse_bench.vdb")
-    parser.add_argument("--repeats", type=int, default=2, help="frames per path, taking turns")
+    parser.add_argument("--repeats", type=int, default=2, help="frames per path (viewport: runs per --calls)")
     parser.add_argument("--paths", default="dense,sparse")
     parser.add_argument("--viewport", action="store_true", help="a Rendered viewport's first images")
+    parser.add_argument("--calls", default="released",
+                        help="viewport: 'released' (slow GL calls release the GIL), 'moderngl', or both "
+                             "(comma-separated, taking turns)")
+    parser.add_argument("--stacks", default="", help="viewport: write the stacks of the loop's waits "
+                        "over 35 ms to FILE.CALLS.REPEAT (faulthandler, which reads running threads' "
+                        "stacks without Python's lock: a diagnosis that can crash the child)")
     args = parser.parse_args(argv)
     root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
     if not os.path.exists(args.vdb):
         active = write_sparse_vdb(args.vdb, args.side, args.active)
         print(f"wrote {args.vdb}: {args.side}³ box, {active / 1e6:.1f} M active voxels", flush=True)
     if args.viewport:
-        r = viewport_once(root, args.vdb, args.side)
-        print(f"viewport, load average {os.getloadavg()[0]:.1f}:")
-        for k, v in r.items():
-            print(f"  {k}: {v:.2f}" if isinstance(v, float) else f"  {k}: {v}")
+        for repeat in range(args.repeats):
+            for calls in args.calls.split(","):
+                stacks = f"{args.stacks}.{calls}.{repeat}" if args.stacks else ""
+                r = viewport_once(root, args.vdb, args.side, calls, stacks)
+                print(f"viewport, GL calls {calls}, load average {os.getloadavg()[0]:.1f}:", flush=True)
+                for k, v in r.items():
+                    print(f"  {k}: {v:.2f}" if isinstance(v, float) else f"  {k}: {v}", flush=True)
         return
     results: dict[str, list] = {}
     for _ in range(args.repeats):

@@ -106,9 +106,6 @@ def light(light_object, matrix_world, warnings: list[str]) -> Light:
         size = float(data.size) * float(scale[0])
         size_y = (float(data.size_y) if data.shape in ('RECTANGLE', 'ELLIPSE') else float(data.size))
         size_y *= float(scale[1])
-        if float(getattr(data, "spread", math.pi)) < math.pi - 1e-6:
-            warnings.append(f"Area light '{name}': its spread is rendered approximately (Cycles' soft-box "
-                            f"grid read from points of the light: 6 % darker than Cycles at 60 degrees)")
         if not getattr(data, "normalize", True):
             # Normalize off: Cycles keeps the radiance of a 1 m² light, so the power grows with the area
             area = size * size_y * (math.pi / 4.0 if data.shape in ('DISK', 'ELLIPSE') else 1.0)

@@ -6,6 +6,7 @@ import ctypes
 import os
 import sys
 import threading
+import time
 from pathlib import Path
 
 import numpy as np
@@ -65,7 +66,8 @@ def foreign_wheels(paths: list[str] | None = None) -> list[str]:
 
 
 def create_context():
-    """A standalone OpenGL >= 3.3 context, current on the calling thread. On Linux the EGL device
+    """A standalone OpenGL >= 3.3 context, current on the calling thread, whose slow GL calls
+    release Python's GIL (``ReleasingLoader``, its ``extra``). On Linux the EGL device
     is TFM_EGL_DEVICE's index when set (glcontext's ``device_index``: the order of
     eglQueryDevicesEXT); a device that cannot be used falls back to the default one and
     ``device_note`` says so."""
@@ -92,13 +94,15 @@ def create_context():
         attempts.append((backend, {"backend": backend} if backend else {}))
     for backend, kwargs in attempts:
         try:
-            ctx = moderngl.create_standalone_context(require=330, **kwargs)
-        except Exception as exc:  # moderngl raises plain Exceptions
+            loader = _standalone(**kwargs)
+            ctx = moderngl.create_standalone_context(require=330, context=loader)
+        except Exception as exc:  # moderngl raises plain Exceptions (glcontext too)
             errors.append(f"{backend or 'default'}: {exc}")
             if "device_index" in kwargs:
                 device_note = (f"{EGL_DEVICE_ENV}={index} cannot be used ({exc}); "
                                "the default device renders")
             continue
+        ctx.extra = loader          # the ReleasingLoader moderngl calls the GL through
         return ctx
     hint = ("install an OpenGL driver with EGL (on Debian/Ubuntu: apt install libegl1 libgl1-mesa-dri)"
             if sys.platform.startswith("linux") else "update the graphics driver")
@@ -107,42 +111,106 @@ def create_context():
         + "; ".join(errors) + f"). To fix: {hint}.")
 
 
-_GL_FUNCTIONS: dict = {}
-GL_TEXTURE_3D, GL_TEXTURE_BASE_LEVEL, GL_TEXTURE_MAX_LEVEL = 0x806F, 0x813C, 0x813D
-GL_R16, GL_RED, GL_UNSIGNED_SHORT, GL_UNPACK_ALIGNMENT = 0x822A, 0x1903, 0x1403, 0x0CF5
-SCRATCH_UNIT = 31   # the texture unit build_level1 binds on (above passes/bindings.UNIT: none reads it)
+_ENUM, _INT, _PTR, _SIZE = ctypes.c_uint, ctypes.c_int, ctypes.c_void_p, ctypes.c_ssize_t
+# The GL calls that can take long on a software GL, with their arguments: llvmpipe compiles a
+# program's GLSL at glLinkProgram (20-80 ms for the light pass) and its machine code at the first
+# draw of each variant, rasterises until a read or glFinish, allocates and copies in the texture and
+# buffer calls. moderngl calls them holding Python's GIL; GLContext's moderngl context calls them
+# through ctypes, which releases it (``ReleasingLoader``).
+RELEASED_CALLS = {
+    "glCompileShader": (_ENUM,), "glLinkProgram": (_ENUM,), "glFinish": (), "glClear": (_ENUM,),
+    "glDrawArrays": (_ENUM, _INT, _INT), "glDrawArraysInstanced": (_ENUM, _INT, _INT, _INT),
+    "glDrawElements": (_ENUM, _INT, _ENUM, _PTR),
+    "glDrawElementsInstanced": (_ENUM, _INT, _ENUM, _PTR, _INT),
+    "glReadPixels": (_INT, _INT, _INT, _INT, _ENUM, _ENUM, _PTR),
+    "glGetTexImage": (_ENUM, _INT, _ENUM, _ENUM, _PTR),
+    "glTexImage2D": (_ENUM, _INT, _INT, _INT, _INT, _INT, _ENUM, _ENUM, _PTR),
+    "glTexImage3D": (_ENUM, _INT, _INT, _INT, _INT, _INT, _INT, _ENUM, _ENUM, _PTR),
+    "glTexSubImage2D": (_ENUM, _INT, _INT, _INT, _INT, _INT, _ENUM, _ENUM, _PTR),
+    "glTexSubImage3D": (_ENUM,) + (_INT,) * 7 + (_ENUM, _ENUM, _PTR),
+    "glGenerateMipmap": (_ENUM,),
+    "glBufferData": (_ENUM, _SIZE, _PTR, _ENUM), "glBufferSubData": (_ENUM, _SIZE, _SIZE, _PTR),
+    "glGetBufferSubData": (_ENUM, _SIZE, _SIZE, _PTR),
+}
+_FUNCTION_TYPE = ctypes.WINFUNCTYPE if sys.platform == "win32" else ctypes.CFUNCTYPE
 
 
-def _gl_function(name: str, argtypes: tuple = ()):
-    """The platform's GL entry point ``name`` through ctypes (which releases the GIL around the
-    call) with ``argtypes`` (ctypes types: every argument must be declared, or a pointer would be
-    passed as a C int), or None where the system GL library does not export it. GLVND's libGL/libOpenGL on
-    Linux export every core entry point and dispatch to the context current on the thread, EGL's
-    included; Windows' opengl32 exports OpenGL 1.1 only."""
-    key = (name, tuple(argtypes))
-    if key not in _GL_FUNCTIONS:
-        import ctypes.util
+class ReleasingLoader:
+    """A glcontext context for moderngl (``create_context(context=...)``) whose GL entry points
+    named in ``RELEASED_CALLS`` are ctypes callbacks calling the GL through ctypes: moderngl's C
+    code calls them with the GIL held, the callback's ctypes call releases it while the GL works
+    (so a compile, a first draw or a read-back on the GL thread stops no other Python thread).
+    Everything else is the wrapped context's. ``released`` counts the calls made so and
+    ``longest`` keeps the longest one's seconds, by name."""
 
-        names = {"win32": ["opengl32"], "darwin": ["/System/Library/Frameworks/OpenGL.framework/OpenGL"]}.get(
-            sys.platform, ["libGL.so.1", "libOpenGL.so.0", ctypes.util.find_library("GL")])
-        fn = None
-        for lib_name in names:
-            if not lib_name:
-                continue
-            try:
-                lib = ctypes.WinDLL(lib_name) if sys.platform == "win32" else ctypes.CDLL(lib_name)
-                fn = lib[name]          # a new function object: its argtypes are this key's alone
-            except (OSError, AttributeError):
-                continue
-            fn.restype, fn.argtypes = None, list(argtypes)
-            break
-        _GL_FUNCTIONS[key] = fn
-    return _GL_FUNCTIONS[key]
+    def __init__(self, inner):
+        self.inner = inner
+        self.released = dict.fromkeys(RELEASED_CALLS, 0)
+        self.longest = dict.fromkeys(RELEASED_CALLS, 0.0)
+        self._callbacks = []            # kept alive as long as moderngl may call them
+
+    def __getattr__(self, name):        # release, __enter__, __exit__, load ...
+        return getattr(self.inner, name)
+
+    def load_opengl_function(self, name: str) -> int:
+        address = self.inner.load_opengl_function(name)
+        args = RELEASED_CALLS.get(name)
+        if not address or args is None:
+            return address
+        kind = _FUNCTION_TYPE(None, *args)
+        gl = kind(address)
+
+        def call(*values):
+            start = time.perf_counter()
+            gl(*values)                 # a ctypes call: the GIL is released while the GL works
+            self.released[name] += 1
+            self.longest[name] = max(self.longest[name], time.perf_counter() - start)
+        callback = kind(call)
+        self._callbacks.append(callback)
+        return ctypes.cast(callback, ctypes.c_void_p).value
 
 
-def _gil_free_finish():
-    """glFinish through ctypes, or None (``_gl_function``)."""
-    return _gl_function("glFinish")
+def _standalone(backend: str | None = None, **kwargs) -> ReleasingLoader:
+    """A standalone glcontext context (what moderngl makes for ``backend``, ``kwargs``) for
+    moderngl through ``ReleasingLoader``."""
+    import glcontext
+
+    if backend == "egl":
+        _initialise_egl(kwargs.get("device_index", 0))
+    make = glcontext.get_backend_by_name(backend) if backend else glcontext.default_backend()
+    return ReleasingLoader(make(mode="standalone", glversion=330, **kwargs))
+
+
+EGL_PLATFORM_DEVICE_EXT = 0x313F
+
+
+def _initialise_egl(index: int) -> bool:
+    """Initialise the EGL display of device ``index`` (the one glcontext's EGL backend opens)
+    through ctypes, with the GIL released: there the driver is loaded (for llvmpipe, LLVM: 20-60
+    ms), which inside glcontext's create would stop every other Python thread; glcontext's own
+    eglInitialize of that display then finds it initialised. False where it could not (glcontext
+    then does it all)."""
+    import ctypes.util
+
+    try:
+        egl = ctypes.CDLL(ctypes.util.find_library("EGL") or "libEGL.so.1")
+        address = egl.eglGetProcAddress
+        address.restype, address.argtypes = ctypes.c_void_p, [ctypes.c_char_p]
+        entries = address(b"eglQueryDevicesEXT"), address(b"eglGetPlatformDisplayEXT")
+        if not all(entries):
+            return False
+        pointer = ctypes.c_void_p
+        query = ctypes.CFUNCTYPE(ctypes.c_uint, ctypes.c_int, pointer, ctypes.POINTER(ctypes.c_int))(
+            entries[0])
+        display = ctypes.CFUNCTYPE(pointer, ctypes.c_uint, pointer, pointer)(entries[1])
+        initialise = egl.eglInitialize
+        initialise.restype, initialise.argtypes = ctypes.c_uint, [pointer] * 3
+        devices, count = (pointer * 32)(), ctypes.c_int(0)
+        if not query(32, devices, ctypes.byref(count)) or not 0 <= index < count.value:
+            return False
+        return bool(initialise(display(EGL_PLATFORM_DEVICE_EXT, devices[index], None), None, None))
+    except (OSError, AttributeError, TypeError, ValueError):   # no libEGL, no device extension
+        return False
 
 
 def shader_source(name: str) -> str:
@@ -164,6 +232,7 @@ class GLContext:
 
     def __init__(self):
         self.ctx = create_context()
+        self.loader = self.ctx.extra        # ReleasingLoader: counts the calls made GIL-free
         self.device_note = device_note
         GLContext.live += 1
         self.thread_id = threading.get_ident()
@@ -201,58 +270,25 @@ class GLContext:
 
     def finish(self) -> None:
         """Wait until the GL work issued so far is done, letting other Python threads run
-        meanwhile (moderngl keeps Python's GIL during its calls: its own finish() would stop the
-        host's UI thread for as long as the pass takes)."""
-        gl_finish = _gil_free_finish()
-        if gl_finish is None:
-            self.ctx.finish()
-        else:
-            gl_finish()  # a ctypes call: the GIL is released while it waits
+        meanwhile (glFinish is one of ``RELEASED_CALLS``)."""
+        self.ctx.finish()
 
-    def build_level1(self, texture) -> bool:
+    def build_level1(self, texture) -> None:
         """Give the 3D ``texture`` its level 1 (the GL's means of 2x2x2 texels), with Python's
-        GIL released while the GL makes it (moderngl's build_mipmaps keeps the GIL: 30-50 ms on
-        llvmpipe for a 256^3 grid, during which the host's UI thread could not run). The texture's
-        filters are the caller's to set. True when made through ctypes, False through moderngl
-        (the platform's GL library does not export the entry points)."""
-        args = (ctypes.c_uint, ctypes.c_uint, ctypes.c_int)
-        parameter = _gl_function("glTexParameteri", args)
-        generate = _gl_function("glGenerateMipmap", args[:1])
-        if parameter is None or generate is None:
-            texture.build_mipmaps(0, 1)
-            return False
-        texture.use(SCRATCH_UNIT)      # bound to GL_TEXTURE_3D on the active unit
-        parameter(GL_TEXTURE_3D, GL_TEXTURE_BASE_LEVEL, 0)
-        parameter(GL_TEXTURE_3D, GL_TEXTURE_MAX_LEVEL, 1)
-        generate(GL_TEXTURE_3D)
-        return True
+        GIL released while the GL makes it (glGenerateMipmap: 30-50 ms on llvmpipe for a 256^3
+        grid). The texture's filters are the caller's to set."""
+        texture.build_mipmaps(0, 1)
 
     def texture3d_r16(self, array: np.ndarray, part_bytes: int = 8 * 2 ** 20):
-        """An R16 (normalised) 3D texture of ``array`` (z, y, x uint16, x fastest) made and filled
-        with Python's GIL released (through ctypes, a part of ``part_bytes`` at a time): moderngl
-        holds the GIL while the GL allocates, which for a 130 MB texture took 160 ms on llvmpipe.
-        The moderngl object names the texture (``use``, filters, ``release``); its ``size`` is
-        not the texture's. Through moderngl where the GL library does not export the calls."""
+        """An R16 (normalised) 3D texture of ``array`` (z, y, x uint16, x fastest), allocated and
+        filled (a part of ``part_bytes`` at a time) with Python's GIL released: the GL's
+        allocation of a 130 MB texture takes 160 ms on llvmpipe."""
         d, h, w = array.shape
-        image = _gl_function("glTexImage3D", (ctypes.c_uint, ctypes.c_int, ctypes.c_int, ctypes.c_int,
-                                              ctypes.c_int, ctypes.c_int, ctypes.c_int, ctypes.c_uint,
-                                              ctypes.c_uint, ctypes.c_void_p))
-        sub = _gl_function("glTexSubImage3D", (ctypes.c_uint,) + (ctypes.c_int,) * 7
-                           + (ctypes.c_uint, ctypes.c_uint, ctypes.c_void_p))
-        store = _gl_function("glPixelStorei", (ctypes.c_uint, ctypes.c_int))
+        texture = self.ctx.texture3d((w, h, d), 1, dtype="nu2")
         step = max(1, part_bytes // max(array[0].nbytes, 1))
-        if image is None or sub is None or store is None:
-            texture = self.ctx.texture3d((w, h, d), 1, dtype="nu2")
-            for z in range(0, d, step):
-                texture.write(array[z:z + step], viewport=(0, 0, z, w, h, array[z:z + step].shape[0]))
-            return texture
-        texture = self.ctx.texture3d((1, 1, 1), 1, dtype="nu2")
-        texture.use(SCRATCH_UNIT)
-        store(GL_UNPACK_ALIGNMENT, 1)
-        image(GL_TEXTURE_3D, 0, GL_R16, w, h, d, 0, GL_RED, GL_UNSIGNED_SHORT, None)
         for z in range(0, d, step):
             part = np.ascontiguousarray(array[z:z + step])
-            sub(GL_TEXTURE_3D, 0, 0, 0, z, w, h, part.shape[0], GL_RED, GL_UNSIGNED_SHORT, part.ctypes.data)
+            texture.write(part, viewport=(0, 0, z, w, h, part.shape[0]))
         return texture
 
     def draw_fullscreen(self, prog) -> None:
@@ -260,7 +296,7 @@ class GLContext:
         vao = self._fullscreen.get(id(prog))
         if vao is None:
             vao = self._fullscreen[id(prog)] = self.ctx.vertex_array(prog, [])
-        _draw_triangles(vao, 3)
+        vao.render(vertices=3)
 
     def draw_rects(self, prog, vbo, vertices: int) -> None:
         """Run ``prog`` (fullscreen.vert with RECTS) over the triangles of ``vbo`` (2 floats a
@@ -271,7 +307,7 @@ class GLContext:
             entry = self._rects[key] = (vbo, self.ctx.vertex_array(prog, [(vbo, "2f", "in_px")]))
             while len(self._rects) > RECT_ARRAYS:   # an adaptive frame's rectangles change twice
                 self._rects.pop(next(iter(self._rects)))[1].release()
-        _draw_triangles(entry[1], vertices)
+        entry[1].render(vertices=vertices)
 
     def release(self) -> None:
         for _, vao in self._rects.values():
@@ -284,24 +320,6 @@ class GLContext:
         self._programs.clear()
         self.ctx.release()
         GLContext.live -= 1
-
-
-GL_TRIANGLES = 0x0004
-_DRAW_ARGS = (ctypes.c_uint, ctypes.c_int, ctypes.c_int)       # glDrawArrays(mode, first, count)
-
-
-def _draw_triangles(vao, vertices: int) -> None:
-    """Draw ``vertices`` of ``vao`` as triangles with Python's GIL released while the GL works:
-    llvmpipe compiles a program's machine code at its first draw (~250 ms for a new variant of the
-    light pass), which inside moderngl's render would stop the host's UI thread that long. moderngl
-    binds the program and the vertex array (a draw of no vertices); glDrawArrays through ctypes
-    draws. Where the platform's GL library does not export it, moderngl draws."""
-    draw = _gl_function("glDrawArrays", _DRAW_ARGS)
-    if draw is None:
-        vao.render(vertices=vertices)
-        return
-    vao.render(vertices=0)          # binds, draws nothing
-    draw(GL_TRIANGLES, 0, int(vertices))
 
 
 def set_uniforms(prog, **values) -> None:

@@ -410,6 +410,28 @@ class Softness(NamedTuple):
     area_spread: tuple[float, float] = (0.0, 0.0)
 
 
+# Beyond this many half diagonals of an area light, the fourth-order expansion of its emission is
+# within 0.2 % of the solid angle (shaders/soft_shadow.glsl area_emission).
+AREA_EXPANSION_REACH = 3.5
+
+
+def area_emission_far(soft: Softness, position, boxes, solids_near: float | None, fog: bool) -> bool:
+    """Whether everything an area light's face lights lies beyond AREA_EXPANSION_REACH half
+    diagonals of the light: the media's ``boxes`` ((box_to_world, lo, hi) each, their corners'
+    bounds), the solids (``solids_near``: their nearest bounds' distance, None unknown) and no fog
+    that fills space (``fog``)."""
+    if fog or solids_near is None:
+        return False
+    half_diagonal = math.sqrt(float(np.dot(soft.area_u, soft.area_u) + np.dot(soft.area_v, soft.area_v)))
+    reach = AREA_EXPANSION_REACH * half_diagonal
+    p = np.asarray(position, dtype=np.float64)
+    for box in boxes:
+        c = _corners(*box)
+        if np.linalg.norm(np.maximum(np.maximum(c.min(axis=0) - p, p - c.max(axis=0)), 0.0)) < reach:
+            return False
+    return solids_near >= reach
+
+
 def soft_extent(light: Light, frame: LightFrame) -> Softness | None:
     """The light's size as its face sees it (soft shadows and an area light's emission;
     shaders/soft_shadow.glsl), or None for a point (sharp shadows): a sphere's radius, a sun's

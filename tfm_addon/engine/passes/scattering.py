@@ -7,8 +7,17 @@ import numpy as np
 from .. import multiple_scattering
 from ..camera import ViewPlane, camera_to_world, pixel_window
 from ..gl_context import GLContext, set_matrix, set_uniforms
+from ..light import PROFILE_COSINE, area_emission_far
 from ..scene import Camera, Medium, RenderSettings
-from .bindings import MEDIUM_GRID, MEDIUM_NONE, MediaGPU, bind_light, bind_units, pass_state
+from .bindings import (
+    MEDIUM_EVERYWHERE,
+    MEDIUM_GRID,
+    MEDIUM_NONE,
+    MediaGPU,
+    bind_light,
+    bind_units,
+    pass_state,
+)
 
 # How a light pass finds the transmittance from the light (the shader's LIGHT_T).
 # LIGHT_T_UNIT: the light reaches the medium but its transmittance is taken as 1 ('UNSHADOWED').
@@ -165,6 +174,11 @@ def run_light_pass(gl: GLContext, *, camera: Camera, plane: ViewPlane, medium: M
         if soft is not None:
             defines["SOFT_SHADOW"] = 1
             defines["AREA_SPREAD"] = int(soft.area_spread[1] > 0.0)
+            defines["SOFT_ROUND"] = int(soft.round)
+            if light[0].profile == PROFILE_COSINE and not defines["AREA_SPREAD"]:
+                defines["AREA_FAR"] = int(area_emission_far(
+                    soft, light[0].position, medium_gpu.boxes, None if light[2] is None else light[2].near,
+                    medium_gpu.kind == MEDIUM_EVERYWHERE or medium_gpu.fog is not None))
     if compose is not None and sums is not None:
         defines.update(SUMS=1, PASSES=int(sums.passes))
     elif compose is not None:
@@ -200,7 +214,7 @@ def run_light_pass(gl: GLContext, *, camera: Camera, plane: ViewPlane, medium: M
             values = [float(i in unlit[1]) for i in range(slots.array_length)]
             slots.value = values if len(values) > 1 else values[0]
         if defines.get("SOFT_SHADOW"):
-            set_uniforms(prog, u_soft_extent=soft.extent, u_soft_round=int(soft.round),
+            set_uniforms(prog, u_soft_extent=soft.extent,
                          u_area_u=soft.area_u, u_area_v=soft.area_v, u_area_spread=soft.area_spread,
                          u_soft_near=0.0 if shadow is None else shadow.near,
                          u_soft_seed=0.0 if settings.view_jitter is None else float(settings.view_jitter))

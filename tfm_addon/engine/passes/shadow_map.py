@@ -10,6 +10,10 @@ from .bindings import BLOCK, bind_units, pass_state
 from .solids import POSITION_HIT, SolidsBuffer
 
 
+def _box_corners(lo, hi) -> np.ndarray:
+    return np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
+
+
 class ShadowMap:
     """An R32F texture of distances in metres (1e30 where no solid is seen), and the same as a
     depth texture (distance / ``far``) that the light passes sample with hardware comparison;
@@ -28,7 +32,7 @@ class ShadowMap:
         pass_state(ctx, depth_test=True)
         fbo.clear(1e30, 0, 0, 0, depth=1.0)
         lo, hi = solids.bounds
-        box = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
+        box = _box_corners(lo, hi)
         if frame.ortho:
             far = frame.far * 1.01
         else:
@@ -36,11 +40,16 @@ class ShadowMap:
         far = far if far > 0.0 else 1.0         # scale-free: near and far follow the scene
         near = far * 1e-5
         self.far = far
-        # The nearest caster's distance from the face's origin (each mesh's bounds), metres: how
-        # far a soft shadow's blocker search reaches.
+        # The nearest caster's distance from the face's origin (a sun: its depth below the face's
+        # plane), each mesh's bounds, metres: how far a soft shadow's blocker search reaches.
         pos = frame.position
-        gaps = [np.maximum(np.maximum(a - pos, pos - b), 0.0) for a, b, _ in solids.parts]
-        self.near = max(min((float(np.linalg.norm(g)) for g in gaps), default=far), far * 1e-3)
+        if frame.ortho:
+            axis, top = frame.world_to_light[2, :3], frame.world_to_light[2, 3]
+            depths = [-float(np.max(_box_corners(a, b) @ axis + top)) for a, b, _ in solids.parts]
+        else:
+            depths = [float(np.linalg.norm(np.maximum(np.maximum(a - pos, pos - b), 0.0)))
+                      for a, b, _ in solids.parts]
+        self.near = max(min(depths, default=far), far * 1e-3)
         prog = gl.program("shadow_map.vert", "shadow_map.frag")
         set_matrix(prog, "u_light_clip", frame.clip_matrix(near, far))
         set_matrix(prog, "u_world_to_light", frame.world_to_light)

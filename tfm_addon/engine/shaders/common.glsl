@@ -302,6 +302,10 @@ float spot_falloff(vec3 q) {
 // range. A lit surface needs a few footprints (else it shadows itself); a point of the medium is
 // no occluder and needs none (a larger bias lets light leak through a solid just before it).
 float g_bias_texels = 0.0;
+float shadow_bias(float r) {
+    float footprint = u_face_ortho == 1 ? max(u_shadow_rect.z, u_shadow_rect.w) : r * max(u_tan_half.x, u_tan_half.y);
+    return g_bias_texels * footprint / u_map_res + 2e-4 * u_shadow_far;
+}
 #include "soft_shadow.glsl"
 float solid_visibility(vec3 q, float r) {
     vec2 uv = shadow_uv(q);
@@ -312,8 +316,7 @@ float solid_visibility(vec3 q, float r) {
     if (g_bias_texels == 0.0) return 1.0;
 #endif
     if (u_face_ortho == 1 && (any(lessThan(uv, vec2(0.0))) || any(greaterThan(uv, vec2(1.0))))) return 1.0;
-    float footprint = u_face_ortho == 1 ? max(u_shadow_rect.z, u_shadow_rect.w) : r * max(u_tan_half.x, u_tan_half.y);
-    float bias = g_bias_texels * footprint / u_map_res + 2e-4 * u_shadow_far;
+    float bias = shadow_bias(r);
 #if SOFT_SHADOW
     return soft_visibility(q, uv, r, bias);
 #endif

@@ -65,6 +65,9 @@ vec3 light_reaching(vec3 p, vec3 q, out float r, out vec3 t_light) {
     r = light_distance(q);
     t_light = vec3(1.0);
     if (!in_face(q)) return vec3(0.0);
+#if SOFT_SHADOW
+    soft_next();        // the point's light sample (soft_shadow.glsl)
+#endif
     float emit = emission_profile(q, r);
     if (emit <= 0.0) return vec3(0.0);
     vec2 uv = light_uv(q);
@@ -176,7 +179,8 @@ void main() {
             // as its depth changes across one where the light grazes it (slope-scaled).
             g_bias_texels = surface_bias_texels(dot(n, L));
 #if SOFT_SHADOW
-            g_soft_normal = mat3(u_world_to_light) * n;     // its plane, for the soft shadow's taps
+            g_soft_normal = mat3(u_world_to_light) * n;     // its plane, for the soft shadow's samples
+            soft_surface(qP, light_distance(qP));           // its light samples (transmittance.glsl)
 #endif
             vec3 t_light;
             vec3 li = light_reaching(P, qP, r, t_light);
@@ -184,7 +188,7 @@ void main() {
                        * lights_entry(g1.w);
             g_bias_texels = 0.0;
 #if SOFT_SHADOW
-            g_soft_normal = vec3(0.0);
+            soft_surface_end();
 #endif
         }
 #endif

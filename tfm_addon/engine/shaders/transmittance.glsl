@@ -11,6 +11,10 @@ uniform sampler2D u_coef2;
 uniform sampler2D u_coef3;
 
 #if LIGHT_T == 0
+#if SOFT_SHADOW
+vec2 g_tfm_domain = vec2(0.0);     // K in, K out of the last filtered read (soft_tfm_lookup)
+float g_surface_f = -1.0;          // a lit surface's F, its light samples' mean (soft_surface)
+#endif
 // F at the far end of the last lookup's light ray (x = 1, cos(j pi) = (-1)^j: the transmittance
 // through the whole medium there), for the multiple-scattering octaves (octaves.glsl).
 float g_tfm_end = 1.0;
@@ -96,7 +100,11 @@ float tfm_texel(ivec2 c, float r) {
 // (one fetch per texture; mixes domains where neighbouring texels differ).
 float tfm_filtered(vec2 uv, float r) {
     vec4 zero = vec4(0.0);
-    return tfm_series(texture(u_krange, uv),
+    vec4 kc = texture(u_krange, uv);
+#if SOFT_SHADOW
+    g_tfm_domain = kc.xy;
+#endif
+    return tfm_series(kc,
 #if N_TARGETS > 0
                       texture(u_coef0, uv),
 #else
@@ -146,18 +154,19 @@ float tfm_lookup(vec2 uv, float r) {
 }
 
 #if SOFT_SHADOW
-// F averaged over the light's shape (soft_shadow.glsl): the map read through points of the shape,
-// each offset by the spread of the middle of the medium along the centre ray (between its entry
-// and the sample, or its exit): one tap for a point of the medium, eight for a surface.
+// The spread (soft_shadow.glsl) of the middle of the medium along the light ray to a point at r:
+// between the entry k.x of the ray's K range and the point, or its exit k.y; 0 without medium.
+float medium_spread(vec2 k, float r) {
+    return k.y > k.x ? max(soft_spread(max(0.5 * (k.x + min(k.y, r)), 1e-3 * r), r), 0.0) : 0.0;
+}
+
+// F for the light sample (soft_shadow.glsl): the map read where the ray from its point crosses
+// the middle of the medium, with the K range the previous read found (along a view ray, a step
+// away; on a surface, the previous light sample's; none before the first, which reads the centre).
 float soft_tfm_lookup(vec3 q, vec2 uv, float r) {
-    vec2 k = texelFetch(u_krange, ivec2(uv * vec2(textureSize(u_krange, 0))), 0).xy;
-    float s = k.y > k.x ? max(soft_spread(max(0.5 * (k.x + min(k.y, r)), 1e-3 * r), r), 0.0) : 0.0;
-    vec2 scale = soft_uv_scale(q, r, vec4(0.0, 0.0, u_tan_half)) * s;
-    vec2 rnd = soft_random();
-    int n = soft_taps(4);
-    float f = 0.0;
-    for (int i = 0; i < n; ++i) f += tfm_filtered(uv + light_point(i, n, rnd) * scale, r);
-    return f / float(n);
+    vec2 scale = soft_uv_scale(q, r, vec4(0.0, 0.0, u_tan_half));
+    float f = tfm_filtered(uv + g_soft_e * scale * medium_spread(g_tfm_domain, r), r);
+    return g_surface_f >= 0.0 ? g_surface_f : f;
 }
 #endif
 #endif
@@ -228,3 +237,63 @@ vec3 light_transmittance(vec3 p, vec3 q, float r) {
     return media_light_transmittance(p, q, r);
 #endif
 }
+
+#if SOFT_SHADOW
+#ifndef SOFT_SURFACE_MAP_SHARE
+#define SOFT_SURFACE_MAP_SHARE 3
+#endif
+// A lit surface's light samples (scatter.frag, once per pixel and sample, before light_arriving,
+// which then reads their means; soft_shadow.glsl): the solids' visibility and the spot cone or a
+// spread area light's emission over SOFT_SURFACE_SAMPLES of them, the map's F over a third as
+// many (SOFT_SURFACE_MAP_SHARE), weighted by what a spread area light sends from each. Only
+// the face that lights q takes them (a spot's: only within reach of its cone).
+void soft_surface(vec3 q, float r) {
+#if FACE_PROFILE == 0
+    int n = spot_reaches(q) ? SOFT_SURFACE_SAMPLES : 0;     // a spot's one face: its cone
+#else
+    int n = in_face(q) ? SOFT_SURFACE_SAMPLES : 0;
+#endif
+    float vis = 0.0;
+    float shape = 0.0;
+    for (int k = 0; k < n; ++k) {
+        soft_next();
+#if AREA_SPREAD
+        shape += area_emission(q, r);       // first: its point of the light is the sample's
+#elif FACE_PROFILE == 0
+        shape += soft_spot_falloff(q);
+#endif
+        vis += surface_visibility(q, r);
+    }
+    g_surface_visibility = vis / float(SOFT_SURFACE_SAMPLES);
+#if LIGHT_T == 0
+    vec2 uv = light_uv(q);
+    g_tfm_domain = texelFetch(u_krange, ivec2(uv * vec2(textureSize(u_krange, 0))), 0).xy;
+    float f = 0.0;
+    float weights = 0.0;
+    // No medium along the centre's ray: the map's reads are skipped (F 1, as at the centre).
+    int m = g_tfm_domain.y > g_tfm_domain.x ? n / SOFT_SURFACE_MAP_SHARE : 0;
+    for (int k = 0; k < m; ++k) {
+        soft_next();
+#if AREA_SPREAD
+        float w = area_emission(q, r);
+#else
+        float w = 1.0;
+#endif
+        f += w * soft_tfm_lookup(q, uv, r);
+        weights += w;
+    }
+    g_surface_f = weights > 0.0 ? f / weights : 1.0;
+#endif
+    g_surface_shape = shape / float(SOFT_SURFACE_SAMPLES);
+}
+
+// After the surface: the next points are the medium's.
+void soft_surface_end() {
+    g_soft_normal = vec3(0.0);
+    g_surface_visibility = -1.0;
+    g_surface_shape = -1.0;
+#if LIGHT_T == 0
+    g_surface_f = -1.0;
+#endif
+}
+#endif
