@@ -5,7 +5,10 @@ from __future__ import annotations
 import csv
 import dataclasses
 import hashlib
+import json
 import math
+import subprocess
+import sys
 import time
 from collections import Counter
 from collections.abc import Callable
@@ -307,3 +310,14 @@ def machine_line(renderer: Renderer) -> str:
     info = renderer.gl.ctx.info
     return (f"{info.get('GL_RENDERER', '?')} (OpenGL {info.get('GL_VERSION', '?')}), "
             f"{os.cpu_count()} CPU threads, {platform.processor() or platform.machine()}")
+
+
+def run_child(code: str, args: list[str], env: dict, timeout: float = 3600) -> dict:
+    """Run ``code`` in a fresh Python (``python -c code *args``) with ``env`` and return the JSON
+    of its line ``RESULT {...}``; its output's tails in the error when it printed none."""
+    done = subprocess.run([sys.executable, "-c", code, *args], capture_output=True, text=True,
+                          timeout=timeout, env=env)
+    for line in done.stdout.splitlines():
+        if line.startswith("RESULT "):
+            return json.loads(line[7:])
+    raise RuntimeError(done.stdout[-3000:] + done.stderr[-3000:])

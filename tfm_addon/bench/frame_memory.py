@@ -11,10 +11,9 @@ tracemalloc peak, and both per pixel; "beyond the result" subtracts Blender's ow
 
 from __future__ import annotations
 
-import json
 import os
-import subprocess
-import sys
+
+from .common import run_child
 
 CHILD = r"""
 import json, os, sys, threading, time, tracemalloc
@@ -80,12 +79,7 @@ def measure(side: int, samples: int, budget_gb: float | None = None) -> dict:
     env = dict(os.environ, MALLOC_MMAP_THRESHOLD_="65536")
     if budget_gb is not None:     # a frame above it renders in tiles (final_render.tiling)
         env["TFM_MEMORY_BUDGET_GB"] = str(budget_gb)
-    done = subprocess.run([sys.executable, "-c", CHILD, root, str(side), str(samples)],
-                          capture_output=True, text=True, timeout=3600, env=env)
-    for line in done.stdout.splitlines():
-        if line.startswith("RESULT "):
-            return json.loads(line[7:])
-    raise RuntimeError(done.stdout[-3000:] + done.stderr[-3000:])
+    return run_child(CHILD, [root, str(side), str(samples)], env)
 
 
 def main(argv=None) -> None:

@@ -15,12 +15,11 @@ calling the GL itself (``--calls released,moderngl`` takes turns).
 
 from __future__ import annotations
 
-import json
 import os
-import subprocess
-import sys
 
 import numpy as np
+
+from .common import run_child
 
 SETUP = r"""
 import json, os, sys, threading, time
@@ -152,12 +151,7 @@ def viewport_once(root: str, vdb: str, side: int, calls: str = "released", stack
     'moderngl' (moderngl calls the GL itself); ``stacks``: a file for the stacks of the loop's
     waits over 35 ms."""
     env = dict(os.environ, TFM_BENCH_CALLS=calls, TFM_BENCH_STACKS=stacks)
-    done = subprocess.run([sys.executable, "-c", VIEWPORT_CHILD, root, vdb, str(side), "sparse"],
-                          capture_output=True, text=True, timeout=900, env=env)
-    for line in done.stdout.splitlines():
-        if line.startswith("RESULT "):
-            return json.loads(line[7:])
-    raise RuntimeError(done.stdout[-3000:] + done.stderr[-3000:])
+    return run_child(VIEWPORT_CHILD, [root, vdb, str(side), "sparse"], env, timeout=900)
 
 
 def write_sparse_vdb(path: str, side: int, active_millions: float, seed: int = 5) -> int:
@@ -197,12 +191,7 @@ def write_sparse_vdb(path: str, side: int, active_millions: float, seed: int = 5
 def render_once(root: str, vdb: str, side: int, path: str) -> dict:
     """One first final frame in a fresh Blender process: 'sparse' or 'dense'."""
     env = dict(os.environ, MALLOC_MMAP_THRESHOLD_="65536")
-    done = subprocess.run([sys.executable, "-c", CHILD, root, vdb, str(side), path],
-                          capture_output=True, text=True, timeout=3600, env=env)
-    for line in done.stdout.splitlines():
-        if line.startswith("RESULT "):
-            return json.loads(line[7:])
-    raise RuntimeError(done.stdout[-3000:] + done.stderr[-3000:])
+    return run_child(CHILD, [root, vdb, str(side), path], env)
 
 
 def main(argv=None) -> None:
