@@ -809,20 +809,27 @@ def _(tmpdir):
     volume_object(tmpdir, mat=mat)
 
 
+def linking_collection(lamp, role: str, objects, state: str = 'INCLUDE') -> None:
+    """A collection of ``objects`` (each with link ``state``) set as ``lamp``'s Light Linking
+    receiver collection (``role`` 'receiver') or Shadow Linking blocker collection ('blocker')."""
+    import bpy
+
+    collection = bpy.data.collections.new(role.title() + "s")
+    for ob in objects:
+        collection.objects.link(ob)
+    setattr(lamp.light_linking, f"{role}_collection", collection)
+    for entry in collection.collection_objects:
+        entry.light_linking.link_state = state
+
+
 @row("light_linking_excludes_smoke", "Spot light whose Light Linking receiver collection excludes the smoke "
      "(the smoke dark, the ground lit)")
 def _(tmpdir):
-    import bpy
-
     mat, nt, out = material()
     principled(nt, out)
     base(lights=None)
     spot = light('SPOT')
-    smoke = volume_object(tmpdir, mat=mat)
-    receivers = bpy.data.collections.new("Receivers")
-    receivers.objects.link(smoke)
-    spot.light_linking.receiver_collection = receivers
-    receivers.collection_objects[0].light_linking.link_state = 'EXCLUDE'
+    linking_collection(spot, "receiver", [volume_object(tmpdir, mat=mat)], 'EXCLUDE')
 
 
 @row("light_linking_one_of_two_volumes", "Point light whose Light Linking receiver collection includes one "
@@ -838,9 +845,7 @@ def _(tmpdir):
         mat, nt, out = material(name)
         principled(nt, out)
         smokes.append(volume_object(tmpdir, name=name, mat=mat, location=loc, scale=(0.6, 0.6, 0.6)))
-    receivers = bpy.data.collections.new("Receivers")
-    receivers.objects.link(smokes[0])
-    bpy.data.objects["Point"].light_linking.receiver_collection = receivers
+    linking_collection(bpy.data.objects["Point"], "receiver", smokes[:1])
 
 
 @row("light_linking_excludes_a_cube", "Point light whose Light Linking receiver collection excludes a cube "
@@ -855,10 +860,7 @@ def _(tmpdir):
     cube = bpy.context.object
     cube.data.materials.append(_diffuse("Cube", (0.7, 0.7, 0.7)))
     volume_object(tmpdir, mat=mat)
-    receivers = bpy.data.collections.new("Receivers")
-    receivers.objects.link(cube)
-    receivers.collection_objects[0].light_linking.link_state = 'EXCLUDE'
-    bpy.data.objects["Point"].light_linking.receiver_collection = receivers
+    linking_collection(bpy.data.objects["Point"], "receiver", [cube], 'EXCLUDE')
 
 
 def _shadow_linked_spot(tmpdir, excluded: str | None) -> None:
@@ -874,12 +876,8 @@ def _shadow_linked_spot(tmpdir, excluded: str | None) -> None:
     _bar(1.8)
     bar = bpy.context.object
     smoke = volume_object(tmpdir, mat=mat)
-    if excluded is None:
-        return
-    blockers = bpy.data.collections.new("Blockers")
-    blockers.objects.link(bar if excluded == 'bar' else smoke)
-    spot.light_linking.blocker_collection = blockers
-    blockers.collection_objects[0].light_linking.link_state = 'EXCLUDE'
+    if excluded is not None:
+        linking_collection(spot, "blocker", [bar if excluded == 'bar' else smoke], 'EXCLUDE')
 
 
 for _what in ('bar', 'smoke'):
