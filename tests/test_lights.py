@@ -212,14 +212,17 @@ def test_a_gl_with_16_texture_units_renders_three_grids_and_names_the_fourth(fre
     below 16, the 4th medium is named and the image is that of the first three."""
     from tfm_addon.engine.passes import bindings
     from tfm_addon.engine.passes.fire import has_fire_unit
+    from tfm_addon.engine.passes.fluence import has_fluence_units
     info = fresh.gl.ctx.info
     info["GL_MAX_TEXTURE_IMAGE_UNITS"] = 16        # moderngl keeps this dict: the GL now says 16
     assert bindings.max_grids(fresh.gl) == 3
     always = {n: u for n, u in bindings.UNIT.items()
-              if u not in bindings.GRID_UNITS[3:] and n not in ("u_glow", "u_fire", "u_brick_index")}
+              if u not in bindings.GRID_UNITS[3:]
+              and n not in ("u_glow", "u_fire", "u_brick_index", "u_ms_surface", "u_ms_diffused")}
     assert not bindings.has_glow_unit(fresh.gl)
     assert not bindings.has_sparse_unit(fresh.gl)   # a sparse grid: uploaded dense from its coarse copy
     assert not has_fire_unit(fresh.gl)      # a fire's light on the solids: said, not rendered
+    assert not has_fluence_units(fresh.gl)  # the lattice's fields: said, the slab term stands in
     assert max(always.values()) < 16, always
     media = tuple(_smoke(center=(x, 0.0, 1.2), size=1.0, seed=i + 1, name=f"S{i}")
                   for i, x in enumerate((-1.5, -0.5, 0.5, 1.5)))

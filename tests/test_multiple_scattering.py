@@ -31,8 +31,10 @@ def test_bounce_count_rebuilds_no_map(fresh):
     single = _scatter(fresh)
     built = {k: fresh.counters[k] for k in MAPS}
     sixteen = _scatter(fresh, volume_bounces=16)
+    fields = fresh.counters["fluences"]
     many = _scatter(fresh, volume_bounces=128)
     assert {k: fresh.counters[k] for k in MAPS} == built
+    assert fields == 1 and fresh.counters["fluences"] == 1      # the fields too: built once
     assert built["tfms"] >= 1
     assert sixteen.sum() > 1.05 * single.sum()
     assert many.sum() >= sixteen.sum()
@@ -40,6 +42,35 @@ def test_bounce_count_rebuilds_no_map(fresh):
     report = fresh.render(_scene(), dataclasses.replace(SETTINGS, volume_bounces=16)).warnings
     assert [w for w in report if w.startswith("Volume Bounces 16: multiple scattering approximated")]
     assert not [w for w in fresh.render(_scene(), SETTINGS).warnings if w.startswith("Volume Bounces")]
+
+
+def test_fields_light_the_media_in_proportion_to_their_weights(fresh):
+    """The diffused light and the surfaces' light (engine/diffusion.py) add light where the medium
+    is and nowhere else, in proportion to their weights, from one build."""
+    single = _scatter(fresh)
+    out = {}
+    for name, o in (("surface", Octaves(1, surface=1.0)), ("grid", Octaves(1, grid=1.0)),
+                    ("grid2", Octaves(1, grid=2.0))):
+        out[name] = _scatter(fresh, volume_bounces=16, octaves=o) - single
+    assert fresh.counters["fluences"] == 1
+    seen = fresh.render(_scene(), SETTINGS).passes["transmittance"]
+    medium = seen.min(axis=-1) < 1.0 - 1e-6          # pixels that see the medium
+    for name in ("surface", "grid"):
+        assert out[name][medium].sum() > 0.01 * single.sum(), name
+        assert np.abs(out[name][~medium]).max() <= 1e-6 * single.max(), name
+        assert out[name].min() >= -1e-6 * single.max(), name
+    np.testing.assert_allclose(out["grid2"], 2.0 * out["grid"], rtol=1e-4, atol=1e-6 * single.max())
+
+
+def test_a_gl_with_16_texture_units_says_so_and_keeps_the_slab_term(fresh):
+    """Where the GL lacks the two units of the fields they are left out, said once, and the slab
+    diffusion term lights the thick media instead."""
+    fresh.gl.ctx.info["GL_MAX_TEXTURE_IMAGE_UNITS"] = 16
+    single = _scatter(fresh)
+    out = fresh.render(_scene(), dataclasses.replace(SETTINGS, volume_bounces=16))
+    assert [w for w in out.warnings if "too few texture units" in w]
+    assert fresh.counters["fluences"] == 0
+    assert out.passes["scattering"].sum() > 1.05 * single.sum()
 
 
 def test_zero_bounces_is_single_scattering():
@@ -72,12 +103,13 @@ def test_octave_with_the_same_extinction_repeats_single_scattering(renderer):
 
 def test_thin_media_let_the_octaves_light_out(renderer):
     """The octaves scale by 1 - T_through: a thin puff gains less than a thick one."""
+    alone = dataclasses.replace(octaves(16), k=0.0, surface=0.0, grid=0.0)      # the octaves alone
     gains = []
     for scale in (0.1, 3.0):
         scene = scenes.smoke_scene(width=48, height=32, n=24, sigma_s=(2.0 * scale,) * 3,
                                    sigma_a=(0.2 * scale,) * 3, with_bar=False)
         single = renderer.render(scene, SETTINGS).passes["scattering"].sum()
-        multi = renderer.render(scene, dataclasses.replace(SETTINGS, volume_bounces=16))
+        multi = renderer.render(scene, dataclasses.replace(SETTINGS, volume_bounces=16, octaves=alone))
         multi = multi.passes["scattering"].sum()
         gains.append(multi / single)
     assert 1.0 < gains[0] < 1.1 and gains[1] > gains[0] + 0.2, gains

@@ -53,7 +53,8 @@ def _surface_material(name):
 def _record(depsgraph, material_name):
     """The preview scene as plain data."""
     sc = depsgraph.scene
-    setup = {"lights": [], "meshes": [], "film": sc.render.film_transparent,
+    setup = {"lights": [], "meshes": [], "props": [], "film": sc.render.film_transparent,
+             "bounces": int(sc.cycles.volume_bounces),
              "view": {k: getattr(sc.view_settings, k)
                       for k in ("view_transform", "look", "exposure", "gamma")}}
     bg = sc.world.node_tree.nodes.get("Background") if sc.world and sc.world.node_tree else None
@@ -74,14 +75,18 @@ def _record(depsgraph, material_name):
                                                              "shift_x", "shift_y")})
         elif ob.type == 'MESH':
             mats = [s.material.name if s.material else None for s in ob.material_slots]
-            if material_name not in mats:
-                continue      # the hidden floor and the shapes' props
             mesh = ob.to_mesh()
             mesh.calc_loop_triangles()
             v = np.array([tuple(x.co) for x in mesh.vertices])
             t = np.array([tuple(x.vertices) for x in mesh.loop_triangles])
             ob.to_mesh_clear()
-            setup["meshes"].append((m, v, t))
+            if material_name in mats:
+                setup["meshes"].append((m, v, t))
+            else:         # the hidden floor and the shapes' props: as the engine reads them
+                setup["props"].append((m, v, t, ob.name))
+    meshes = {mesh.name: mesh for mesh in _mod("blender.extract").extract(depsgraph).meshes}
+    setup["props"] = [(m, v, t, meshes[name].color, meshes[name].visible_camera)
+                      for m, v, t, name in setup["props"] if name in meshes]
     return setup
 
 
@@ -120,6 +125,17 @@ def _rebuild(setup, material):
         ob = bpy.data.objects.new(f"shape{i}", mesh)
         ob.matrix_world = Matrix(m)
         scene.collection.objects.link(ob)
+    for i, (m, v, t, color, seen) in enumerate(setup["props"]):
+        mesh = bpy.data.meshes.new(f"prop{i}")
+        mesh.from_pydata(v.tolist(), [], t.tolist())
+        prop = bpy.data.materials.new(f"prop{i}")
+        prop.use_nodes = True
+        prop.node_tree.nodes["Principled BSDF"].inputs["Base Color"].default_value = (*color, 1.0)
+        mesh.materials.append(prop)
+        ob = bpy.data.objects.new(f"prop{i}", mesh)
+        ob.matrix_world = Matrix(m)
+        ob.visible_camera = seen
+        scene.collection.objects.link(ob)
     for i, (m, props) in enumerate(setup["lights"]):
         light = bpy.data.lights.new(f"light{i}", props["type"])
         for k, value in props.items():
@@ -141,6 +157,7 @@ def _rebuild(setup, material):
     bg.inputs["Color"].default_value = (*setup["world"][0], 1.0)
     bg.inputs["Strength"].default_value = setup["world"][1]
     scene.world = world
+    scene.cycles.volume_bounces = setup["bounces"]
     r = scene.render
     r.resolution_x = r.resolution_y = SIZE
     r.resolution_percentage = 100
@@ -185,6 +202,7 @@ def test_preview_matches_cycles(blank, tmp_path, kind, shape):
     same = _as_preview(scene, tmp_path, "tfm")
     route = np.abs(same - tfm).mean()
     scene_builder.cycles_single_scattering(scene, samples=CYCLES_SAMPLES)
+    scene.cycles.volume_bounces = scene.cycles.max_bounces = setup["bounces"]     # the preview scene's
     scene.render.film_transparent = setup["film"]
     for k, value in setup["view"].items():
         setattr(scene.view_settings, k, value)

@@ -106,6 +106,8 @@ MEDIA: dict[str, tuple[Callable[[str], None], str, float]] = {
                     "smoke puff, Density 12, white (optical depth ~30), point light", 1.0),
     "dark_smoke": (lambda d: _puff(d, density=6.0, color=0.5),
                    "smoke puff, Density 6, Color 0.5 (optical depth ~15), point light", 0.5),
+    "cloud_sun": (lambda d: _noise_cloud(d, density=3.0, color=1.0, light='SUN'),
+                  "noise cloud, Map Range 0–3, white, lit by a sun", 1.0),
     # held out
     "white_smoke": (lambda d: _puff(d, density=1.5, color=1.0),
                     "smoke puff, Density 1.5, white (albedo 1), point light", 1.0),
@@ -119,7 +121,7 @@ MEDIA: dict[str, tuple[Callable[[str], None], str, float]] = {
                 "40 m cloud (a 64^3 .vdb of noise rounded by a spherical gradient), white, up to "
                 "Density 12 (optical depths of tens to hundreds), lit by a sun", 1.0),
 }
-FIT = ("thin_smoke", "thick_smoke", "cloud", "fog_box", "dense_smoke", "dark_smoke")
+FIT = ("thin_smoke", "thick_smoke", "cloud", "fog_box", "dense_smoke", "dark_smoke", "cloud_sun")
 HELD_OUT = ("white_smoke", "dense_cloud_sun", "grey_smoke_spot", "fog_sun", "cumulus")
 
 

@@ -13,15 +13,18 @@ scattered many times has travelled through less medium on average, spreads forwa
 brighter in the shadowed parts of the medium: the octaves stand in for it with no new map.
 
 In thick media light scatters hundreds of times and the octaves' T^(a^n) leaves their inside too
-dark. From 16 bounces on a diffusion term adds k albedo^m times the diffuse fluence of a slab as
-thick as the light ray's optical depth through the media there (the diffusion approximation with
-the boundary extrapolated by z, absorption from the albedo), from the same two map values, lowered
-where the view enters the medium nearer than the slab's faces (a silhouette, a crease in a lobe's
-shadow: light leaks out there too).
+dark; and from one bounce on Cycles lights the media with the light the surfaces reflect. Two
+fields on a lattice over the media carry both (engine/diffusion.py, built once per light set up from
+the same maps): the surfaces' light, weighed by ``surface``, and the diffused light (the
+diffusion equation's fluence of light scattered at least twice), weighed by ``grid``. Where no
+lattice can be made (fog filling the scene, a GL with too few texture units) a diffusion term of
+the light ray's own slab stands in from 16 bounces on: k albedo^m times the diffuse fluence of a
+slab as thick as the light ray's optical depth through the media there (boundary extrapolated by
+z), lowered where the view enters the medium nearer than the slab's faces.
 
-``octaves(bounces)`` is the rule: Cycles' Volume Bounces in, the octave count and (a, b, c) out,
-fitted against Cycles (scripts/fit_octaves.py, docs/multiple_scattering.md). 0 bounces is single
-scattering, exactly the single-scattering image.
+``octaves(bounces)`` is the rule: Cycles' Volume Bounces in, the octave count, (a, b, c) and the
+fields' weights out, fitted against Cycles (scripts/fit_octaves.py, docs/multiple_scattering.md).
+0 bounces is single scattering, exactly the single-scattering image.
 """
 
 from __future__ import annotations
@@ -33,8 +36,9 @@ from dataclasses import dataclass
 class Octaves:
     """``count`` octaves (1: single scattering); octave n scales the light transmittance's
     optical depth by ``a``^n, the contribution by (``b`` albedo (1 - T_through))^n and the anisotropy
-    by ``c``^n; the diffusion term weighs ``k`` albedo^``m``, ``z`` its extrapolated boundary (an
-    optical depth)."""
+    by ``c``^n; the slab diffusion term weighs ``k`` albedo^``m``, ``z`` its extrapolated boundary
+    (an optical depth); ``surface`` and ``grid`` weigh the surfaces' light and the diffused light
+    of engine/diffusion.py."""
 
     count: int = 1
     a: float = 1.0
@@ -43,21 +47,28 @@ class Octaves:
     k: float = 0.0
     z: float = 0.67
     m: float = 0.0
+    surface: float = 0.0
+    grid: float = 0.0
+
+    @property
+    def fields(self) -> bool:
+        """Whether the frame reads engine/diffusion.py's fields (weights ``surface``, ``grid``)."""
+        return self.surface > 0.0 or self.grid > 0.0
 
 
 SINGLE = Octaves()
 
 # Fitted against Cycles (scripts/fit_octaves.py on bench/bounces.FIT; docs/multiple_scattering.md):
-# bounce count -> octaves; a count between two rows takes the lower row. From 16 bounces on the
-# diffusion term carries the light that scatters many times in thick media; at 128 it is larger
-# (only it may grow: more bounces never give less light), as Cycles' thick media are brighter at
-# 128 bounces than at 16.
+# bounce count -> octaves; a count between two rows takes the lower row. The surfaces' light is
+# taken whole from one bounce on; the diffused light carries the light that scatters many times in
+# thick media from 16 bounces on, more at 128 (only its weight may grow from the 16-bounce row:
+# more bounces never give less light), as Cycles' thick media are brighter at 128 than at 16.
 FITTED: dict[int, Octaves] = {
-    1: Octaves(2, 0.7, 0.65, 0.5),
-    2: Octaves(2, 0.4, 0.8, 0.5),
-    4: Octaves(2, 0.5, 1.0, 0.5),
-    16: Octaves(2, 0.4, 0.7, 0.5, k=0.45, z=0.3, m=1.0),
-    128: Octaves(2, 0.4, 0.7, 0.5, k=0.55, z=0.3, m=1.0),
+    1: Octaves(2, 0.7, 0.528, 0.5, surface=1.0, grid=0.05),
+    2: Octaves(2, 0.4, 0.7, 0.5, surface=1.0),
+    4: Octaves(2, 0.5, 0.875, 0.5, surface=1.0, grid=0.05),
+    16: Octaves(2, 0.4, 0.569, 0.5, k=0.45, z=0.3, m=1.0, surface=1.0, grid=0.95),
+    128: Octaves(2, 0.4, 0.569, 0.5, k=0.55, z=0.3, m=1.0, surface=1.0, grid=1.25),
 }
 
 
@@ -86,7 +97,8 @@ def notes(scene, settings) -> list[str]:
     o = for_settings(settings)
     if o.count <= 1 or not scene.media:
         return []
-    diffusion = " and a diffusion term" if o.k > 0.0 else ""
+    diffusion = " and diffusion" if o.k > 0.0 or o.grid > 0.0 else ""
+    surfaces = (", and light that surfaces reflect into the media from their base colour" if o.surface > 0.0
+                else "; light that surfaces reflect into the media is not rendered")
     return [f"Volume Bounces {settings.volume_bounces}: multiple scattering approximated by {o.count} "
-            f"octaves of the single scattering{diffusion}; light that surfaces reflect into the media is "
-            "not rendered"]
+            f"octaves of the single scattering{diffusion}{surfaces}"]

@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import medium_attributes, multiple_scattering, shading, surface, world_light
+from . import diffusion, medium_attributes, multiple_scattering, shading, surface, world_light
 from .adaptive import ActivePixels
 from .camera import view_plane
 from .errors import RenderCancelled
@@ -44,8 +44,9 @@ from .passes.bindings import (
 )
 from .passes.emission import AttributesGPU
 from .passes.fire import FireGPU, has_fire_unit
+from .passes.fluence import FluenceGPU, has_fluence_units
 from .passes.gbuffer import GBuffer
-from .passes.probe import probe_light_transmittance
+from .passes.probe import ARRIVING, IRRADIANCE, probe_light, probe_light_transmittance
 from .passes.scattering import (
     LIGHT_T_MARCH,
     LIGHT_T_NONE,
@@ -202,7 +203,9 @@ class Renderer:
     'pixels_shaded': pixels the light passes of a frame shaded (all of them, or the ``active``
     ones), once per frame; 'samples_reusing_plans': samples of an accumulated frame (``accumulate``)
     that used the media, solids and light plans the frame's first sample prepared; 'sums_objects':
-    GL objects made for a frame's sample sums (a later frame of the same size reuses them).
+    GL objects made for a frame's sample sums (a later frame of the same size reuses them);
+    'fluences': the diffused light and the surfaces' light of a frame with volume bounces
+    (engine/diffusion.py), built once per media, lights and solids, whatever the bounce count.
     A camera-only change rebuilds no light map; changing sigma_a or sigma_s of a lone medium
     rebuilds nothing on the light side (unless a fixed density weight ties the map to the
     extinction; with several media a map also depends on their relative extinction).
@@ -223,9 +226,10 @@ class Renderer:
         self._targets = _Cache()
         self._attributes = _Cache()
         self._fires = _Cache()
+        self._fluences = _Cache()
         self._caches = [self._media, self._solids, self._shadows, self._tfms, self._gobos,
                         self._gbuffers, self._targets, self._attributes, self._medium_shadows,
-                        self._fires]
+                        self._fires, self._fluences]
         self._frame_memos: dict[str, _FrameMemo] = {}   # per client: what the samples of its frame share
 
     @property
@@ -372,8 +376,12 @@ class Renderer:
             built += [self._build_face(scene, settings, face, medium_gpu, casters, gobo, warnings)
                       for face in plan.faces if face.light is light]
             steps.step("light_maps", t0)
+        t0 = time.perf_counter()
+        fluence = self._fluence(scene, settings, medium_gpu, medium, built, warnings)
+        if fluence is not None:
+            steps.timings["fluence"] = time.perf_counter() - t0
         frame = _Frame(plan, medium_gpu, medium, attributes, seen, built,
-                       self._fire(medium, seen, warnings))
+                       self._fire(medium, seen, warnings), fluence)
         if accumulate is not None:
             self._frame_memos[client] = _FrameMemo(
                 _frame_of(scene, settings, accumulate, client, map_image_side), frame, list(warnings),
@@ -415,7 +423,8 @@ class Renderer:
                       ambient=ambient if scene.world_lights_medium else dark,
                       ambient_surface=ambient if scene.world_lights_surfaces else dark,
                       attributes=frame.attributes, active=self._active_rects(size, active),
-                      compose=compose, sums=sums if lone else None, fire=frame.fire)
+                      compose=compose, sums=sums if lone else None, fire=frame.fire,
+                      fluence=frame.fluence)
         self.counters["pixels_shaded"] += (size[0] * size[1] if active is None
                                            else int(np.count_nonzero(active.mask)))
         if not frame.lights:
@@ -488,6 +497,44 @@ class Renderer:
             cache.fresh.clear()
         return out
 
+    def _fluence(self, scene, settings, medium_gpu, medium, plans, warnings) -> FluenceGPU | None:
+        """The frame's diffused light and surfaces' light (engine/diffusion.py) where its bounce
+        count asks for them and it marches media, built from the faces' maps or cached by what they
+        depend on (not the bounce count); counter 'fluences'."""
+        octaves = multiple_scattering.for_settings(settings)
+        if not octaves.fields or medium_gpu.kind != MEDIUM_GRID or not plans:
+            return None
+        if not has_fluence_units(self.gl):
+            warnings.append("This OpenGL has too few texture units for the light scattered many times "
+                            "and the light the surfaces reflect into the media: they are left out.")
+            return None
+        key = (tuple(_slot_key(s) for s in medium_gpu.slots),
+               tuple((p.light.key, p.frame.key, p.light_t) for p in plans), scene.solids_key,
+               tuple(m.key for m in scene.meshes if not m.holdout), self._map_resolution(settings),
+               settings.light_steps, settings.coefficients, settings.density_weight, settings.tfm_filter)
+
+        def arriving(points, normals):
+            total = np.zeros((len(points), 3))
+            for plan in plans:
+                if not (plan.light.lights_surfaces if normals is not None else plan.light.lights_medium):
+                    continue
+                total += probe_light(
+                    self.gl, points, IRRADIANCE if normals is not None else ARRIVING, normals,
+                    medium=medium, medium_gpu=medium_gpu, settings=settings,
+                    light=(plan.frame, plan.light.intensity_w_per_sr, plan.shadow, plan.gobo),
+                    light_t=plan.light_t, tfm=plan.tfm, tfm_sigma_t=plan.tfm_sigma_t)
+            return total
+
+        def build():
+            self.counters["fluences"] += 1
+            lat = diffusion.lattice([s.medium for s in medium_gpu.slots])
+            if lat is None:
+                return _Value(None)
+            return FluenceGPU(self.gl, diffusion.fluence(lat, scene.meshes, arriving))
+
+        item = self._fluences.get(key, build)[0]
+        return item if isinstance(item, FluenceGPU) else None
+
     def _solid_set(self, meshes, lights=()) -> SolidsBuffer:
         """The vertex buffer of these meshes (the camera's and the lights' sets are one buffer
         when every mesh is in both), its material table split by what ``lights`` leave unlit
@@ -500,12 +547,14 @@ class Renderer:
         return self._solids.get(key, lambda: SolidsBuffer(self.gl.ctx, meshes, unlit_by))[0]
 
     def _medium(self, scene: Scene, settings: RenderSettings) -> tuple[MediaGPU, list[str]]:
-        """The frame's media on the GPU: a single homogeneous medium analytically, otherwise
-        every medium marched (grids and boxes); distinct grids share the memory budget, the
-        largest downsampled first; instances of one grid share its texture."""
+        """The frame's media on the GPU: a single homogeneous medium analytically (a box is
+        marched where the frame reads engine/diffusion.py's fields), otherwise every medium marched
+        (grids and boxes); distinct grids share the memory budget, the largest downsampled first;
+        instances of one grid share its texture."""
         warnings: list[str] = []
         media = list(scene.media)
-        if len(media) == 1 and media[0].is_homogeneous:
+        fields = multiple_scattering.for_settings(settings).fields
+        if len(media) == 1 and media[0].is_homogeneous and not (fields and media[0].box_to_world is not None):
             medium = media[0]
             kind_gpu = MediumGPU(self.gl, medium, None)
             gpu = MediaGPU(kind_gpu.kind, kind_gpu, [], [])
@@ -883,6 +932,7 @@ class _Frame:
     seen: SolidsBuffer
     lights: list[_LightPlan]
     fire: FireGPU | None = None
+    fluence: FluenceGPU | None = None
 
 
 def _fire_gpu(gl, medium) -> FireGPU | None:

@@ -1,4 +1,6 @@
-"""A diagnostic pass: the transmittance from a light at given points, as the light passes see it."""
+"""A pass that evaluates a light face at given points as the light passes see it: the transmittance
+from the light (diagnostics, tests), the light arriving at points of the media or the irradiance of
+surfaces (the fields of engine/diffusion.py)."""
 
 from __future__ import annotations
 
@@ -9,11 +11,22 @@ from ..scene import Medium, RenderSettings
 from .bindings import MEDIUM_GRID, UNIT, MediaGPU, bind_light, bind_units, pass_state
 
 POINTS_UNIT = UNIT["u_points"]
+NORMALS_UNIT = UNIT["u_normals"]
+ROW = 4096                          # points per row of the probe's image
+TRANSMITTANCE, ARRIVING, IRRADIANCE = 0, 1, 2
 
 
-def probe_light_transmittance(
+def probe_light_transmittance(gl: GLContext, points: np.ndarray, **kw) -> np.ndarray:
+    """(n, 3) float32 transmittance per channel from the light to world ``points`` (n, 3)
+    (``probe_light``'s arguments)."""
+    return probe_light(gl, points, TRANSMITTANCE, **kw)
+
+
+def probe_light(
     gl: GLContext,
     points: np.ndarray,
+    what: int,
+    normals: np.ndarray | None = None,
     *,
     medium: Medium | None,
     medium_gpu: MediaGPU,
@@ -23,17 +36,27 @@ def probe_light_transmittance(
     tfm,
     tfm_sigma_t=None,
 ) -> np.ndarray:
-    """(n, 3) float32 transmittance per channel from the light to world ``points`` (n, 3);
-    ``light`` is (frame, intensity, ShadowMap or None, gobo or None)."""
-    pts = np.ascontiguousarray(np.asarray(points, dtype=np.float32).reshape(-1, 3))
-    n = len(pts)
-    src = gl.ctx.texture((n, 1), 3, pts.tobytes(), dtype="f4")
-    src.filter = (gl.ctx.NEAREST, gl.ctx.NEAREST)
-    dst = gl.ctx.texture((n, 1), 4, dtype="f4")
+    """(n, 3) float32 per channel at world ``points`` (n, 3): ``what`` is TRANSMITTANCE from the
+    light, the light ARRIVING (past the solids and media), or the IRRADIANCE of surfaces of unit
+    ``normals`` (n, 3) there; ``light`` is (frame, intensity, ShadowMap or None, gobo or None)."""
+    n = len(points)
+    w = max(1, min(n, ROW))
+    h = -(-n // w)
+
+    def image(values):
+        a = np.zeros((w * h, 3), np.float32)
+        a[:n] = np.asarray(values, np.float32).reshape(-1, 3)
+        tex = gl.ctx.texture((w, h), 3, a.tobytes(), dtype="f4")
+        tex.filter = (gl.ctx.NEAREST, gl.ctx.NEAREST)
+        return tex
+
+    src = image(points)
+    nrm = image(normals) if normals is not None else None
+    dst = gl.ctx.texture((w, h), 4, dtype="f4")
     fbo = gl.ctx.framebuffer([dst])
     fbo.use()
     pass_state(gl.ctx)
-    defines = {"MEDIUM": medium_gpu.kind, "LIGHT_T": light_t}
+    defines = {"MEDIUM": medium_gpu.kind, "LIGHT_T": light_t, "PROBE": what}
     if medium_gpu.kind == MEDIUM_GRID:
         defines.update(medium_gpu.defines())
     if tfm is not None:
@@ -51,8 +74,12 @@ def probe_light_transmittance(
         tfm.bind(prog, medium.sigma_t if tfm_sigma_t is None else tfm_sigma_t)
     src.use(POINTS_UNIT)
     set_uniforms(prog, u_points=POINTS_UNIT)
+    if nrm is not None:
+        nrm.use(NORMALS_UNIT)
+        set_uniforms(prog, u_normals=NORMALS_UNIT)
     gl.draw_fullscreen(prog)
-    out = np.frombuffer(dst.read(), dtype=np.float32).reshape(n, 4)[:, :3].copy()
-    for obj in (fbo, dst, src):
-        obj.release()
+    out = np.frombuffer(dst.read(), dtype=np.float32).reshape(w * h, 4)[:n, :3].copy()
+    for obj in (fbo, dst, src, nrm):
+        if obj is not None:
+            obj.release()
     return out

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
 from .. import multiple_scattering
@@ -130,7 +132,7 @@ def run_light_pass(gl: GLContext, *, camera: Camera, plane: ViewPlane, medium: M
                    light=None, light_t: int = LIGHT_T_NONE, tfm=None, tfm_sigma_t=None,
                    attributes=None, active=None, compose=None, sums=None,
                    medium_shadow: bool = True, ambient_surface=None, soft=None, fire=None,
-                   unlit=((0, 0, 0, 0), ())) -> None:
+                   unlit=((0, 0, 0, 0), ()), fluence=None) -> None:
     """Add one pass into the bound ScatteringTargets. ``light`` is (face, intensity, ShadowMap
     or None, gobo texture or None[, (weight on the media, weight on the surfaces)]) or None for the
     ambient-only first pass (``ambient``: the world radiance the media scatter on the first pass,
@@ -147,7 +149,9 @@ def run_light_pass(gl: GLContext, *, camera: Camera, plane: ViewPlane, medium: M
     across the face (light.soft_extent) or None: soft shadows from its shadow map and TFM. ``fire``
     (passes/fire.FireGPU or None): the emitting medium's light on the solids, added by the first pass.
     ``unlit`` (light linking): the material table entries the light does not light (solids.
-    unlit_entries' bits) and the media slots it does not light (their indices)."""
+    unlit_entries' bits) and the media slots it does not light (their indices). ``fluence``
+    (passes/fluence.FluenceGPU or None): the diffused light and the surfaces' light, scattered by
+    the first pass's media samples; the octaves' slab diffusion term is then left out."""
     medium_kind = medium_gpu.kind
     if light is not None and light_t == LIGHT_T_NONE and not first:
         medium_kind = MEDIUM_NONE          # this light never reaches the medium
@@ -167,6 +171,11 @@ def run_light_pass(gl: GLContext, *, camera: Camera, plane: ViewPlane, medium: M
         defines["RECTS"] = 1
     if fire is not None and first:
         defines["FIRE_LIGHT"] = 1
+    octaves = multiple_scattering.for_settings(settings)
+    if fluence is not None and first and medium_kind == MEDIUM_GRID:
+        defines["MS_GRID"] = 1
+    if fluence is not None:
+        octaves = dataclasses.replace(octaves, k=0.0)       # the diffused field stands for it
     if light is not None:
         defines.update(face_defines(light[0], light[2], light[3]))
         if light[2] is not None and not medium_shadow:
@@ -187,7 +196,6 @@ def run_light_pass(gl: GLContext, *, camera: Camera, plane: ViewPlane, medium: M
         defines.update(tfm.defines(settings.tfm_filter))
     if medium_kind == MEDIUM_GRID:
         defines.update(medium_gpu.defines())
-    octaves = multiple_scattering.for_settings(settings)
     if light is not None and medium_kind != MEDIUM_NONE and octaves.count > 1:
         defines["OCTAVES"] = octaves.count
     prog = gl.program("fullscreen.vert", "scatter.frag", defines)
@@ -226,6 +234,8 @@ def run_light_pass(gl: GLContext, *, camera: Camera, plane: ViewPlane, medium: M
         attributes.bind(prog, medium, emits)
     if fire is not None and first:
         fire.bind(prog, medium)
+    if defines.get("MS_GRID"):
+        fluence.bind(prog, (octaves.surface, octaves.grid))
     if compose is not None:
         film_transparent, world = compose
         set_uniforms(prog, u_film_transparent=int(bool(film_transparent)),

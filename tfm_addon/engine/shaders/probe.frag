@@ -1,11 +1,30 @@
-// Evaluates the transmittance from the light (as the camera passes see it) at given points:
-// texel i of the output holds T at the point in texel i of u_points.
+// Evaluates a light face at given points, as the camera passes see it: texel (x, y) of the output
+// holds the value at the point in texel (x, y) of u_points. PROBE 0: the transmittance from the
+// light; 1: the light arriving there (its radiance past the solids and the media, W/m² for a
+// sun, W/(sr m²)... as light_arriving); 2: the irradiance of a surface there whose unit normal is
+// in u_normals (the light arriving times the cosine, the solids' shadow biased as a lit surface's).
 #include "common.glsl"
 #include "transmittance.glsl"
-uniform sampler2D u_points;      // RGB32F world positions, one row
-out vec4 o_transmittance;
+#include "light_reaching.glsl"
+#ifndef PROBE
+#define PROBE 0
+#endif
+uniform sampler2D u_points;      // RGB32F world positions
+uniform sampler2D u_normals;     // RGB32F unit normals (PROBE 2)
+out vec4 o_value;
 void main() {
-    vec3 p = texelFetch(u_points, ivec2(gl_FragCoord.xy), 0).xyz;
+    ivec2 px = ivec2(gl_FragCoord.xy);
+    vec3 p = texelFetch(u_points, px, 0).xyz;
     vec3 q = light_space(p);
-    o_transmittance = vec4(light_transmittance(p, q, light_distance(q)), 1.0);
+    float r = light_distance(q);
+#if PROBE == 0
+    o_value = vec4(light_transmittance(p, q, r), 1.0);
+#elif PROBE == 1
+    o_value = vec4(light_arriving(p, q, r), 1.0);
+#else
+    vec3 n = texelFetch(u_normals, px, 0).xyz;
+    float c = dot(n, toward_light(p, q, r));
+    g_bias_texels = 3.0;        // the surface's own texels must not shadow it
+    o_value = vec4(c > 0.0 ? light_arriving(p, q, r) * c : vec3(0.0), 1.0);
+#endif
 }

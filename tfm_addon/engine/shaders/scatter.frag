@@ -58,31 +58,7 @@ float lights_entry(float flag) {
     return float(((u_unlit_entries[k >> 5] >> uint(k & 31)) & 1u) == 0u);
 }
 
-// Radiance arriving at p (q in light space) from the light face past the solids, before the
-// media; t_light is set to the media's transmittance from the light and r to the light distance
-// (light.py: the faces of a point light split the sphere).
-vec3 light_reaching(vec3 p, vec3 q, out float r, out vec3 t_light) {
-    r = light_distance(q);
-    t_light = vec3(1.0);
-    if (!in_face(q)) return vec3(0.0);
-#if SOFT_SHADOW
-    soft_next();        // the point's light sample (soft_shadow.glsl)
-#endif
-    float emit = emission_profile(q, r);
-    if (emit <= 0.0) return vec3(0.0);
-    vec2 uv = light_uv(q);
-    float vis = solid_visibility(q, r);
-    if (vis <= 0.0) return vec3(0.0);
-    t_light = light_transmittance(p, q, r);
-    return u_intensity * (emit * vis) * gobo(uv);
-}
-
-// The same past the media too.
-vec3 light_arriving(vec3 p, vec3 q, out float r) {
-    vec3 t_light;
-    vec3 li = light_reaching(p, q, r, t_light);
-    return li * t_light;
-}
+#include "light_reaching.glsl"
 
 // Part of the ray (o, d) inside the pyramid that bounds the light's cone.
 vec2 frustum_interval(vec3 o, vec3 d, vec2 range) {
@@ -107,6 +83,20 @@ vec2 frustum_interval(vec3 o, vec3 d, vec2 range) {
 #include "world_soft.glsl"
 #endif
 #include "homogeneous.glsl"
+
+#if MS_GRID
+// The light scattered many times and the light the surfaces reflect into the media, as fluences
+// on a lattice over the media (engine/diffusion.py), 0 outside it.
+uniform sampler3D u_ms_surface;
+uniform sampler3D u_ms_diffused;
+uniform mat4 u_world_to_ms;     // world -> the lattice's texture coordinates
+uniform vec2 u_ms_weight;       // the surfaces' light, the diffused light
+vec3 ms_fluence(vec3 p) {
+    vec3 tc = (u_world_to_ms * vec4(p, 1.0)).xyz;
+    if (any(lessThan(tc, vec3(0.0))) || any(greaterThan(tc, vec3(1.0)))) return vec3(0.0);
+    return u_ms_weight.x * texture(u_ms_surface, tc).rgb + u_ms_weight.y * texture(u_ms_diffused, tc).rgb;
+}
+#endif
 
 void main() {
     vec2 pc = u_plane0 + gl_FragCoord.xy * u_pixel_size;
@@ -330,6 +320,9 @@ void main() {
                 vec3 src = vec3(0.0);
 #if FIRST_PASS
                 src += ss * u_ambient;
+#if MS_GRID
+                src += ss * ms_fluence(p) * (0.25 / PI);      // scattered isotropically
+#endif
 #endif
 #if HAS_LIGHT
                 // The light is read where the camera sees into the step on average (that depth

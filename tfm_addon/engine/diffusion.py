@@ -1,0 +1,384 @@
+"""Light that scatters many times in thick media, and light that the surfaces reflect into the
+media, on a coarse lattice over the media (numpy; the renderer supplies the light at points).
+
+Both are read by the camera pass as a fluence (W/m², the light arriving at a point from every
+direction) that the media scatter isotropically: sigma_s * fluence / (4 pi) per metre of ray.
+
+- The surfaces' light, ``surface``: the fluence that solids lit by the lights reflect (diffusely,
+  their base colour) into the media, attenuated by the media between. Cycles renders it from one
+  volume bounce on (a camera ray scattered in the medium meets a lit surface). Surface points are
+  sampled by area near the media; their reflected radiance is binned by direction into the six
+  lattice axes at a few probe positions, and each cell takes each axis' light through the optical
+  depth from the cell to the lattice's edge along it.
+- The diffusion, ``diffused``: the fluence of light scattered at least twice, the solution of the
+  diffusion equation -div(D grad phi) + sigma_a phi = sigma_s (phi_lights + phi_surfaces), D =
+  1 / (3 sigma_t), with the light that has not scattered yet (phi_lights: the lights' radiance
+  past the solids and media at each cell, from the renderer's light maps) as its source, weighed
+  by the share of the six axis directions along which the medium holds the light (in thin media
+  scattered light mostly leaves, and diffusion overstates what stays), and Marshak's boundary
+  (the fluence falls to 0 two thirds of a mean free path out) at the lattice's edge. Empty cells
+  (optical thickness below ``VACUUM_TAU``) pass light on as a gap does, with a resistance per
+  cell of half a boundary's, and lose ``EMPTY_LOSS`` of it per cell: light leaving a part of the
+  medium reaches the parts around it (a porous cloud), or leaves. Conjugate gradients on the
+  7-point finite-volume stencil, each face's resistance the sum of the two half cells'.
+
+The lattice is world-aligned, cubic cells, at most ``MAX_SIDE`` a side, over the finite media's
+bounds (fog that fills the scene is left out). Nothing here depends on the bounce count: the
+bounce count weighs the two fields in the camera pass (multiple_scattering.Octaves).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from .quality import trilinear
+
+MAX_SIDE = 48               # cells along the lattice's longest side
+VACUUM_TAU = 1e-3           # cells thinner than this (optical depth across) are empty
+THIN_TAU = 0.05             # a half cell's resistance is at least that of this optical depth
+EMPTY_HALF = 0.5            # an empty cell's half resistance (a gap: 1, half a boundary's 2)
+EMPTY_LOSS = 0.3            # the share of its light an empty cell loses (to its six neighbours' 6)
+SURFACE_SAMPLES = 2048      # points sampled on the surfaces near the media
+PROBES = 4                  # probe positions per side where the surfaces' light is binned
+REACH = 4.0                 # surfaces within REACH half-diagonals of the media's centre light them
+SURFACE_SECANT = 1.5        # mean path length over depth of light arriving within an axis' bin
+MAX_ITERATIONS = 400
+TOLERANCE = 1e-4
+
+AXES = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]], np.float64)
+
+
+@dataclass(frozen=True)
+class Lattice:
+    """Cell (i, j, k) is centred at ``origin`` + h (i, j, k), world; ``sigma_t``, ``sigma_s``
+    (nx, ny, nz, 3) per metre."""
+
+    origin: np.ndarray
+    h: float
+    sigma_t: np.ndarray
+    sigma_s: np.ndarray
+
+    @property
+    def shape(self) -> tuple[int, int, int]:
+        return self.sigma_t.shape[:3]
+
+    def points(self) -> np.ndarray:
+        """(n, 3) world centres of the cells, C order."""
+        idx = np.indices(self.shape, dtype=np.float64).reshape(3, -1).T
+        return self.origin + self.h * idx
+
+    def cell_to_world(self) -> np.ndarray:
+        m = np.eye(4)
+        m[:3, :3] *= self.h
+        m[:3, 3] = self.origin
+        return m
+
+
+@dataclass(frozen=True)
+class Fluence:
+    """The two fields on ``lattice``: (nx, ny, nz, 3) float32, W/m²."""
+
+    lattice: Lattice
+    surface: np.ndarray
+    diffused: np.ndarray
+    iterations: int = 0
+
+
+def _finite_media(media) -> list:
+    return [m for m in media if m is not None and (m.density is not None or m.box_to_world is not None)]
+
+
+def _world_box(m) -> tuple[np.ndarray, np.ndarray]:
+    if m.density is not None:
+        lo, hi = -np.ones(3), np.asarray(m.density.shape, np.float64)     # zero one voxel past
+        mat = np.asarray(m.index_to_world, np.float64)
+    else:
+        lo, hi = -np.ones(3), np.ones(3)
+        mat = np.asarray(m.box_to_world, np.float64)
+    corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
+    w = corners @ mat[:3, :3].T + mat[:3, 3]
+    return w.min(axis=0), w.max(axis=0)
+
+
+def _density_at(m, points: np.ndarray) -> np.ndarray:
+    """The medium's density D at world points (n,), and its scattering tint (n, 3) or None."""
+    if m.density is None:
+        to_box = np.linalg.inv(np.asarray(m.box_to_world, np.float64))
+        b = points @ to_box[:3, :3].T + to_box[:3, 3]
+        return np.all(np.abs(b) <= 1.0, axis=1).astype(np.float64), None
+    to_index = np.linalg.inv(np.asarray(m.index_to_world, np.float64))
+    idx = (points @ to_index[:3, :3].T + to_index[:3, 3]).T + 1.0            # the padded grid's
+    grid = np.nan_to_num(np.asarray(m.density, np.float32), nan=0.0, posinf=0.0, neginf=0.0)
+    grid = np.where(grid >= max(float(m.clipping), 0.0), np.maximum(grid, 0.0), 0.0)
+    d = trilinear(np.pad(grid, 1), idx).astype(np.float64)
+    tint = None
+    if m.color_grid is not None and m.color_grid in m.grids:
+        c = np.pad(np.asarray(m.grids[m.color_grid], np.float32), [(1, 1)] * 3 + [(0, 0)])
+        tint = np.stack([trilinear(c[..., k], idx) for k in range(3)], axis=1).astype(np.float64)
+    return d, tint
+
+
+def lattice(media, max_side: int = MAX_SIDE) -> Lattice | None:
+    """The lattice over the finite media, their coefficients averaged over 2^3 points a cell."""
+    finite = _finite_media(media)
+    if not finite:
+        return None
+    boxes = [_world_box(m) for m in finite]
+    lo = np.min([b[0] for b in boxes], axis=0)
+    hi = np.max([b[1] for b in boxes], axis=0)
+    h = float(np.max(hi - lo)) / max_side
+    if not h > 0.0:
+        return None
+    shape = tuple(int(max(1, np.ceil((hi[k] - lo[k]) / h))) for k in range(3))
+    origin = lo + 0.5 * h
+    idx = np.indices(shape, dtype=np.float64).reshape(3, -1).T
+    sigma_t = np.zeros((len(idx), 3))
+    sigma_s = np.zeros((len(idx), 3))
+    for offset in np.array([[x, y, z] for x in (-0.25, 0.25) for y in (-0.25, 0.25) for z in (-0.25, 0.25)]):
+        p = origin + h * (idx + offset)
+        for m in finite:
+            d, tint = _density_at(m, p)
+            sigma_t += d[:, None] * np.asarray(m.sigma_t, np.float64) / 8.0
+            s = d[:, None] * np.asarray(m.sigma_s, np.float64)
+            sigma_s += (s if tint is None else s * np.clip(tint, 0.0, None)) / 8.0
+    return Lattice(origin, h, sigma_t.reshape(*shape, 3), np.minimum(sigma_s, sigma_t).reshape(*shape, 3))
+
+
+def _shifted(a: np.ndarray, axis: int, step: int, fill) -> np.ndarray:
+    """a's neighbour along ``axis`` (a[i + step]), ``fill`` past the edge."""
+    out = np.full_like(a, fill)
+    src = [slice(None)] * a.ndim
+    dst = [slice(None)] * a.ndim
+    if step > 0:
+        src[axis], dst[axis] = slice(step, None), slice(None, -step)
+    else:
+        src[axis], dst[axis] = slice(None, step), slice(-step, None)
+    out[tuple(dst)] = a[tuple(src)]
+    return out
+
+
+def diffuse(sigma_t: np.ndarray, sigma_a: np.ndarray, source: np.ndarray, h: float) -> tuple[np.ndarray, int]:
+    """The diffusion equation's fluence on one channel's lattice (see the module): (nx, ny, nz)
+    arrays per metre and W/m³, h the cell size; returns the fluence and the iterations taken."""
+    norm_b = float(np.sqrt((source * source).sum()))
+    if norm_b == 0.0:
+        return np.zeros_like(source), 0
+    # Each cell's half resistance (h / 2) / D = 3 sigma_t h / 2: at least that of THIN_TAU
+    # (diffusion does not hold in thin media, whose light leaves them); an empty cell's is
+    # EMPTY_HALF, light crossing a gap between parts of the media as it crosses a boundary. Past
+    # the lattice's edge the fluence falls to 0 two thirds of a mean free path out (+2).
+    empty = sigma_t * h < VACUUM_TAU
+    half = np.where(empty, EMPTY_HALF, 1.5 * np.maximum(sigma_t * h, THIN_TAU))
+    diag = np.where(empty, EMPTY_LOSS / h, np.maximum(sigma_a, 0.0))
+    couplings = []
+    for axis in range(3):
+        for step in (-1, 1):
+            edge = _shifted(np.zeros(sigma_t.shape, bool), axis, step, True)
+            r = half + np.where(edge, 2.0, _shifted(half, axis, step, 0.0))
+            c = 1.0 / (h * r)                                   # conductance per volume
+            diag = diag + c
+            couplings.append((axis, step, np.where(edge, 0.0, c)))
+
+    def apply(x):
+        y = diag * x
+        for axis, step, c in couplings:
+            y -= c * _shifted(x, axis, step, 0.0)
+        return y
+
+    b = source
+    x = b / diag
+    r = b - apply(x)
+    z = r / diag
+    p = z.copy()
+    rz = float((r * z).sum())
+    it = 0
+    while it < MAX_ITERATIONS:
+        it += 1
+        ap = apply(p)
+        alpha = rz / float((p * ap).sum())
+        x += alpha * p
+        r -= alpha * ap
+        if float(np.sqrt((r * r).sum())) <= TOLERANCE * norm_b:
+            break
+        z = r / diag
+        rz_new = float((r * z).sum())
+        p = z + (rz_new / rz) * p
+        rz = rz_new
+    return np.maximum(x, 0.0), it
+
+
+def diffuse_rgb(lat: Lattice, source: np.ndarray) -> tuple[np.ndarray, int]:
+    """``diffuse`` per colour channel (one solve where the channels are equal)."""
+    st, ss, q = lat.sigma_t, lat.sigma_s, source
+    grey = all(np.array_equal(a[..., 0], a[..., k]) for a in (st, ss, q) for k in (1, 2))
+    channels = 1 if grey else 3
+    # light scattered where the medium is thin leaves it: the source weighed by the share of the
+    # six axes along which the medium stops it (1 - mean transmittance to the lattice's edge)
+    held = 1.0 - np.exp(-_axis_depths(lat)).mean(axis=0)
+    out, iterations = [], 0
+    for k in range(channels):
+        phi, it = diffuse(st[..., k], st[..., k] - ss[..., k], q[..., k] * held[..., k], lat.h)
+        out.append(phi)
+        iterations = max(iterations, it)
+    phi = np.stack(out * 3 if grey else out, axis=-1)
+    return phi, iterations
+
+
+@dataclass(frozen=True)
+class SurfaceSamples:
+    """Points on the solids near the media: world ``points`` (n, 3), unit ``normals`` (n, 3)
+    facing the media, the ``area`` each stands for (m²) and the diffuse ``albedo`` (n, 3)."""
+
+    points: np.ndarray
+    normals: np.ndarray
+    area: float
+    albedo: np.ndarray
+
+
+def _diffuse_albedo(mesh) -> np.ndarray:
+    s = mesh.shading
+    return np.clip(np.asarray(s.base_color, np.float64) * (1.0 - s.metallic) * s.weight * s.alpha, 0.0, 1.0)
+
+
+def _near(t: np.ndarray, centre: np.ndarray, radius: float) -> np.ndarray:
+    lo, hi = t.min(axis=1), t.max(axis=1)
+    return np.linalg.norm(np.clip(centre, lo, hi) - centre, axis=1) <= radius
+
+
+def _near_pieces(t: np.ndarray, albedo: np.ndarray, centre, radius: float) -> tuple[np.ndarray, np.ndarray]:
+    """The triangles split in four until none is wider than radius / 8 where it reaches within
+    ``radius`` of ``centre`` (the pieces that do not are dropped): samples spread by area then
+    fall near the media even on a ground far wider than them."""
+    longest = (radius / 8.0) ** 2
+    done_t, done_a = [], []
+    for _ in range(16):
+        keep = _near(t, centre, radius)
+        t, albedo = t[keep], albedo[keep]
+        edges = np.stack([t[:, 1] - t[:, 0], t[:, 2] - t[:, 1], t[:, 0] - t[:, 2]], axis=1)
+        big = (edges ** 2).sum(axis=2).max(axis=1) > longest
+        done_t.append(t[~big])
+        done_a.append(albedo[~big])
+        t, albedo = t[big], albedo[big]
+        if not len(t):
+            break
+        m01, m12, m20 = 0.5 * (t[:, 0] + t[:, 1]), 0.5 * (t[:, 1] + t[:, 2]), 0.5 * (t[:, 2] + t[:, 0])
+        t = np.concatenate([np.stack(c, axis=1) for c in ((t[:, 0], m01, m20), (m01, t[:, 1], m12),
+                                                          (m20, m12, t[:, 2]), (m01, m12, m20))])
+        albedo = np.concatenate([albedo] * 4)
+    return np.concatenate(done_t + [t]), np.concatenate(done_a + [albedo])
+
+
+def surface_samples(meshes, centre: np.ndarray, radius: float,
+                    n: int = SURFACE_SAMPLES) -> SurfaceSamples | None:
+    """``n`` points spread by area over the parts of the triangles that reach within ``radius`` of
+    ``centre`` (those of holdouts and black surfaces left out); the ones beyond it are dropped."""
+    tris, albedo = [], []
+    for mesh in meshes:
+        if mesh.holdout:
+            continue
+        a = _diffuse_albedo(mesh)
+        if not a.any() or not len(mesh.triangles):
+            continue
+        mw = np.asarray(mesh.matrix_world, np.float64)
+        v = mesh.vertices.astype(np.float64) @ mw[:3, :3].T + mw[:3, 3]
+        t = v[mesh.triangles]
+        near = _near(t, centre, radius)
+        if near.any():
+            tris.append(t[near])
+            albedo.append(np.broadcast_to(a, (int(near.sum()), 3)))
+    if not tris:
+        return None
+    t, alb = _near_pieces(np.concatenate(tris), np.concatenate(albedo), centre, radius)
+    if not len(t):
+        return None
+    cross = np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0])
+    area = 0.5 * np.linalg.norm(cross, axis=1)
+    total = float(area.sum())
+    if total <= 0.0:
+        return None
+    # stratified by area; barycentric points from two low-discrepancy sequences
+    i = np.arange(n)
+    which = np.minimum(np.searchsorted(np.cumsum(area), (i + 0.5) / n * total), len(t) - 1)
+    r1 = np.sqrt((i * 0.7548776662466927 + 0.5) % 1.0)
+    r2 = (i * 0.5698402909980532 + 0.5) % 1.0
+    tw = t[which]
+    p = (1 - r1)[:, None] * tw[:, 0] + (r1 * (1 - r2))[:, None] * tw[:, 1] + (r1 * r2)[:, None] * tw[:, 2]
+    nrm = cross[which] / np.maximum(2.0 * area[which], 1e-30)[:, None]
+    nrm *= np.where(((centre - p) * nrm).sum(axis=1) < 0.0, -1.0, 1.0)[:, None]
+    keep = np.linalg.norm(p - centre, axis=1) <= radius
+    if not keep.any():
+        return None
+    return SurfaceSamples(p[keep], nrm[keep], total / n, alb[which][keep])
+
+
+def _axis_depths(lat: Lattice) -> np.ndarray:
+    """(6, nx, ny, nz, 3) optical depth from each cell's centre to the lattice's edge along each
+    of AXES."""
+    tau = lat.sigma_t * lat.h
+    out = []
+    for axis in range(3):
+        c = np.cumsum(tau, axis=axis) - 0.5 * tau                 # toward -axis from the centre
+        before = c
+        after = np.flip(np.cumsum(np.flip(tau, axis), axis=axis), axis) - 0.5 * tau
+        out += [after, before]
+    return np.stack(out)
+
+
+def surface_fluence(lat: Lattice, samples: SurfaceSamples, irradiance: np.ndarray) -> np.ndarray:
+    """The surfaces' fluence at each cell (nx, ny, nz, 3): each sample's reflected radiance
+    (albedo ``irradiance`` / pi) over the solid angle it subtends at the probe positions, binned
+    into the axis it lies along, interpolated to the cells and attenuated along that axis."""
+    shape = np.array(lat.shape)
+    probes_per_side = np.minimum(shape, PROBES)
+    axes_idx = [np.linspace(0.0, s - 1.0, k) for s, k in zip(shape, probes_per_side, strict=True)]
+    grid = np.stack(np.meshgrid(*axes_idx, indexing="ij"), axis=-1).reshape(-1, 3)
+    probes = lat.origin + lat.h * grid
+    radiance = samples.albedo * irradiance / np.pi                              # (s, 3)
+    spacing2 = samples.area                                                     # a sample's patch
+    binned = np.zeros((len(probes), 6, 3))
+    for j, p in enumerate(probes):
+        v = samples.points - p
+        d2 = np.maximum((v * v).sum(axis=1), spacing2)
+        u = v / np.sqrt(d2)[:, None]
+        cos_s = np.clip(-(u * samples.normals).sum(axis=1), 0.0, None)
+        omega = samples.area * cos_s / d2
+        which = np.argmax(u @ AXES.T, axis=1)
+        for b in range(6):
+            sel = which == b
+            binned[j, b] = (radiance[sel] * omega[sel, None]).sum(axis=0)
+    binned = binned.reshape(*probes_per_side, 6, 3)
+    # to the cells: trilinear over the probe lattice
+    cells = np.indices(lat.shape, dtype=np.float64).reshape(3, -1)
+    coords = cells * ((probes_per_side - 1) / np.maximum(shape - 1, 1))[:, None]
+    depth = _axis_depths(lat)
+    out = np.zeros((*lat.shape, 3))
+    for b in range(6):
+        for k in range(3):
+            arriving = trilinear(binned[..., b, k], coords).reshape(lat.shape) if binned.shape[0] > 0 else 0.0
+            out[..., k] += arriving * np.exp(-SURFACE_SECANT * depth[b][..., k])
+    return out
+
+
+def fluence(lat: Lattice, meshes, arriving: Callable[[np.ndarray, np.ndarray | None], np.ndarray]) -> Fluence:
+    """Both fields. ``arriving(points, normals)``: the lights' radiance arriving at world points
+    past the solids and media, summed over the lights (n, 3), W/m²; with ``normals``, the
+    irradiance of surfaces facing them there."""
+    n_cells = int(np.prod(lat.shape))
+    scattering = lat.sigma_s.reshape(-1, 3).any(axis=1)
+    lights = np.zeros((n_cells, 3))
+    if scattering.any():
+        lights[scattering] = arriving(lat.points()[scattering], None)
+    lights = lights.reshape(*lat.shape, 3)
+    lo = lat.origin - 0.5 * lat.h
+    hi = lat.origin + lat.h * (np.array(lat.shape) - 0.5)
+    centre = 0.5 * (lo + hi)
+    samples = surface_samples(meshes, centre, REACH * 0.5 * float(np.linalg.norm(hi - lo)))
+    surface = np.zeros_like(lights)
+    if samples is not None:
+        irradiance = arriving(samples.points + samples.normals * (1e-3 * lat.h), samples.normals)
+        surface = surface_fluence(lat, samples, irradiance) * (lat.sigma_t.max(axis=-1) > 0.0)[..., None]
+    diffused, iterations = diffuse_rgb(lat, lat.sigma_s * (lights + surface))
+    return Fluence(lat, surface.astype(np.float32), diffused.astype(np.float32), iterations)
