@@ -114,7 +114,7 @@ def main(argv: list[str] | None = None) -> int:
 
     rows = {n: ms.octaves(n) for n in args.bounces}
     media = [m for m in (*bn.FIT, *bn.HELD_OUT)
-             if all(bn.reference_path(m, n).exists() for n in args.bounces)]
+             if any(bn.reference_path(m, n).exists() for n in args.bounces)]
     images: dict[str, dict] = {}
     if args.cache and args.cache.exists():
         with np.load(args.cache) as z:
@@ -135,18 +135,20 @@ def main(argv: list[str] | None = None) -> int:
                                     for m, p in images.items() for k, v in p.items()})
     result = {}
     for n in args.bounces:
-        refs = {m: bn.load_reference(m, n)[0][..., :3].astype(np.float64) for m in images}
+        refs = {m: bn.load_reference(m, n)[0][..., :3].astype(np.float64) for m in images
+                if bn.reference_path(m, n).exists()}
+        fit = [m for m in bn.FIT if m in refs]
         candidates = list(itertools.product(B_GRID, GRID_GRID))
         below = [result[k] for k in result if GROWS_FROM <= k < n]
         if below:
             candidates = [(b, g) for b, g in candidates if b == below[-1]["b"] and g >= below[-1]["grid"]]
-        sums = {m: ({k: v.sum() for k, v in images[m].items()}, refs[m].sum()) for m in bn.FIT}
+        sums = {m: ({k: v.sum() for k, v in images[m].items()}, refs[m].sum()) for m in fit}
         screened = sorted(candidates, key=lambda c: np.mean(
             [abs(compose(s, n, *c) / r - 1.0) for s, r in sums.values()]))[:SCREEN]
-        best = min((loss([error(compose(images[m], n, *c), refs[m]) for m in bn.FIT]), *c) for c in screened)
+        best = min((loss([error(compose(images[m], n, *c), refs[m]) for m in fit]), *c) for c in screened)
         _, b, grid = best
         per_medium = {}
-        for m in images:
+        for m in refs:
             ss = error(images[m]["single"], refs[m])
             mm = error(compose(images[m], n, b, grid), refs[m])
             per_medium[m] = {"fitted_on": m in bn.FIT, "single": ss, "multiple": mm}

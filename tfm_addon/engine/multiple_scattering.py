@@ -64,11 +64,11 @@ SINGLE = Octaves()
 # thick media from 16 bounces on, more at 128 (only its weight may grow from the 16-bounce row:
 # more bounces never give less light), as Cycles' thick media are brighter at 128 than at 16.
 FITTED: dict[int, Octaves] = {
-    1: Octaves(2, 0.7, 0.528, 0.5, surface=1.0, grid=0.05),
+    1: Octaves(2, 0.7, 0.55, 0.5, surface=1.0),
     2: Octaves(2, 0.4, 0.7, 0.5, surface=1.0),
-    4: Octaves(2, 0.5, 0.875, 0.5, surface=1.0, grid=0.05),
-    16: Octaves(2, 0.4, 0.569, 0.5, k=0.45, z=0.3, m=1.0, surface=1.0, grid=0.95),
-    128: Octaves(2, 0.4, 0.569, 0.5, k=0.55, z=0.3, m=1.0, surface=1.0, grid=1.25),
+    4: Octaves(2, 0.5, 0.9, 0.5, surface=1.0),
+    16: Octaves(2, 0.4, 0.625, 0.5, k=0.45, z=0.3, m=1.0, surface=1.0, grid=0.9),
+    128: Octaves(2, 0.4, 0.625, 0.5, k=0.55, z=0.3, m=1.0, surface=1.0, grid=1.15),
 }
 
 
