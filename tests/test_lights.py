@@ -218,7 +218,7 @@ def test_a_gl_with_16_texture_units_renders_three_grids_and_names_the_fourth(fre
     assert bindings.max_grids(fresh.gl) == 3
     always = {n: u for n, u in bindings.UNIT.items()
               if u not in bindings.GRID_UNITS[3:]
-              and n not in ("u_glow", "u_fire", "u_brick_index", "u_ms_surface", "u_ms_diffused")}
+              and n not in ("u_glow", "u_fire", "u_brick_index", "u_ms_fluence")}
     assert not bindings.has_glow_unit(fresh.gl)
     assert not bindings.has_sparse_unit(fresh.gl)   # a sparse grid: uploaded dense from its coarse copy
     assert not has_fire_unit(fresh.gl)      # a fire's light on the solids: said, not rendered

@@ -349,17 +349,20 @@ def surface_fluence(lat: Lattice, samples: SurfaceSamples, irradiance: np.ndarra
         for b in range(6):
             sel = which == b
             binned[j, b] = (radiance[sel] * omega[sel, None]).sum(axis=0)
-    binned = binned.reshape(*probes_per_side, 6, 3)
-    # to the cells: trilinear over the probe lattice
-    cells = np.indices(lat.shape, dtype=np.float64).reshape(3, -1)
-    coords = cells * ((probes_per_side - 1) / np.maximum(shape - 1, 1))[:, None]
-    depth = _axis_depths(lat)
-    out = np.zeros((*lat.shape, 3))
-    for b in range(6):
-        for k in range(3):
-            arriving = trilinear(binned[..., b, k], coords).reshape(lat.shape) if binned.shape[0] > 0 else 0.0
-            out[..., k] += arriving * np.exp(-SURFACE_SECANT * depth[b][..., k])
-    return out
+    # to the cells: trilinear over the probe lattice, the same eight corners for every bin
+    cells = np.indices(lat.shape, dtype=np.float64).reshape(3, -1).T
+    at = cells * ((probes_per_side - 1) / np.maximum(shape - 1, 1))
+    lo = np.minimum(np.floor(at).astype(np.intp), np.maximum(probes_per_side - 2, 0))
+    frac = at - lo
+    arriving = np.zeros((len(cells), 6, 3))
+    for corner in np.ndindex(2, 2, 2):
+        idx = np.minimum(lo + corner, probes_per_side - 1)
+        w = np.prod(np.where(np.array(corner) == 1, frac, 1.0 - frac), axis=1)
+        flat = np.ravel_multi_index(tuple(idx.T), tuple(probes_per_side))
+        arriving += w[:, None, None] * binned[flat]
+    depth = _axis_depths(lat).reshape(6, -1, 3)
+    out = (arriving * np.exp(-SURFACE_SECANT * np.moveaxis(depth, 0, 1))).sum(axis=1)
+    return out.reshape(*lat.shape, 3)
 
 
 def fluence(lat: Lattice, meshes, arriving: Callable[[np.ndarray, np.ndarray | None], np.ndarray]) -> Fluence:

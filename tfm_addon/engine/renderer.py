@@ -31,6 +31,7 @@ from .passes.accumulate import SampleSums
 from .passes.bindings import (
     MAX_GRIDS,
     MAX_MEDIA,
+    MEDIUM_BOX,
     MEDIUM_EVERYWHERE,
     MEDIUM_GRID,
     MEDIUM_NONE,
@@ -226,7 +227,7 @@ class Renderer:
         self._targets = _Cache()
         self._attributes = _Cache()
         self._fires = _Cache()
-        self._fluences = _Cache()
+        self._fluences = _Cache()           # diffusion.py's fields on the GPU, and their lattices
         self._caches = [self._media, self._solids, self._shadows, self._tfms, self._gobos,
                         self._gbuffers, self._targets, self._attributes, self._medium_shadows,
                         self._fires, self._fluences]
@@ -501,17 +502,27 @@ class Renderer:
         """The frame's diffused light and surfaces' light (engine/diffusion.py) where its bounce
         count asks for them and it marches media, built from the faces' maps or cached by what they
         depend on (not the bounce count); counter 'fluences'."""
-        octaves = multiple_scattering.for_settings(settings)
-        if not octaves.fields or medium_gpu.kind != MEDIUM_GRID or not plans:
+        if medium_gpu.kind == MEDIUM_GRID:
+            media = [s.medium for s in medium_gpu.slots]
+            media_key = ("lattice",) + tuple(_slot_key(s) for s in medium_gpu.slots)
+        elif medium_gpu.kind == MEDIUM_BOX and medium_gpu.fog is None:
+            media = [medium]
+            media_key = ("lattice", medium.key)
+        else:
+            return None
+        if not plans:
+            return None
+        key = (media_key, tuple((p.light.key, p.frame.key, p.light_t) for p in plans), scene.solids_key,
+               tuple(m.key for m in scene.meshes if not m.holdout), self._map_resolution(settings),
+               settings.light_steps, settings.coefficients, settings.density_weight, settings.tfm_filter)
+        if not multiple_scattering.for_settings(settings).fields:
+            self._fluences.keep(key)        # a frame without bounces keeps them for the next with
+            self._fluences.keep(media_key)
             return None
         if not has_fluence_units(self.gl):
             warnings.append("This OpenGL has too few texture units for the light scattered many times "
                             "and the light the surfaces reflect into the media: they are left out.")
             return None
-        key = (tuple(_slot_key(s) for s in medium_gpu.slots),
-               tuple((p.light.key, p.frame.key, p.light_t) for p in plans), scene.solids_key,
-               tuple(m.key for m in scene.meshes if not m.holdout), self._map_resolution(settings),
-               settings.light_steps, settings.coefficients, settings.density_weight, settings.tfm_filter)
 
         def arriving(points, normals):
             total = np.zeros((len(points), 3))
@@ -527,12 +538,13 @@ class Renderer:
 
         def build():
             self.counters["fluences"] += 1
-            lat = diffusion.lattice([s.medium for s in medium_gpu.slots])
+            lat = self._fluences.get(media_key, lambda: _Value(diffusion.lattice(media)))[0].value
             if lat is None:
                 return _Value(None)
             return FluenceGPU(self.gl, diffusion.fluence(lat, scene.meshes, arriving))
 
         item = self._fluences.get(key, build)[0]
+        self._fluences.keep(media_key)      # the lattice: for the fields of the next lights
         return item if isinstance(item, FluenceGPU) else None
 
     def _solid_set(self, meshes, lights=()) -> SolidsBuffer:
@@ -547,14 +559,12 @@ class Renderer:
         return self._solids.get(key, lambda: SolidsBuffer(self.gl.ctx, meshes, unlit_by))[0]
 
     def _medium(self, scene: Scene, settings: RenderSettings) -> tuple[MediaGPU, list[str]]:
-        """The frame's media on the GPU: a single homogeneous medium analytically (a box is
-        marched where the frame reads engine/diffusion.py's fields), otherwise every medium marched
-        (grids and boxes); distinct grids share the memory budget, the largest downsampled first;
-        instances of one grid share its texture."""
+        """The frame's media on the GPU: a single homogeneous medium analytically, otherwise
+        every medium marched (grids and boxes); distinct grids share the memory budget, the
+        largest downsampled first; instances of one grid share its texture."""
         warnings: list[str] = []
         media = list(scene.media)
-        fields = multiple_scattering.for_settings(settings).fields
-        if len(media) == 1 and media[0].is_homogeneous and not (fields and media[0].box_to_world is not None):
+        if len(media) == 1 and media[0].is_homogeneous:
             medium = media[0]
             kind_gpu = MediumGPU(self.gl, medium, None)
             gpu = MediaGPU(kind_gpu.kind, kind_gpu, [], [])

@@ -17,7 +17,7 @@ from ..sparse_grid import PreparedSparse
 UNIT = {"u_gb0": 0, "u_gb1": 1, "u_density": 2, "u_shadow": 3, "u_gobo": 4, "u_krange": 5,
         "u_coef0": 6, "u_coef1": 7, "u_coef2": 8, "u_coef3": 9, "u_attrs": 10, "u_color_grid": 11,
         "u_density1": 12, "u_density2": 13, "u_shadow_depth": 14, "u_occupancy": 15, "u_density3": 16,
-        "u_glow": 17, "u_fire": 18, "u_brick_index": 19, "u_ms_surface": 20, "u_ms_diffused": 21,
+        "u_glow": 17, "u_fire": 18, "u_brick_index": 19, "u_ms_fluence": 20,
         # the probe pass reads no G-buffer: its points and normals take the G-buffer's units
         "u_points": 0, "u_normals": 1}
 # Uniform blocks: the solids' material table and the microfacet tables (shaders/surface.glsl).

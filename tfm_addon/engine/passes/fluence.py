@@ -1,5 +1,7 @@
-"""The fields of engine/diffusion.py on the GPU: two RGB 3D textures over its lattice, read by the
-first light pass (the shader's MS_GRID, shaders/scatter.frag)."""
+"""The fields of engine/diffusion.py on the GPU: their sum, weighed by the frame's bounce count,
+as one RGB 3D texture over the lattice, read by the first light pass (the shader's MS_GRID,
+shaders/scatter.frag). A new bounce count writes the texture again from the fields kept here; it
+solves nothing."""
 
 from __future__ import annotations
 
@@ -11,37 +13,38 @@ from .bindings import UNIT
 
 
 def has_fluence_units(gl: GLContext) -> bool:
-    """Whether this GL has the two texture units of the fields (above the 16 that GL 3.3 guarantees)."""
-    return UNIT["u_ms_diffused"] < int(gl.ctx.info.get("GL_MAX_TEXTURE_IMAGE_UNITS", 16))
+    """Whether this GL has the texture unit of the fields (above the 16 that GL 3.3 guarantees)."""
+    return UNIT["u_ms_fluence"] < int(gl.ctx.info.get("GL_MAX_TEXTURE_IMAGE_UNITS", 16))
 
 
 class FluenceGPU:
-    """The surfaces' light and the diffused light, linear between cell centres and 0 outside the
-    lattice (the shader tests the bounds)."""
+    """surface * the surfaces' light + grid * the diffused light, linear between cell centres and
+    0 outside the lattice (the shader tests the bounds)."""
 
     def __init__(self, gl: GLContext, fluence: Fluence):
         lat = fluence.lattice
         self.iterations = fluence.iterations
-        self.textures = []
-        for field in (fluence.surface, fluence.diffused):
-            # x fastest: the (nx, ny, nz, 3) array transposed to (nz, ny, nx, 3)
-            data = np.ascontiguousarray(np.transpose(field, (2, 1, 0, 3)), np.float32)
-            tex = gl.ctx.texture3d(lat.shape, 3, data.tobytes(), dtype="f4")
-            tex.repeat_x = tex.repeat_y = tex.repeat_z = False
-            self.textures.append(tex)
+        # x fastest: each (nx, ny, nz, 3) field transposed to (nz, ny, nx, 3)
+        self._fields = [np.ascontiguousarray(np.transpose(f, (2, 1, 0, 3)), np.float32)
+                        for f in (fluence.surface, fluence.diffused)]
+        self.texture = gl.ctx.texture3d(lat.shape, 3, dtype="f2")
+        self.texture.repeat_x = self.texture.repeat_y = self.texture.repeat_z = False
+        self.weights = None
         world_to_cell = np.linalg.inv(lat.cell_to_world())
         to_tc = np.diag([*(1.0 / np.asarray(lat.shape, np.float64)), 1.0])
         to_tc[:3, 3] = 0.5 / np.asarray(lat.shape, np.float64)
         self.world_to_tc = to_tc @ world_to_cell
 
     def bind(self, prog, weights: tuple[float, float]) -> None:
-        """The fields and their weights: (the surfaces' light, the diffused light)."""
-        for name, tex in zip(("u_ms_surface", "u_ms_diffused"), self.textures, strict=True):
-            tex.use(UNIT[name])
-            set_uniforms(prog, **{name: UNIT[name]})
+        """The fields weighed by ``weights`` (the surfaces' light, the diffused light)."""
+        weights = tuple(float(w) for w in weights)
+        if weights != self.weights:
+            total = weights[0] * self._fields[0] + weights[1] * self._fields[1]
+            self.texture.write(np.minimum(total, 65000.0).astype(np.float16).tobytes())
+            self.weights = weights
+        self.texture.use(UNIT["u_ms_fluence"])
+        set_uniforms(prog, u_ms_fluence=UNIT["u_ms_fluence"])
         set_matrix(prog, "u_world_to_ms", self.world_to_tc)
-        set_uniforms(prog, u_ms_weight=tuple(float(w) for w in weights))
 
     def release(self) -> None:
-        for tex in self.textures:
-            tex.release()
+        self.texture.release()

@@ -12,6 +12,7 @@ from ..gl_context import GLContext, set_matrix, set_uniforms
 from ..light import PROFILE_COSINE, area_emission_far
 from ..scene import Camera, Medium, RenderSettings
 from .bindings import (
+    MEDIUM_BOX,
     MEDIUM_EVERYWHERE,
     MEDIUM_GRID,
     MEDIUM_NONE,
@@ -172,7 +173,7 @@ def run_light_pass(gl: GLContext, *, camera: Camera, plane: ViewPlane, medium: M
     if fire is not None and first:
         defines["FIRE_LIGHT"] = 1
     octaves = multiple_scattering.for_settings(settings)
-    if fluence is not None and first and medium_kind == MEDIUM_GRID:
+    if fluence is not None and first and medium_kind in (MEDIUM_GRID, MEDIUM_BOX):
         defines["MS_GRID"] = 1
     if fluence is not None:
         octaves = dataclasses.replace(octaves, k=0.0)       # the diffused field stands for it

@@ -85,16 +85,15 @@ vec2 frustum_interval(vec3 o, vec3 d, vec2 range) {
 #include "homogeneous.glsl"
 
 #if MS_GRID
+#define MS_BOX_STEPS 8
 // The light scattered many times and the light the surfaces reflect into the media, as fluences
 // on a lattice over the media (engine/diffusion.py), 0 outside it.
-uniform sampler3D u_ms_surface;
-uniform sampler3D u_ms_diffused;
-uniform mat4 u_world_to_ms;     // world -> the lattice's texture coordinates
-uniform vec2 u_ms_weight;       // the surfaces' light, the diffused light
+uniform sampler3D u_ms_fluence;  // their sum, weighed by the bounce count (passes/fluence.py)
+uniform mat4 u_world_to_ms;       // world -> the lattice's texture coordinates
 vec3 ms_fluence(vec3 p) {
     vec3 tc = (u_world_to_ms * vec4(p, 1.0)).xyz;
     if (any(lessThan(tc, vec3(0.0))) || any(greaterThan(tc, vec3(1.0)))) return vec3(0.0);
-    return u_ms_weight.x * texture(u_ms_surface, tc).rgb + u_ms_weight.y * texture(u_ms_diffused, tc).rgb;
+    return texture(u_ms_fluence, tc).rgb;
 }
 #endif
 
@@ -372,6 +371,22 @@ void main() {
         vec3 ratio = mix(u_sigma_s / max(u_sigma_t, vec3(1e-12)), vec3(len) * u_sigma_s,
                          lessThan(u_sigma_t, vec3(1e-12)));
         scatter += ratio * u_ambient * mix(1.0 - transmittance, vec3(1.0), lessThan(u_sigma_t, vec3(1e-12)));
+#if MS_GRID
+        {   // the lattice's fields, marched through the box (each step weighted by its exact share;
+            // they vary over a lattice cell: at most MS_BOX_STEPS steps)
+            int n_f = min(u_view_steps, MS_BOX_STEPS);
+            float dt_f = len / float(n_f);
+            vec3 e_f = exp(-u_sigma_t * dt_f);
+            vec3 w_f = step_integral(u_sigma_t, dt_f, e_f);
+            vec3 t_f = vec3(1.0);
+            for (int i = 0; i < n_f; ++i) {
+                scatter += t_f * w_f * u_sigma_s * ms_fluence(o + d * (seg.x + (float(i) + step_at) * dt_f))
+                           * (0.25 / PI);
+                t_f *= e_f;
+                if (max(max(t_f.r, t_f.g), t_f.b) < 1e-3) break;
+            }
+        }
+#endif
 #endif
 #if EMISSION
         scatter += emission_at_index(vec3(0.0)) * mix((1.0 - transmittance) / max(u_sigma_t, vec3(1e-12)),
