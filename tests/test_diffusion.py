@@ -91,3 +91,19 @@ def test_media_between_attenuate_the_surfaces_light():
     thin, thick = column(2.0), column(4.0)
     assert np.all(np.diff(thin) < 0) and np.all(np.diff(thick) < 0)    # darker away from the plane
     assert thin[-1] < 0.3 * thin[0] and thick[-1] < 0.5 * thin[-1]
+
+
+def test_fine_grid_is_averaged_and_bad_values_are_empty():
+    """A grid far finer than the lattice's cells is averaged in blocks first; its integral is kept.
+    NaN and negative voxels count as empty, as everywhere else in the engine."""
+    n = 96
+    density = np.full((n, n, n), 2.0, np.float32)
+    density[:8] = np.nan
+    density[8:16] = -1.0
+    index_to_world = np.diag([1.0 / n, 1.0 / n, 1.0 / n, 1.0])
+    medium = Medium(sigma_a=(0.0,) * 3, sigma_s=(1.0,) * 3, density=density, index_to_world=index_to_world)
+    lat = diffusion.lattice([medium], max_side=16)
+    expected = 2.0 * (n - 16) / n          # the voxels' volume times their density, the bad ones empty
+    integral = lat.sigma_t[..., 0].sum() * lat.h ** 3
+    assert np.isfinite(lat.sigma_t).all()
+    assert abs(integral / expected - 1.0) < 0.03, (integral, expected)

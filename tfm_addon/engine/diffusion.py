@@ -34,6 +34,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .medium_grid import clean_density, downsample
 from .quality import trilinear
 
 MAX_SIDE = 48               # cells along the lattice's longest side
@@ -103,22 +104,36 @@ def _world_box(m) -> tuple[np.ndarray, np.ndarray]:
     return w.min(axis=0), w.max(axis=0)
 
 
-def _density_at(m, points: np.ndarray) -> np.ndarray:
-    """The medium's density D at world points (n,), and its scattering tint (n, 3) or None."""
+def _sampler(m, h: float) -> Callable[[np.ndarray], tuple[np.ndarray, np.ndarray | None]]:
+    """points -> (the medium's density D at world points (n,), its scattering tint (n, 3) or None):
+    a grid cleaned (NaN and clipped values as 0) and, where its voxels are finer than half a cell
+    of size h, averaged over blocks first."""
     if m.density is None:
         to_box = np.linalg.inv(np.asarray(m.box_to_world, np.float64))
-        b = points @ to_box[:3, :3].T + to_box[:3, 3]
-        return np.all(np.abs(b) <= 1.0, axis=1).astype(np.float64), None
-    to_index = np.linalg.inv(np.asarray(m.index_to_world, np.float64))
-    idx = (points @ to_index[:3, :3].T + to_index[:3, 3]).T + 1.0            # the padded grid's
-    grid = np.nan_to_num(np.asarray(m.density, np.float32), nan=0.0, posinf=0.0, neginf=0.0)
-    grid = np.where(grid >= max(float(m.clipping), 0.0), np.maximum(grid, 0.0), 0.0)
-    d = trilinear(np.pad(grid, 1), idx).astype(np.float64)
-    tint = None
-    if m.color_grid is not None and m.color_grid in m.grids:
-        c = np.pad(np.asarray(m.grids[m.color_grid], np.float32), [(1, 1)] * 3 + [(0, 0)])
-        tint = np.stack([trilinear(c[..., k], idx) for k in range(3)], axis=1).astype(np.float64)
-    return d, tint
+        return lambda p: (np.all(np.abs(p @ to_box[:3, :3].T + to_box[:3, 3]) <= 1.0, axis=1)
+                          .astype(np.float64), None)
+    index_to_world = np.asarray(m.index_to_world, np.float64)
+    voxel = float(np.linalg.norm(index_to_world[:3, :3], axis=0).min())
+    f = max(1, int(h / (2.0 * max(voxel, 1e-12))))
+    grid, _ = clean_density(m.density, m.clipping)
+    colour = m.grids.get(m.color_grid) if m.color_grid is not None else None
+    if f > 1:
+        grid = downsample(grid, f)
+        if colour is not None:
+            colour = np.stack([downsample(np.asarray(colour[..., k], np.float32), f) for k in range(3)], -1)
+        block = np.diag([f, f, f, 1.0])
+        block[:3, 3] = (f - 1) / 2.0
+        index_to_world = index_to_world @ block
+    to_index = np.linalg.inv(index_to_world)
+    grid = np.pad(grid, 1)                  # 0 one voxel past the outermost centres
+    colour = None if colour is None else np.pad(np.asarray(colour, np.float32), [(1, 1)] * 3 + [(0, 0)])
+
+    def sample(p):
+        idx = (p @ to_index[:3, :3].T + to_index[:3, 3]).T + 1.0
+        tint = None if colour is None else np.stack([trilinear(colour[..., k], idx) for k in range(3)], 1)
+        return trilinear(grid, idx).astype(np.float64), tint
+
+    return sample
 
 
 def lattice(media, max_side: int = MAX_SIDE) -> Lattice | None:
@@ -137,10 +152,11 @@ def lattice(media, max_side: int = MAX_SIDE) -> Lattice | None:
     idx = np.indices(shape, dtype=np.float64).reshape(3, -1).T
     sigma_t = np.zeros((len(idx), 3))
     sigma_s = np.zeros((len(idx), 3))
+    samplers = [(m, _sampler(m, h)) for m in finite]
     for offset in np.array([[x, y, z] for x in (-0.25, 0.25) for y in (-0.25, 0.25) for z in (-0.25, 0.25)]):
         p = origin + h * (idx + offset)
-        for m in finite:
-            d, tint = _density_at(m, p)
+        for m, sample in samplers:
+            d, tint = sample(p)
             sigma_t += d[:, None] * np.asarray(m.sigma_t, np.float64) / 8.0
             s = d[:, None] * np.asarray(m.sigma_s, np.float64)
             sigma_s += (s if tint is None else s * np.clip(tint, 0.0, None)) / 8.0
