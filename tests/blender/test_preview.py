@@ -129,7 +129,6 @@ def _rebuild(setup, material):
         mesh = bpy.data.meshes.new(f"prop{i}")
         mesh.from_pydata(v.tolist(), [], t.tolist())
         prop = bpy.data.materials.new(f"prop{i}")
-        prop.use_nodes = True
         prop.node_tree.nodes["Principled BSDF"].inputs["Base Color"].default_value = (*color, 1.0)
         mesh.materials.append(prop)
         ob = bpy.data.objects.new(f"prop{i}", mesh)
