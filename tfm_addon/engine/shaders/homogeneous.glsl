@@ -49,7 +49,7 @@ vec3 homogeneous_light(vec3 o, vec3 d, vec2 cs, float t0, vec3 sigma_t, vec3 sig
             vec3 tau_v = sigma_t * (t - t0);
             vec3 w_step = exp(-sigma_t * (t_start - t0)) * step_integral(sigma_t, dt, exp(-sigma_t * dt));
             scatter += w_step * sigma_s * li * u_light_targets.x
-                       * octave_phase(t_light, light_through(o + d * t, q, r), tau_v, -dot(light_travel(q, r), dq),
+                       * octave_phase(t_light, light_through(o + d * t, q, r, t_light), tau_v, -dot(light_travel(q, r), dq),
                                       g, sigma_s / max(sigma_t, vec3(1e-12)));
         }
     }

@@ -67,10 +67,11 @@ vec3 octave_phase(vec3 t_light, vec3 tau_through, vec3 tau_view, float cos_theta
 #if OCTAVES > 1 && HAS_LIGHT
 // The media's optical depth along the whole light ray through p (q: p in light space, r: its
 // light distance), from where the ray enters them to where it leaves (or meets a solid). Called
-// after light_transmittance(p, q, r): a map gives it from the same lookup (its series at the far
-// end, without the underflow of its transmittance); otherwise from the light to where the ray
-// leaves the media beyond p.
-vec3 light_through(vec3 p, vec3 q, float r) {
+// after light_transmittance(p, q, r), which gave t_light: a map gives it from the same lookup (its
+// series at the far end, without the underflow of its transmittance); otherwise from the light to
+// where the ray leaves the media beyond p (a lone homogeneous box: t_light's depth plus its
+// extinction over the rest of the ray inside it).
+vec3 light_through(vec3 p, vec3 q, float r, vec3 t_light) {
 #if LIGHT_T == 0
     // the map's far end, from the lookup light_transmittance(p, q, r) made (transmittance.glsl)
     return -u_tfm_exponent * log(max(g_tfm_end, 1e-30));
@@ -83,12 +84,17 @@ vec3 light_through(vec3 p, vec3 q, float r) {
 #else
     float beyond = box_interval(p, -dir).y;
 #endif
-    if (beyond <= 0.0) return -log(max(light_transmittance(p, q, r), vec3(1e-37)));
+    if (beyond <= 0.0) return -log(max(t_light, vec3(1e-37)));
+#if MEDIUM == 1
+    // one homogeneous box: the light ray's optical depth to p plus the box's extinction beyond it
+    return -log(max(t_light, vec3(1e-37))) + u_sigma_t * beyond;
+#else
     vec3 pe = p - dir * beyond;
     vec3 qe = light_space(pe);
     return -log(max(light_transmittance(pe, qe, light_distance(qe)), vec3(1e-37)));
 #endif
+#endif
 }
 #else
-vec3 light_through(vec3 p, vec3 q, float r) { return vec3(0.0); }
+vec3 light_through(vec3 p, vec3 q, float r, vec3 t_light) { return vec3(0.0); }
 #endif

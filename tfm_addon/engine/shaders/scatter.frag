@@ -334,7 +334,7 @@ void main() {
                 vec3 li = light_reaching(p_l, q, r, t_light);
                 if (any(greaterThan(li, vec3(0.0)))) {
                     float c = -dot(light_travel(q, r), dq);
-                    vec3 tau_through = light_through(p_l, q, r);
+                    vec3 tau_through = light_through(p_l, q, r, t_light);
                     vec3 tau_v = tau + st * (t_l - seg.x - float(i) * dt);
                     vec3 ssp = vec3(0.0);
                     for (int m = 0; m < N_MEDIA; ++m) {
