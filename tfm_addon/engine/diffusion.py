@@ -31,6 +31,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -71,6 +72,18 @@ class Lattice:
         idx = np.indices(self.shape, dtype=np.float64).reshape(3, -1).T
         return self.origin + self.h * idx
 
+    @cached_property
+    def axis_depths(self) -> np.ndarray:
+        """(6, nx, ny, nz, 3) optical depth from each cell's centre to the lattice's edge along
+        each of AXES."""
+        tau = self.sigma_t * self.h
+        out = []
+        for axis in range(3):
+            before = np.cumsum(tau, axis=axis) - 0.5 * tau                # toward -axis
+            after = np.flip(np.cumsum(np.flip(tau, axis), axis=axis), axis) - 0.5 * tau
+            out += [after, before]
+        return np.stack(out)
+
     def cell_to_world(self) -> np.ndarray:
         m = np.eye(4)
         m[:3, :3] *= self.h
@@ -85,7 +98,6 @@ class Fluence:
     lattice: Lattice
     surface: np.ndarray
     diffused: np.ndarray
-    iterations: int = 0
 
 
 def _finite_media(media) -> list:
@@ -226,21 +238,17 @@ def diffuse(sigma_t: np.ndarray, sigma_a: np.ndarray, source: np.ndarray, h: flo
     return np.maximum(x, 0.0), it
 
 
-def diffuse_rgb(lat: Lattice, source: np.ndarray) -> tuple[np.ndarray, int]:
+def diffuse_rgb(lat: Lattice, source: np.ndarray) -> np.ndarray:
     """``diffuse`` per colour channel (one solve where the channels are equal)."""
     st, ss, q = lat.sigma_t, lat.sigma_s, source
     grey = all(np.array_equal(a[..., 0], a[..., k]) for a in (st, ss, q) for k in (1, 2))
     channels = 1 if grey else 3
     # light scattered where the medium is thin leaves it: the source weighed by the share of the
     # six axes along which the medium stops it (1 - mean transmittance to the lattice's edge)
-    held = 1.0 - np.exp(-_axis_depths(lat)).mean(axis=0)
-    out, iterations = [], 0
-    for k in range(channels):
-        phi, it = diffuse(st[..., k], st[..., k] - ss[..., k], q[..., k] * held[..., k], lat.h)
-        out.append(phi)
-        iterations = max(iterations, it)
-    phi = np.stack(out * 3 if grey else out, axis=-1)
-    return phi, iterations
+    held = 1.0 - np.exp(-lat.axis_depths).mean(axis=0)
+    out = [diffuse(st[..., k], st[..., k] - ss[..., k], q[..., k] * held[..., k], lat.h)[0]
+           for k in range(channels)]
+    return np.stack(out * 3 if grey else out, axis=-1)
 
 
 @dataclass(frozen=True)
@@ -330,19 +338,6 @@ def surface_samples(meshes, centre: np.ndarray, radius: float,
     return SurfaceSamples(p[keep], nrm[keep], total / n, alb[which][keep])
 
 
-def _axis_depths(lat: Lattice) -> np.ndarray:
-    """(6, nx, ny, nz, 3) optical depth from each cell's centre to the lattice's edge along each
-    of AXES."""
-    tau = lat.sigma_t * lat.h
-    out = []
-    for axis in range(3):
-        c = np.cumsum(tau, axis=axis) - 0.5 * tau                 # toward -axis from the centre
-        before = c
-        after = np.flip(np.cumsum(np.flip(tau, axis), axis=axis), axis) - 0.5 * tau
-        out += [after, before]
-    return np.stack(out)
-
-
 def surface_fluence(lat: Lattice, samples: SurfaceSamples, irradiance: np.ndarray) -> np.ndarray:
     """The surfaces' fluence at each cell (nx, ny, nz, 3): each sample's reflected radiance
     (albedo ``irradiance`` / pi) over the solid angle it subtends at the probe positions, binned
@@ -376,7 +371,7 @@ def surface_fluence(lat: Lattice, samples: SurfaceSamples, irradiance: np.ndarra
         w = np.prod(np.where(np.array(corner) == 1, frac, 1.0 - frac), axis=1)
         flat = np.ravel_multi_index(tuple(idx.T), tuple(probes_per_side))
         arriving += w[:, None, None] * binned[flat]
-    depth = _axis_depths(lat).reshape(6, -1, 3)
+    depth = lat.axis_depths.reshape(6, -1, 3)
     out = (arriving * np.exp(-SURFACE_SECANT * np.moveaxis(depth, 0, 1))).sum(axis=1)
     return out.reshape(*lat.shape, 3)
 
@@ -399,5 +394,5 @@ def fluence(lat: Lattice, meshes, arriving: Callable[[np.ndarray, np.ndarray | N
     if samples is not None:
         irradiance = arriving(samples.points + samples.normals * (1e-3 * lat.h), samples.normals)
         surface = surface_fluence(lat, samples, irradiance) * (lat.sigma_t.max(axis=-1) > 0.0)[..., None]
-    diffused, iterations = diffuse_rgb(lat, lat.sigma_s * (lights + surface))
-    return Fluence(lat, surface.astype(np.float32), diffused.astype(np.float32), iterations)
+    diffused = diffuse_rgb(lat, lat.sigma_s * (lights + surface))
+    return Fluence(lat, surface.astype(np.float32), diffused.astype(np.float32))

@@ -47,7 +47,7 @@ from .passes.emission import AttributesGPU
 from .passes.fire import FireGPU, has_fire_unit
 from .passes.fluence import FluenceGPU, has_fluence_units
 from .passes.gbuffer import GBuffer
-from .passes.probe import ARRIVING, IRRADIANCE, probe_light, probe_light_transmittance
+from .passes.probe import ARRIVING, IRRADIANCE, TRANSMITTANCE, probe_light
 from .passes.scattering import (
     LIGHT_T_MARCH,
     LIGHT_T_NONE,
@@ -488,9 +488,9 @@ class Renderer:
                 (q[:, 2] < 0) & np.all(np.abs(q[:, :2]) <= -q[:, 2:3] * tan, axis=1))
             if not mine.any():
                 continue
-            out[mine] = probe_light_transmittance(
-                gl, pts[mine], medium=scene.media[0] if scene.media else None, medium_gpu=medium_gpu,
-                settings=settings,
+            out[mine] = probe_light(
+                gl, pts[mine], TRANSMITTANCE, medium=scene.media[0] if scene.media else None,
+                medium_gpu=medium_gpu, settings=settings,
                 light=(plan.frame, plan.light.intensity_w_per_sr, plan.shadow, None),
                 light_t=plan.light_t, tfm=plan.tfm, tfm_sigma_t=plan.tfm_sigma_t)
         for cache in self._caches:
@@ -1045,7 +1045,7 @@ class _Uploaded:
 
 @dataclass
 class _Value:
-    value: float
+    value: object
 
     def release(self) -> None:
         pass

@@ -23,7 +23,6 @@ class FluenceGPU:
 
     def __init__(self, gl: GLContext, fluence: Fluence):
         lat = fluence.lattice
-        self.iterations = fluence.iterations
         # x fastest: each (nx, ny, nz, 3) field transposed to (nz, ny, nx, 3)
         self._fields = [np.ascontiguousarray(np.transpose(f, (2, 1, 0, 3)), np.float32)
                         for f in (fluence.surface, fluence.diffused)]

@@ -16,12 +16,6 @@ ROW = 4096                          # points per row of the probe's image
 TRANSMITTANCE, ARRIVING, IRRADIANCE = 0, 1, 2
 
 
-def probe_light_transmittance(gl: GLContext, points: np.ndarray, **kw) -> np.ndarray:
-    """(n, 3) float32 transmittance per channel from the light to world ``points`` (n, 3)
-    (``probe_light``'s arguments)."""
-    return probe_light(gl, points, TRANSMITTANCE, **kw)
-
-
 def probe_light(
     gl: GLContext,
     points: np.ndarray,
