@@ -199,6 +199,8 @@ def run_light_pass(gl: GLContext, *, camera: Camera, plane: ViewPlane, medium: M
         defines.update(medium_gpu.defines())
     if light is not None and medium_kind != MEDIUM_NONE and octaves.count > 1:
         defines["OCTAVES"] = octaves.count
+        if octaves.k > 0.0:
+            defines["SLAB"] = 1         # the slab diffusion term (no lattice's fields stand for it)
     prog = gl.program("fullscreen.vert", "scatter.frag", defines)
     # The first pass writes the targets ScatteringTargets.begin bound, the others add into them.
     pass_state(gl.ctx, blend=not first or sums is not None)

@@ -3,11 +3,21 @@
 // (b albedo (1 - T_through))^n of its light and scatters with anisotropy g c^n, T_through the
 // transmittance of the whole light ray through the media (light that scatters again stays in
 // thick media and leaves thin ones). A diffusion term (weight k albedo^m) adds the light scattered
-// many times in thick media, which the octaves' T^(a^n) leave too dark deep inside. OCTAVES 1 (or
-// undefined) is single scattering.
+// many times in thick media, which the octaves' T^(a^n) leave too dark deep inside; SLAB 1 compiles
+// it in (only where no lattice's fields stand for it). OCTAVES 1 (or undefined) is single
+// scattering.
 #ifndef OCTAVES
 #define OCTAVES 1
 #endif
+#ifndef SLAB
+#define SLAB 0
+#endif
+#if GREY_EXTINCTION
+#define LOG2_RGB(v) vec3(log2((v).x))
+#else
+#define LOG2_RGB(v) log2(v)
+#endif
+const float LN2 = 0.693147180559945;
 uniform vec3 u_octave;     // a, b, c
 uniform vec3 u_diffusion;  // k, z, m
 
@@ -35,8 +45,9 @@ vec3 diffuse_fluence(vec3 tau, vec3 tau_tot, vec3 albedo) {
 vec3 octave_phase(vec3 t_light, vec3 tau_through, vec3 tau_view, float cos_theta, float g, vec3 albedo) {
     vec3 s = t_light * hg_phase(cos_theta, g);
 #if OCTAVES > 1
-    vec3 t_through = exp(-tau_through);
-    vec3 log_t = log2(max(t_light, vec3(1e-30)));
+    // grey extinction: one channel's exponentials and logarithm serve all three
+    vec3 t_through = EXP_RGB(-tau_through);
+    vec3 log_t = LOG2_RGB(max(t_light, vec3(1e-30)));
     vec3 step_b = u_octave.y * clamp(albedo, 0.0, 1.0) * (1.0 - t_through);
     float an = 1.0;
     vec3 bn = vec3(1.0);
@@ -45,9 +56,10 @@ vec3 octave_phase(vec3 t_light, vec3 tau_through, vec3 tau_view, float cos_theta
         an *= u_octave.x;
         bn *= step_b;
         gn *= u_octave.z;
-        s += bn * exp2(an * log_t) * hg_phase(cos_theta, gn);
+        s += bn * EXP2_RGB(an * log_t) * hg_phase(cos_theta, gn);
     }
-    if (u_diffusion.x > 0.0) {
+#if SLAB
+    {
         // the light scattered many times, spread evenly over directions
         vec3 tau = -log(max(t_light, vec3(1e-37)));
         vec3 tau_tot = max(tau_through, tau);
@@ -60,6 +72,7 @@ vec3 octave_phase(vec3 t_light, vec3 tau_through, vec3 tau_view, float cos_theta
         s += u_diffusion.x * pow(alb, vec3(u_diffusion.z)) * near * diffuse_fluence(tau, tau_tot, alb)
              * (0.25 / PI);
     }
+#endif
 #endif
     return s;
 }
@@ -84,10 +97,11 @@ vec3 light_through(vec3 p, vec3 q, float r, vec3 t_light) {
 #else
     float beyond = box_interval(p, -dir).y;
 #endif
-    if (beyond <= 0.0) return -log(max(t_light, vec3(1e-37)));
+    vec3 tau_light = -LN2 * LOG2_RGB(max(t_light, vec3(1e-37)));
+    if (beyond <= 0.0) return tau_light;
 #if MEDIUM == 1
     // one homogeneous box: the light ray's optical depth to p plus the box's extinction beyond it
-    return -log(max(t_light, vec3(1e-37))) + u_sigma_t * beyond;
+    return tau_light + u_sigma_t * beyond;
 #else
     vec3 pe = p - dir * beyond;
     vec3 qe = light_space(pe);

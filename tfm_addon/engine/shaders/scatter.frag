@@ -90,10 +90,14 @@ vec2 frustum_interval(vec3 o, vec3 d, vec2 range) {
 // on a lattice over the media (engine/diffusion.py), 0 outside it.
 uniform sampler3D u_ms_fluence;  // their sum, weighed by the bounce count (passes/fluence.py)
 uniform mat4 u_world_to_ms;       // world -> the lattice's texture coordinates
-vec3 ms_fluence(vec3 p) {
-    vec3 tc = (u_world_to_ms * vec4(p, 1.0)).xyz;
+// At tc, the lattice's texture coordinates (stepped along the view ray: ms_ray).
+vec3 ms_fluence(vec3 tc) {
     if (any(lessThan(tc, vec3(0.0))) || any(greaterThan(tc, vec3(1.0)))) return vec3(0.0);
     return texture(u_ms_fluence, tc).rgb;
+}
+// The lattice's texture coordinates of o (xyz) and their change per metre along d.
+mat2x3 ms_ray(vec3 o, vec3 d) {
+    return mat2x3((u_world_to_ms * vec4(o, 1.0)).xyz, mat3(u_world_to_ms) * d);
 }
 #endif
 
@@ -234,6 +238,9 @@ void main() {
         // matrix product or box test: outside its non-zero bounds its trilinear density is 0).
         GridRay vray = grid_ray(o, d, 1.0);
 #endif
+#if MS_GRID && FIRST_PASS
+        mat2x3 ms_tc = ms_ray(o, d);
+#endif
 #if PACKED_DENSITY
         // The same for the texture that packs the first medium's density (emission.glsl).
         vec3 ptc0 = (ob + 1.5) / PACKED_SIZE;
@@ -320,7 +327,7 @@ void main() {
 #if FIRST_PASS
                 src += ss * u_ambient;
 #if MS_GRID
-                src += ss * ms_fluence(p) * (0.25 / PI);      // scattered isotropically
+                src += ss * ms_fluence(ms_tc[0] + ms_tc[1] * t) * (0.25 / PI);      // scattered isotropically
 #endif
 #endif
 #if HAS_LIGHT
@@ -379,8 +386,9 @@ void main() {
             vec3 e_f = exp(-u_sigma_t * dt_f);
             vec3 w_f = step_integral(u_sigma_t, dt_f, e_f);
             vec3 t_f = vec3(1.0);
+            mat2x3 ms_tc = ms_ray(o, d);
             for (int i = 0; i < n_f; ++i) {
-                scatter += t_f * w_f * u_sigma_s * ms_fluence(o + d * (seg.x + (float(i) + step_at) * dt_f))
+                scatter += t_f * w_f * u_sigma_s * ms_fluence(ms_tc[0] + ms_tc[1] * (seg.x + (float(i) + step_at) * dt_f))
                            * (0.25 / PI);
                 t_f *= e_f;
                 if (max(max(t_f.r, t_f.g), t_f.b) < 1e-3) break;
