@@ -90,6 +90,10 @@ vec3 light_through(vec3 p, vec3 q, float r, vec3 t_light) {
     return -u_tfm_exponent * log(max(g_tfm_end, 1e-30));
 #elif MEDIUM == 2
     return vec3(1e30);       // fog everywhere: no way out
+#elif MEDIUM == 1 && LIGHT_T == 2
+    // one homogeneous box: the light ray's optical depth to p plus the box's extinction behind p,
+    // whose extent the lookup found
+    return -LN2 * LOG2_RGB(max(t_light, vec3(1e-37))) + u_sigma_t * g_box_behind;
 #else
     vec3 dir = toward_light(p, q, r);
 #if MEDIUM == 3

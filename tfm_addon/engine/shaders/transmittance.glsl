@@ -10,6 +10,11 @@ uniform sampler2D u_coef1;
 uniform sampler2D u_coef2;
 uniform sampler2D u_coef3;
 
+#if LIGHT_T == 2
+// The box's extent behind the last lookup's point, away from the light (the octaves' light ray
+// beyond the point: octaves.glsl).
+float g_box_behind = 0.0;
+#endif
 #if LIGHT_T == 0
 #if SOFT_SHADOW
 vec2 g_tfm_domain = vec2(0.0);     // K in, K out of the last filtered read (soft_tfm_lookup)
@@ -213,7 +218,8 @@ vec3 media_light_transmittance(vec3 p, vec3 q, float r) {
 #else
     vec3 dir = toward_light(p, q, r);
     vec2 k = box_interval(p, dir);
-    return exp(-u_sigma_t * max(min(k.y, r) - max(k.x, 0.0), 0.0));
+    g_box_behind = max(-k.x, 0.0);
+    return EXP_RGB(-u_sigma_t * max(min(k.y, r) - max(k.x, 0.0), 0.0));
 #endif
 #else
     return vec3(1.0);
