@@ -5,18 +5,21 @@ Cycles references with bounces (scripts/make_bounce_refs.py).
         [--cache parts.npz]
 
 A frame with bounces is linear in its parts: the single-scattering image, the image the second
-octave adds with b = 1 (each row of FITTED has two octaves, so b scales it), the surfaces' light
-and the diffused light (engine/diffusion.py), each with weight 1. So each medium is rendered by
-TFM (the add-on's defaults, through Blender) once per part and every candidate (b, grid weight) is
-composed from them and compared with Cycles without rendering it; the surfaces' light keeps weight
-1 (what Cycles renders from one bounce on). The octave count and decay a of each row are kept
-(FITTED); so are the slab term's constants (k, z, m), used only where no lattice is made.
+octave adds with b = 1 (each row of FITTED has two octaves, so b scales it), the surfaces' light,
+the diffused light and the emission's diffused light (engine/diffusion.py), each with weight 1.
+So each medium is rendered by TFM (the add-on's defaults, through Blender) once per part and
+every candidate (b, grid weight) is composed from them and compared with Cycles without
+rendering it; the surfaces' light keeps weight 1 (what Cycles renders from one bounce on). The
+octave count and decay a of each row are kept (FITTED); so are the slab term's constants (k, z,
+m), used only where no lattice is made.
 
 The fit minimises, over the ``bounces.FIT`` media, the mean of |brightness ratio - 1| + (1 - SSIM)
 (the brightness part, linear in the images, screens the candidates; the full loss picks among the
 ``SCREEN`` best); it prints the error of the chosen weights on the ``bounces.HELD_OUT`` media too.
-Above 16 bounces only the diffused light's weight may grow from the 16-bounce row, so more bounces
-never give less light.
+Above 16 bounces only the diffused lights' weights may grow from the 16-bounce row, so more bounces
+never give less light; the emission's diffused light's weight never falls as the bounce count
+grows. It is weighed after the lights' weights, on the fitting media that emit (no other image
+has it).
 """
 
 from __future__ import annotations
@@ -39,7 +42,8 @@ B_GRID = tuple(np.round(np.arange(0.0, 1.21, 0.025), 3))       # the second octa
 GRID_GRID = tuple(np.round(np.arange(0.0, 2.51, 0.05), 2))     # the diffused light's weight
 SCREEN = 80                                                    # candidates whose SSIM the fit computes
 GROWS_FROM = 16                                                # above it only the grid weight grows
-PARTS = ("single", "octave", "surface", "grid")
+E_GRID = tuple(np.round(np.arange(0.0, 4.01, 0.05), 2))       # the emission's diffused light's weight
+PARTS = ("single", "octave", "surface", "grid", "emission")
 
 
 def parts(medium: str, tmp: str, rows: dict) -> dict:
@@ -67,7 +71,8 @@ def parts(medium: str, tmp: str, rows: dict) -> dict:
         single = render(ms.SINGLE)
         out = {"single": single,
                "surface": render(ms.Octaves(1, surface=1.0)) - single,
-               "grid": render(ms.Octaves(1, grid=1.0)) - single}
+               "grid": render(ms.Octaves(1, grid=1.0)) - single,
+               "emission": render(ms.Octaves(1, emission=1.0)) - single}
         for n, row in rows.items():
             out[("octave", n)] = render(ms.Octaves(row.count, row.a, 1.0, row.c)) - single
     finally:
@@ -76,9 +81,9 @@ def parts(medium: str, tmp: str, rows: dict) -> dict:
     return out
 
 
-def compose(p: dict, n: int, b: float, grid: float):
-    """The image (or, given sums, the sum) of weights (b, grid) for row ``n``."""
-    return p["single"] + b * p[("octave", n)] + p["surface"] + grid * p["grid"]
+def compose(p: dict, n: int, b: float, grid: float, emission: float = 0.0):
+    """The image (or, given sums, the sum) of weights (b, grid, emission) for row ``n``."""
+    return p["single"] + b * p[("octave", n)] + p["surface"] + grid * p["grid"] + emission * p["emission"]
 
 
 def error(image, cycles) -> tuple[float, float]:
@@ -138,25 +143,38 @@ def main(argv: list[str] | None = None) -> int:
         refs = {m: bn.load_reference(m, n)[0][..., :3].astype(np.float64) for m in images
                 if bn.reference_path(m, n).exists()}
         fit = [m for m in bn.FIT if m in refs]
+        # the media that emit: only the emission's diffused light's weight changes them
+        glowing = [m for m in fit if np.any(images[m]["emission"] > 0.0)]
+        lit = [m for m in fit if m not in glowing]
         candidates = list(itertools.product(B_GRID, GRID_GRID))
         below = [result[k] for k in result if GROWS_FROM <= k < n]
         if below:
             candidates = [(b, g) for b, g in candidates if b == below[-1]["b"] and g >= below[-1]["grid"]]
-        sums = {m: ({k: v.sum() for k, v in images[m].items()}, refs[m].sum()) for m in fit}
+        sums = {m: ({k: v.sum() for k, v in images[m].items()}, refs[m].sum()) for m in lit}
         screened = sorted(candidates, key=lambda c: np.mean(
             [abs(compose(s, n, *c) / r - 1.0) for s, r in sums.values()]))[:SCREEN]
-        best = min((loss([error(compose(images[m], n, *c), refs[m]) for m in fit]), *c) for c in screened)
+        best = min((loss([error(compose(images[m], n, *c), refs[m]) for m in lit]), *c) for c in screened)
         _, b, grid = best
+        # the emission's diffused light: only the media that emit have it
+        emission, e_loss = 0.0, float("nan")
+        if glowing:
+            least = max((result[k]["emission"] for k in result if k < n), default=0.0)
+            e_candidates = [e for e in E_GRID if e >= least]
+            e_loss, emission = min(
+                (loss([error(compose(images[m], n, b, grid, e), refs[m]) for m in glowing]), e)
+                for e in e_candidates)
         per_medium = {}
         for m in refs:
             ss = error(images[m]["single"], refs[m])
-            mm = error(compose(images[m], n, b, grid), refs[m])
+            mm = error(compose(images[m], n, b, grid, emission), refs[m])
             per_medium[m] = {"fitted_on": m in bn.FIT, "single": ss, "multiple": mm}
             print(f"{n:4d} bounces {m:16s} {'fit ' if m in bn.FIT else 'held'}  single: SSIM {ss[0]:.4f} "
                   f"brightness {ss[1]:.3f}   multiple: SSIM {mm[0]:.4f} brightness {mm[1]:.3f}", flush=True)
-        row = dataclasses.replace(rows[n], b=float(b), grid=float(grid), surface=1.0)
-        print(f"{n:4d} bounces: {row}, loss {best[0]:.4f}", flush=True)
-        result[n] = {"b": float(b), "grid": float(grid), "loss": best[0], "media": per_medium}
+        row = dataclasses.replace(rows[n], b=float(b), grid=float(grid), surface=1.0,
+                                  emission=float(emission))
+        print(f"{n:4d} bounces: {row}, loss {best[0]:.4f} (emission: {e_loss:.4f})", flush=True)
+        result[n] = {"b": float(b), "grid": float(grid), "emission": float(emission), "loss": best[0],
+                     "emission_loss": e_loss, "media": per_medium}
     if args.json:
         args.json.write_text(json.dumps(result, indent=1))
     return 0

@@ -1,7 +1,8 @@
 """A blackbody fire whose temperature grid is in kelvin (Principled Volume: Blackbody Intensity 2,
 Temperature 1, Temperature Attribute 'temperature', Density Attribute 'density'), no lights, a black
 world: TFM's emission against Cycles' (single scattering, BLENDER.md settings; the volume hidden
-from diffuse and volume-scatter rays so that Cycles shows its emission alone)."""
+from volume-scatter rays in both renders, and from diffuse rays in Cycles', so that each shows
+its emission alone)."""
 
 import dataclasses
 import importlib
@@ -43,10 +44,10 @@ def test_a_blackbody_fire_in_kelvin_glows_as_in_cycles(blank, tmp_path, uniform)
     made = scene_builder.build(scene, str(tmp_path), settings=SETTINGS, samples=16)
     extraction = _mod("extract").extract(bpy.context.evaluated_depsgraph_get())
     print(extraction.all_warnings, extraction.media[0].blackbody_intensity, extraction.media[0].temperature)
+    made["medium"].visible_volume_scatter = False    # both renders: the emission alone, unscattered
     tfm = render_passes(tmp_path, "tfm")["Combined"][..., :3]
     scene_builder.cycles_single_scattering(bpy.context.scene, samples=SAMPLES)
     made["medium"].visible_diffuse = False
-    made["medium"].visible_volume_scatter = False
     cycles = render_passes(tmp_path, "cycles")["Combined"][..., :3]
     s = metrics.ssim(tfm, cycles)
     ratio = tfm.sum(axis=(0, 1)) / cycles.sum(axis=(0, 1))

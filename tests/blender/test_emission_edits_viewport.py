@@ -116,12 +116,12 @@ def test_a_strength_grid_with_negative_voxels_glows_as_in_cycles(blank, tmp_path
     signed = np.where((i + j + k) % 2 == 0, -0.6 * flame, flame).astype(np.float32)
     scene = dataclasses.replace(scene, media=(dataclasses.replace(m, grids={**m.grids, "flame": signed}),))
     made = scene_builder.build(scene, str(tmp_path), settings=SETTINGS)
+    made["medium"].visible_volume_scatter = False    # both renders: the emission alone, unscattered
     tfm = render_passes(tmp_path, "tfm")["Combined"][..., :3]
     blend = render_reference(scene, view_steps=SETTINGS.view_steps,
                              light_steps=SETTINGS.light_steps).combined[..., :3]
     scene_builder.cycles_single_scattering(bpy.context.scene, samples=256)
     made["medium"].visible_diffuse = False
-    made["medium"].visible_volume_scatter = False
     cycles = render_passes(tmp_path, "cycles")["Combined"][..., :3]
     for name, img in [("per voxel (the add-on)", tfm), ("clamp of the blend", blend)]:
         ratio = img.sum(axis=(0, 1)) / cycles.sum(axis=(0, 1))
@@ -145,10 +145,10 @@ def test_a_blackbody_intensity_grid_glows_as_in_cycles(blank, tmp_path):
     scene = dataclasses.replace(scene, media=(dataclasses.replace(
         scene.media[0], blackbody_intensity=GridValue("flame", 1.0, 0.0)),))
     made = scene_builder.build(scene, str(tmp_path), settings=SETTINGS)
+    made["medium"].visible_volume_scatter = False    # both renders: the emission alone, unscattered
     tfm = render_passes(tmp_path, "tfm")["Combined"][..., :3]
     scene_builder.cycles_single_scattering(bpy.context.scene, samples=256)
     made["medium"].visible_diffuse = False
-    made["medium"].visible_volume_scatter = False
     cycles = render_passes(tmp_path, "cycles")["Combined"][..., :3]
     ratio = tfm.sum(axis=(0, 1)) / cycles.sum(axis=(0, 1))
     total = float(tfm.sum() / cycles.sum())

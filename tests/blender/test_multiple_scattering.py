@@ -5,6 +5,7 @@ octave constants were not fitted on, against stored Cycles references at 16 and 
 import pytest
 
 from tfm_addon.bench import bounces as bn
+from tfm_addon.bench import conformance as cf
 from tfm_addon.engine import metrics
 
 SSIM_MIN = 0.95
@@ -34,6 +35,32 @@ def test_production_scale_cloud_needs_the_bounces(blank, tmp_path):
     cycles, _ = bn.load_reference("cumulus", 128)
     single = bn.render_tfm("cumulus", 0, str(tmp_path)).image[..., :3]
     assert metrics.brightness_ratio(single, cycles) < 0.5
+
+
+def test_a_medium_scatters_its_own_emission_with_no_bounces(blank, tmp_path):
+    """A smoke lit by its glowing core alone: Cycles scatters the emission at 0 volume bounces
+    (the scattered ray still gathers emission), and TFM does (engine/diffusion.py's emission
+    field). With the object's Volume Scatter ray visibility off neither does: TFM then renders
+    about half of Cycles' image with it on."""
+    import bpy
+
+    cycles, _ = bn.load_reference("glowing_smoke", 0)
+    image = bn.render_tfm("glowing_smoke", 0, str(tmp_path)).image[..., :3]
+    ssim, ratio = metrics.ssim(image, cycles), metrics.brightness_ratio(image, cycles)
+    print(f"glowing_smoke at 0 bounces: SSIM {ssim:.4f}, brightness {ratio:.3f}")
+    assert ssim >= 0.98 and abs(ratio - 1.0) <= 0.05, (ssim, ratio)
+
+    bn.build("glowing_smoke", str(tmp_path / "off"), 0)
+    for ob in bpy.context.scene.objects:
+        if ob.type == 'VOLUME':
+            ob.visible_volume_scatter = False
+    scene = bpy.context.scene
+    scene.render.engine = 'TFM'
+    scene.render.film_transparent = True
+    scene.tfm.samples = cf.TFM_SAMPLES
+    bpy.ops.render.render()
+    off = cf._read_render(str(tmp_path), "off")[..., :3]
+    assert metrics.brightness_ratio(off, cycles) < 0.7
 
 
 def test_volume_bounces_read_from_cycles_unless_set(blank, addon):

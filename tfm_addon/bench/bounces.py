@@ -85,6 +85,25 @@ def _production_cloud(tmpdir: str, *, density: float, size: float = 40.0, **shap
     ground.scale = (scale,) * 3
 
 
+def _glowing_smoke(tmpdir: str, *, density: float, color: float, glow: float = 6.0,
+                   light: str | None = None) -> None:
+    """A smoke puff that glows in its dense core (Emission Strength from the density through a Map
+    Range up to ``glow``), lit by ``light`` (None: nothing else, a black world). What lights the
+    smoke around the core is its own emission, scattered (Cycles scatters it at every bounce
+    count)."""
+    mat, nt, out = cf.material("Glow")
+    pv = cf.principled(nt, out, Density=density, Color=(color, color, color, 1.0),
+                       **{"Emission Color": (1.0, 0.5, 0.15, 1.0)})
+    mr = nt.nodes.new('ShaderNodeMapRange')
+    mr.inputs["From Min"].default_value = 1.6
+    mr.inputs["From Max"].default_value = 2.6
+    mr.inputs["To Max"].default_value = glow
+    nt.links.new(cf.attribute(nt).outputs["Fac"], mr.inputs["Value"])
+    nt.links.new(mr.outputs["Result"], pv.inputs["Emission Strength"])
+    cf.base(lights=light)
+    cf.volume_object(tmpdir, mat=mat)
+
+
 def _fog(tmpdir: str, *, density: float, color: float, light: str = 'POINT') -> None:
     mat, nt, out = cf.material("Fog")
     cf.principled(nt, out, Density=density, Color=(color, color, color, 1.0))
@@ -120,9 +139,16 @@ MEDIA: dict[str, tuple[Callable[[str], None], str, float]] = {
     "cumulus": (lambda d: _production_cloud(d, density=12.0),
                 "40 m cloud (a 64^3 .vdb of noise rounded by a spherical gradient), white, up to "
                 "Density 12 (optical depths of tens to hundreds), lit by a sun", 1.0),
+    "glowing_smoke": (lambda d: _glowing_smoke(d, density=1.5, color=0.9),
+                      "smoke puff, Density 1.5, Color 0.9, its core emitting (Emission Strength up to "
+                      "6, orange), no lamp: lit by its own emission", 0.9),
+    "glowing_smoke_sun": (lambda d: _glowing_smoke(d, density=3.0, color=0.7, glow=12.0, light='SUN'),
+                          "smoke puff, Density 3, Color 0.7, its core emitting (up to 12, orange), "
+                          "lit by a sun too", 0.7),
 }
-FIT = ("thin_smoke", "thick_smoke", "cloud", "fog_box", "dense_smoke", "dark_smoke", "cloud_sun")
-HELD_OUT = ("white_smoke", "dense_cloud_sun", "grey_smoke_spot", "fog_sun", "cumulus")
+FIT = ("thin_smoke", "thick_smoke", "cloud", "fog_box", "dense_smoke", "dark_smoke", "cloud_sun",
+       "glowing_smoke")
+HELD_OUT = ("white_smoke", "dense_cloud_sun", "grey_smoke_spot", "fog_sun", "cumulus", "glowing_smoke_sun")
 
 
 def build(medium: str, tmpdir: str, bounces: int) -> None:

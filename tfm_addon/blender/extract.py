@@ -478,7 +478,7 @@ def _walk_instances(depsgraph, parts: Change, cache: GridCache,
             _medium_visibility_notes(depsgraph, instance, notes[Change.MEDIUM])
             if found is not None:
                 found_media.append(replace(found, name=_label(instance),
-                                           lights_surfaces=_lights_surfaces(instance)))
+                                           **_emission_reach(instance)))
                 sources.append(_label(instance))
         elif kind == 'MESH' and fluid.domain_modifier(ob, depsgraph.mode == 'RENDER') is not None:
             if Change.MEDIUM in parts:   # a smoke / fire domain: its cache, never its mesh
@@ -488,7 +488,7 @@ def _walk_instances(depsgraph, parts: Change, cache: GridCache,
                 _medium_visibility_notes(depsgraph, instance, notes[Change.MEDIUM])
                 if found is not None:
                     found_media.append(replace(found, name=_label(instance),
-                                               lights_surfaces=_lights_surfaces(instance)))
+                                               **_emission_reach(instance)))
                     sources.append(_label(instance))
         elif kind in meshes.MESH_TYPES and parts & (Change.SOLIDS | Change.MEDIUM):
             material = meshes.first_material(ob)
@@ -505,7 +505,7 @@ def _walk_instances(depsgraph, parts: Change, cache: GridCache,
                     _medium_visibility_notes(depsgraph, instance, notes[Change.MEDIUM])
                     if found is not None:
                         found_media.append(replace(found, name=_label(instance),
-                                                   lights_surfaces=_lights_surfaces(instance)))
+                                                   **_emission_reach(instance)))
                         sources.append(_label(instance))
                 continue
             if Change.SOLIDS not in parts:
@@ -555,13 +555,14 @@ UNRENDERED_TYPES = {'CURVES': "Hair curves", 'POINTCLOUD': "Point clouds"}
 PLACED_TYPES = {'LIGHT', 'VOLUME'} | meshes.MESH_TYPES
 
 
-def _lights_surfaces(instance) -> bool:
-    """Whether a medium's emission lights the surfaces: Cycles' Diffuse ray visibility of its
-    object (and its instancer's)."""
+def _emission_reach(instance) -> dict:
+    """What a medium's emission lights: the surfaces where Cycles' Diffuse ray visibility of its
+    object (and its instancer's) is on, the media where its Volume Scatter visibility is."""
     owners = [instance.object]
     if instance.is_instance and instance.parent is not None:
         owners.append(instance.parent)
-    return all(o.visible_diffuse for o in owners)
+    return {"lights_surfaces": all(o.visible_diffuse for o in owners),
+            "lights_medium": all(getattr(o, "visible_volume_scatter", True) for o in owners)}
 
 
 def _medium_visibility_notes(depsgraph, instance, notes: list[str]) -> None:

@@ -93,11 +93,15 @@ class Lattice:
 
 @dataclass(frozen=True)
 class Fluence:
-    """The two fields on ``lattice``: (nx, ny, nz, 3) float32, W/m²."""
+    """The fields on ``lattice``: (nx, ny, nz, 3) float32, W/m²; ``emission`` the media's own
+    emission arriving unscattered, ``emission_diffused`` its diffused light (zeros where none
+    emits: the bounce count weighs it apart from the lights')."""
 
     lattice: Lattice
     surface: np.ndarray
     diffused: np.ndarray
+    emission: np.ndarray
+    emission_diffused: np.ndarray
 
 
 def _finite_media(media) -> list:
@@ -376,23 +380,35 @@ def surface_fluence(lat: Lattice, samples: SurfaceSamples, irradiance: np.ndarra
     return out.reshape(*lat.shape, 3)
 
 
-def fluence(lat: Lattice, meshes, arriving: Callable[[np.ndarray, np.ndarray | None], np.ndarray]) -> Fluence:
-    """Both fields. ``arriving(points, normals)``: the lights' radiance arriving at world points
+def fluence(lat: Lattice, meshes, arriving: Callable[[np.ndarray, np.ndarray | None], np.ndarray],
+            emitted: Callable[[np.ndarray, np.ndarray | None], np.ndarray] | None = None) -> Fluence:
+    """The fields. ``arriving(points, normals)``: the lights' radiance arriving at world points
     past the solids and media, summed over the lights (n, 3), W/m²; with ``normals``, the
-    irradiance of surfaces facing them there."""
+    irradiance of surfaces facing them there. ``emitted(points, normals)``: the same for the
+    media's own emission (None: they emit nothing); its fluence is a field of its own and the
+    source of a diffused light of its own, and the surfaces reflect it as the lights' light."""
     n_cells = int(np.prod(lat.shape))
     scattering = lat.sigma_s.reshape(-1, 3).any(axis=1)
     lights = np.zeros((n_cells, 3))
+    emission = np.zeros((n_cells, 3))
     if scattering.any():
         lights[scattering] = arriving(lat.points()[scattering], None)
+        if emitted is not None:
+            emission[scattering] = emitted(lat.points()[scattering], None)
     lights = lights.reshape(*lat.shape, 3)
+    emission = emission.reshape(*lat.shape, 3)
     lo = lat.origin - 0.5 * lat.h
     hi = lat.origin + lat.h * (np.array(lat.shape) - 0.5)
     centre = 0.5 * (lo + hi)
     samples = surface_samples(meshes, centre, REACH * 0.5 * float(np.linalg.norm(hi - lo)))
     surface = np.zeros_like(lights)
     if samples is not None:
-        irradiance = arriving(samples.points + samples.normals * (1e-3 * lat.h), samples.normals)
+        lifted = samples.points + samples.normals * (1e-3 * lat.h)
+        irradiance = arriving(lifted, samples.normals)
+        if emitted is not None:
+            irradiance = irradiance + emitted(lifted, samples.normals)
         surface = surface_fluence(lat, samples, irradiance) * (lat.sigma_t.max(axis=-1) > 0.0)[..., None]
     diffused = diffuse_rgb(lat, lat.sigma_s * (lights + surface))
-    return Fluence(lat, surface.astype(np.float32), diffused.astype(np.float32))
+    emission_diffused = (diffuse_rgb(lat, lat.sigma_s * emission) if emission.any()
+                         else np.zeros_like(emission))
+    return Fluence(lat, *(f.astype(np.float32) for f in (surface, diffused, emission, emission_diffused)))

@@ -46,13 +46,16 @@ class FireLight:
     """An emitting medium as points: ``positions`` (n, 3) m, ``intensity`` (n, 3) W/sr,
     ``softening`` (n,) m², ``transmittance`` (n, DIRECTIONS, DIRECTIONS, 3), the medium's
     transmittance from each point outwards by octahedral direction (rows: v, columns: u),
-    ``block`` the voxels per side of a point's block."""
+    ``block`` the voxels per side of a point's block; ``to_index`` (4, 4) the points' frame to the
+    grid's index space, ``grid_shape`` the grid's voxels (the box the maps reach: -1 .. shape)."""
 
     positions: np.ndarray
     intensity: np.ndarray
     softening: np.ndarray
     transmittance: np.ndarray
     block: int
+    to_index: np.ndarray | None = None
+    grid_shape: tuple[int, int, int] | None = None
 
     def __len__(self) -> int:
         return len(self.positions)
@@ -81,6 +84,30 @@ class FireLight:
             uv = np.clip((octahedral(-v / np.sqrt(r2)[:, None]) * DIRECTIONS).astype(int), 0, DIRECTIONS - 1)
             t = self.transmittance[i, uv[:, 1], uv[:, 0]]
             out += self.intensity[i] * (cos / (r2 + self.softening[i]))[:, None] * t
+        return out
+
+
+    def fluence(self, points: np.ndarray, rotation=None, offset=None) -> np.ndarray:
+        """(m, 3) W/m² the fluence at ``points`` (m, 3) (the light arriving from every direction,
+        summed; placement as ``irradiance``): each point's intensity over its softened squared
+        distance, through its map's transmittance raised to the share of the way to the grid box's
+        edge that the point lies at (a map reaches that edge; a point inside the medium is shadowed
+        by the part of the ray before it, taken as the ray's mean), 1 beyond the edge."""
+        r = np.eye(3) if rotation is None else np.asarray(rotation, np.float64)
+        t = np.zeros(3) if offset is None else np.asarray(offset, np.float64)
+        points = (np.asarray(points, np.float64) - t) @ r
+        to_index = np.asarray(self.to_index, np.float64)
+        lo, hi = np.full(3, -1.0), np.asarray(self.grid_shape, np.float64)
+        out = np.zeros((len(points), 3))
+        for i in range(len(self)):
+            v = points - self.positions[i]                       # from the point of emission
+            r2 = np.maximum(np.einsum("ij,ij->i", v, v), 1e-30)
+            uv = np.clip((octahedral(v / np.sqrt(r2)[:, None]) * DIRECTIONS).astype(int), 0, DIRECTIONS - 1)
+            o = to_index[:3, :3] @ self.positions[i] + to_index[:3, 3]
+            _, t_out = boxes.slab(np.broadcast_to(o, v.shape), v @ to_index[:3, :3].T, lo, hi)
+            share = np.clip(np.nan_to_num(1.0 / np.maximum(t_out, 1e-30), nan=0.0), 0.0, 1.0)
+            trans = np.maximum(self.transmittance[i, uv[:, 1], uv[:, 0]], 1e-30) ** share[:, None]
+            out += self.intensity[i] * (1.0 / (r2 + self.softening[i]))[:, None] * trans
         return out
 
 
@@ -198,7 +225,7 @@ def fire_light(medium: Medium, max_points: int = MAX_POINTS) -> FireLight | None
     maps = _half_maps(medium, world, emits, b)                # (n, 8, D, D, 3), the blocks kept
     hw = half_weight[keep]
     t = np.einsum("nh,nhuvc->nuvc", hw, maps) / hw.sum(axis=1)[:, None, None, None]
-    return FireLight(centre, intensity, spread, t, b)
+    return FireLight(centre, intensity, spread, t, b, np.linalg.inv(local), tuple(int(n) for n in shape))
 
 
 _HALF_MAPS: OrderedDict = OrderedDict()   # what _half_maps made, by what they depend on (4 kept)

@@ -16,7 +16,9 @@ In thick media light scatters hundreds of times and the octaves' T^(a^n) leaves 
 dark; and from one bounce on Cycles lights the media with the light the surfaces reflect. Two
 fields on a lattice over the media carry both (engine/diffusion.py, built once per light set up from
 the same maps): the surfaces' light, weighed by ``surface``, and the diffused light (the
-diffusion equation's fluence of light scattered at least twice), weighed by ``grid``. Where no
+diffusion equation's fluence of light scattered at least twice), weighed by ``grid``; and where the
+first medium emits, its emission's light (whole at every bounce count, 0 included: Cycles scatters
+a medium's emission with no bounces) and that light diffused, weighed by ``emission``. Where no
 lattice can be made (fog filling the scene, a GL with too few texture units) a diffusion term of
 the light ray's own slab stands in from 16 bounces on: k albedo^m times the diffuse fluence of a
 slab as thick as the light ray's optical depth through the media there (boundary extrapolated by
@@ -38,7 +40,7 @@ class Octaves:
     optical depth by ``a``^n, the contribution by (``b`` albedo (1 - T_through))^n and the anisotropy
     by ``c``^n; the slab diffusion term weighs ``k`` albedo^``m``, ``z`` its extrapolated boundary
     (an optical depth); ``surface`` and ``grid`` weigh the surfaces' light and the diffused light
-    of engine/diffusion.py."""
+    of engine/diffusion.py, ``emission`` the diffused light of the media's own emission."""
 
     count: int = 1
     a: float = 1.0
@@ -49,6 +51,7 @@ class Octaves:
     m: float = 0.0
     surface: float = 0.0
     grid: float = 0.0
+    emission: float = 0.0
 
     @property
     def fields(self) -> bool:
@@ -64,11 +67,11 @@ SINGLE = Octaves()
 # thick media from 16 bounces on, more at 128 (only its weight may grow from the 16-bounce row:
 # more bounces never give less light), as Cycles' thick media are brighter at 128 than at 16.
 FITTED: dict[int, Octaves] = {
-    1: Octaves(2, 0.7, 0.55, 0.5, surface=1.0),
-    2: Octaves(2, 0.4, 0.7, 0.5, surface=1.0),
-    4: Octaves(2, 0.5, 0.9, 0.5, surface=1.0),
-    16: Octaves(2, 0.4, 0.625, 0.5, k=0.45, z=0.3, m=1.0, surface=1.0, grid=0.9),
-    128: Octaves(2, 0.4, 0.625, 0.5, k=0.55, z=0.3, m=1.0, surface=1.0, grid=1.15),
+    1: Octaves(2, 0.7, 0.55, 0.5, surface=1.0, emission=0.7),
+    2: Octaves(2, 0.4, 0.7, 0.5, surface=1.0, emission=1.2),
+    4: Octaves(2, 0.5, 0.9, 0.5, surface=1.0, emission=1.7),
+    16: Octaves(2, 0.4, 0.625, 0.5, k=0.45, z=0.3, m=1.0, surface=1.0, grid=0.9, emission=2.0),
+    128: Octaves(2, 0.4, 0.625, 0.5, k=0.55, z=0.3, m=1.0, surface=1.0, grid=1.15, emission=2.0),
 }
 
 

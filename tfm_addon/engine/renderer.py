@@ -16,6 +16,7 @@ from .camera import view_plane
 from .errors import RenderCancelled
 from .fire_light import content_key as fire_content_key
 from .fire_light import fire_light
+from .fire_light import placement as fire_placement
 from .frame_plan import FacePlan, FramePlan, plan_faces, plan_frame
 from .gl_context import GLContext
 from .light import (
@@ -80,10 +81,13 @@ def prepare_scene(scene: Scene, settings: RenderSettings | None) -> Scene:
 
 
 def _media_notes(scene: Scene) -> list[str]:
-    """What the renderer leaves out of the media, said once each."""
+    """What the renderer leaves out of the media, said once each: the emission of a medium that
+    also scatters is scattered (Renderer._fluence) for the first medium marched, when a density
+    grid."""
     return [f"Medium '{m.name}' emits and scatters: its own emission is not scattered by it (Cycles "
             f"lights the medium with it even with no bounces, a few per cent brighter)"
-            for m in scene.media if m.has_emission and max(m.sigma_s) > 0.0]
+            for i, m in enumerate(scene.media) if m.has_emission and m.lights_medium and max(m.sigma_s) > 0.0
+            and (i > 0 or m.density is None)]
 
 
 def effective_settings(scene: Scene, settings: RenderSettings | None) -> RenderSettings:
@@ -504,24 +508,30 @@ class Renderer:
         depend on (not the bounce count); counter 'fluences'."""
         if medium_gpu.kind == MEDIUM_GRID:
             media = [s.medium for s in medium_gpu.slots]
-            media_key = ("lattice",) + tuple(_slot_key(s) for s in medium_gpu.slots)
+            media_key = ("lattice",) + tuple(_slot_key(s) + (s.medium.key,) for s in medium_gpu.slots)
         elif medium_gpu.kind == MEDIUM_BOX and medium_gpu.fog is None:
             media = [medium]
             media_key = ("lattice", medium.key)
         else:
             return None
-        if not plans:
+        # The first medium's own emission, scattered by the media (a fire lighting its smoke):
+        # Cycles renders it at every bounce count, 0 included.
+        emits = (medium_gpu.kind == MEDIUM_GRID and medium.has_emission and medium.lights_medium
+                 and any(max(m.sigma_s) > 0.0 for m in media))
+        if not plans and not emits:
             return None
         key = (media_key, tuple((p.light.key, p.frame.key, p.light_t) for p in plans), scene.solids_key,
                tuple(m.key for m in scene.meshes if not m.holdout), self._map_resolution(settings),
-               settings.light_steps, settings.coefficients, settings.density_weight, settings.tfm_filter)
-        if not multiple_scattering.for_settings(settings).fields:
+               settings.light_steps, settings.coefficients, settings.density_weight, settings.tfm_filter,
+               emits)
+        if not (multiple_scattering.for_settings(settings).fields or emits):
             self._fluences.keep(key)        # a frame without bounces keeps them for the next with
             self._fluences.keep(media_key)
             return None
         if not has_fluence_units(self.gl):
-            warnings.append("This OpenGL has too few texture units for the light scattered many times "
-                            "and the light the surfaces reflect into the media: they are left out.")
+            warnings.append("This OpenGL has too few texture units for the light scattered many times, "
+                            "the light the surfaces reflect into the media and the media's own emission "
+                            "scattered by them: they are left out.")
             return None
 
         def arriving(points, normals):
@@ -541,11 +551,27 @@ class Renderer:
             lat = self._fluences.get(media_key, lambda: _Value(diffusion.lattice(media)))[0].value
             if lat is None:
                 return _Value(None)
-            return FluenceGPU(self.gl, diffusion.fluence(lat, scene.meshes, arriving))
+            emitted = None
+            if emits:
+                light = fire_light(medium)
+                if light is not None:
+                    rotation, _, offset = fire_placement(medium)
+                    def emitted(points, normals, light=light, rotation=rotation, offset=offset):
+                        if normals is None:
+                            return light.fluence(points, rotation, offset)
+                        return light.irradiance(points, normals, rotation, offset)
+            gpu = FluenceGPU(self.gl, diffusion.fluence(lat, scene.meshes, arriving, emitted))
+            gpu.emission_points = 0 if emitted is None else len(light)
+            return gpu
 
         item = self._fluences.get(key, build)[0]
         self._fluences.keep(media_key)      # the lattice: for the fields of the next lights
-        return item if isinstance(item, FluenceGPU) else None
+        if not isinstance(item, FluenceGPU):
+            return None
+        if item.emission_points:
+            warnings.append(f"Medium '{medium.name}' scatters its own emission as the light of "
+                            f"{item.emission_points} points of it, isotropically; solids do not shadow it")
+        return item
 
     def _solid_set(self, meshes, lights=()) -> SolidsBuffer:
         """The vertex buffer of these meshes (the camera's and the lights' sets are one buffer

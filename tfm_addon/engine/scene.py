@@ -329,6 +329,8 @@ class Medium:
 
     ``lights_surfaces``: the emission lights the solids too (Cycles does, even with no bounces,
     unless the object's Diffuse ray visibility is off), approximated by engine/fire_light.py.
+    ``lights_medium``: the emission lights the media, which scatter it (Cycles does, even with no
+    bounces, unless the object's Volume Scatter ray visibility is off; engine/diffusion.py).
 
     ``sparse``: the density at full resolution as bricks (an ``engine.sparse_grid.SparseGrid``,
     a big grid that is mostly empty), which the renderer uploads in place of ``density``; the
@@ -356,6 +358,7 @@ class Medium:
     emission_grid: str | None = None
     shader: object | None = None
     lights_surfaces: bool = False
+    lights_medium: bool = False
     sparse: object | None = None
 
     def __post_init__(self):

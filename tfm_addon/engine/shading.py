@@ -1067,7 +1067,8 @@ def resolve_medium(medium: Medium) -> Medium:
     return Medium(density=r.density, index_to_world=to_world, grids=grids,
                   sigma_a=tuple(k * c for c in r.sigma_a), sigma_s=tuple(k * c for c in r.sigma_s),
                   blackbody_tint=(k, k, k), anisotropy=r.anisotropy, name=medium.name,
-                  source_key=src.key, lights_surfaces=medium.lights_surfaces, **fields)
+                  source_key=src.key, lights_surfaces=medium.lights_surfaces,
+                  lights_medium=medium.lights_medium, **fields)
 
 
 def resolve_scene(scene: Scene) -> Scene:

@@ -18,27 +18,31 @@ def has_fluence_units(gl: GLContext) -> bool:
 
 
 class FluenceGPU:
-    """surface * the surfaces' light + grid * the diffused light, linear between cell centres and
-    0 outside the lattice (the shader tests the bounds)."""
+    """surface * the surfaces' light + grid * the diffused light + the media's own emission (whole
+    at every bounce count: Cycles scatters it with none) + emission * its diffused light, linear
+    between cell centres and 0 outside the lattice (the shader tests the bounds)."""
 
     def __init__(self, gl: GLContext, fluence: Fluence):
         lat = fluence.lattice
         # x fastest: each (nx, ny, nz, 3) field transposed to (nz, ny, nx, 3)
         self._fields = [np.ascontiguousarray(np.transpose(f, (2, 1, 0, 3)), np.float32)
-                        for f in (fluence.surface, fluence.diffused)]
+                        for f in (fluence.surface, fluence.diffused, fluence.emission_diffused,
+                                  fluence.emission)]
         self.texture = gl.ctx.texture3d(lat.shape, 3, dtype="f2")
         self.texture.repeat_x = self.texture.repeat_y = self.texture.repeat_z = False
         self.weights = None
+        self.emission_points = 0        # the points the media's emission was taken from (renderer)
         world_to_cell = np.linalg.inv(lat.cell_to_world())
         to_tc = np.diag([*(1.0 / np.asarray(lat.shape, np.float64)), 1.0])
         to_tc[:3, 3] = 0.5 / np.asarray(lat.shape, np.float64)
         self.world_to_tc = to_tc @ world_to_cell
 
-    def bind(self, prog, weights: tuple[float, float]) -> None:
-        """The fields weighed by ``weights`` (the surfaces' light, the diffused light)."""
+    def bind(self, prog, weights: tuple[float, float, float]) -> None:
+        """The fields weighed by ``weights`` (the surfaces' light, the diffused light, the
+        emission's diffused light)."""
         weights = tuple(float(w) for w in weights)
         if weights != self.weights:
-            total = weights[0] * self._fields[0] + weights[1] * self._fields[1]
+            total = sum(w * f for w, f in zip(weights, self._fields[:3], strict=True)) + self._fields[3]
             self.texture.write(np.minimum(total, 65000.0).astype(np.float16).tobytes())
             self.weights = weights
         self.texture.use(UNIT["u_ms_fluence"])

@@ -238,7 +238,7 @@ def run_light_pass(gl: GLContext, *, camera: Camera, plane: ViewPlane, medium: M
     if fire is not None and first:
         fire.bind(prog, medium)
     if defines.get("MS_GRID"):
-        fluence.bind(prog, (octaves.surface, octaves.grid))
+        fluence.bind(prog, (octaves.surface, octaves.grid, octaves.emission))
     if compose is not None:
         film_transparent, world = compose
         set_uniforms(prog, u_film_transparent=int(bool(film_transparent)),
