@@ -178,3 +178,29 @@ def test_coarse_image_reuses_the_full_footprint_tfm(monkeypatch):
     assert view.counters["coarse"] == 3
     assert after["tfms"] - before["tfms"] == 0
     assert worker.close(10)
+
+
+def test_a_light_move_builds_the_multiple_scattering_fields_once_for_the_full_image():
+    """With volume bounces the lattice's fields are built from the full maps: the coarse image
+    after a light move (quarter-side maps) leaves them out, so that it comes quickly; the full
+    image builds them once, and the refinement steps reuse them."""
+    worker = RenderWorker()
+    view = RecordingView(worker)
+    scene = smoke_scene(width=48, height=32, n=24)
+    bounces = dataclasses.replace(MAPS128, volume_bounces=16)
+    view.request(1, scene, bounces, 3)
+    first = _wait_converged(view, 1)
+    assert worker.counters["fluences"] == 1
+    light = scene.lights[0]
+    lit = dataclasses.replace(scene, lights=(dataclasses.replace(
+        light, matrix_world=look_at((-2.0, -1.5, 4.5), (0, 0, 1.0))),))
+    coarse = view.counters["coarse"]
+    view.request(2, lit, bounces, 3)
+    relit = _wait_converged(view, 2)
+    assert view.counters["coarse"] == coarse + 1
+    assert worker.counters["fluences"] == 2
+    assert float(np.abs(relit.image - first.image).max()) > 0.01
+    # the converged image is the final render's, fields included
+    final = worker.call(lambda r: render_samples(r, lit, bounces, 3, passes=False))
+    assert float(np.abs(relit.image - final.combined).max()) <= 1e-4
+    assert worker.close(10)

@@ -1418,6 +1418,15 @@ def _(tmpdir):
     bpy.context.scene.cycles.volume_bounces = 16
 
 
+@row("emission_scattered", "Object ▸ Visibility ▸ Volume Scatter on (the default): smoke lit by its "
+     "glowing core alone (Emission Strength `density` through Map Range 1.6–2.6 → 0–6), no lamp; "
+     "Cycles scatters the emission with no bounces", coloured=True)
+def _(tmpdir):
+    from . import bounces
+
+    bounces.MEDIA["glowing_smoke"][0](tmpdir)
+
+
 ROW_BY_ID = {r.id: r for r in ROWS}
 
 

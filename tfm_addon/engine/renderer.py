@@ -524,8 +524,8 @@ class Renderer:
                tuple(m.key for m in scene.meshes if not m.holdout), self._map_resolution(settings),
                settings.light_steps, settings.coefficients, settings.density_weight, settings.tfm_filter,
                emits)
-        if not (multiple_scattering.for_settings(settings).fields or emits):
-            self._fluences.keep(key)        # a frame without bounces keeps them for the next with
+        if not (multiple_scattering.for_settings(settings).fields or emits) or not settings.lattice:
+            self._fluences.keep(key)        # a frame without them keeps them for the next with
             self._fluences.keep(media_key)
             return None
         if not has_fluence_units(self.gl):
@@ -1093,8 +1093,10 @@ def _frame_notes(scene: Scene, lights, warnings: list[str]) -> list[str]:
                         f"directions (World ▸ Lighting: Shadowed), each casting the soft shadow of its "
                         f"share of the sky on surfaces")
     elif not scene.lights:
-        warnings.append("The scene has no spot light (nor any other light): only surfaces and "
-                        "ambient light are rendered, and the medium scatters no light beam.")
+        lit_by = ("surfaces, ambient light and the media's emission"
+                  if any(m.has_emission for m in scene.media) else "surfaces and ambient light")
+        warnings.append(f"The scene has no spot light (nor any other light): only {lit_by} are rendered, "
+                        f"and the medium scatters no light beam.")
     elif not [light for light in lights if not light.from_world]:
         warnings.append("Every light has zero power or colour (or a spot no cone angle): no "
                         "light beam.")

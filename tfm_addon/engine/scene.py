@@ -554,7 +554,10 @@ class RenderSettings:
     ``volume_bounces``: Cycles' Volume Bounces, how many times light may scatter in the media: 0
     renders single scattering; more adds the octaves of ``multiple_scattering.octaves`` (from the
     same maps: no map depends on it). ``octaves``: those octaves given outright (None: the fitted
-    rule for ``volume_bounces``; for fitting and benchmarks).
+    rule for ``volume_bounces``; for fitting and benchmarks). ``lattice`` False: the fields of
+    engine/diffusion.py are neither built nor read (the viewport's coarse image while the maps are
+    rebuilt: the light's slab term stands in from 16 bounces on, and the media's emission is not
+    scattered for that image).
     """
 
     view_steps: int = 100
@@ -576,6 +579,7 @@ class RenderSettings:
     world_directions: int = 16
     volume_bounces: int = 0
     octaves: Octaves | None = None
+    lattice: bool = True
 
 
 @dataclass(frozen=True, eq=False)
