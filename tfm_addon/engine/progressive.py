@@ -55,12 +55,12 @@ def upload_pixels(image: np.ndarray) -> np.ndarray:
 def coarse_settings(settings: RenderSettings, rebuild_maps: bool) -> RenderSettings:
     """The coarse image's settings: half the view steps; when the maps must be rebuilt anyway,
     maps of a quarter side with half the light steps (the full maps follow once, for the full
-    image), and no lattice fields of multiple scattering (built from the full maps, once, for the
-    full image). When they need no rebuild, the cached full maps and fields."""
-    coarse = dataclasses.replace(settings, view_steps=max(8, settings.view_steps // 2))
+    image). When they need no rebuild, the cached full maps. The lattice fields of multiple
+    scattering only where already built (the full image builds them, once, from the full maps)."""
+    coarse = dataclasses.replace(settings, view_steps=max(8, settings.view_steps // 2), lattice=False)
     if rebuild_maps:
         coarse = dataclasses.replace(coarse, map_resolution=max(64, settings.map_resolution // 4),
-                                     light_steps=max(8, settings.light_steps // 2), lattice=False)
+                                     light_steps=max(8, settings.light_steps // 2))
     return coarse
 
 

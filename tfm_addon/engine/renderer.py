@@ -524,10 +524,13 @@ class Renderer:
                tuple(m.key for m in scene.meshes if not m.holdout), self._map_resolution(settings),
                settings.light_steps, settings.coefficients, settings.density_weight, settings.tfm_filter,
                emits)
-        if not (multiple_scattering.for_settings(settings).fields or emits) or not settings.lattice:
-            self._fluences.keep(key)        # a frame without them keeps them for the next with
+        wanted = multiple_scattering.for_settings(settings).fields or emits
+        if not wanted or not settings.lattice:
+            # a frame without them keeps them for the next with; one that builds none (the
+            # viewport's coarse image) reads them where they are built
+            item = self._fluences.keep(key)
             self._fluences.keep(media_key)
-            return None
+            return self._fluence_read(item, medium, warnings) if wanted else None
         if not has_fluence_units(self.gl):
             warnings.append("This OpenGL has too few texture units for the light scattered many times, "
                             "the light the surfaces reflect into the media and the media's own emission "
@@ -566,6 +569,11 @@ class Renderer:
 
         item = self._fluences.get(key, build)[0]
         self._fluences.keep(media_key)      # the lattice: for the fields of the next lights
+        return self._fluence_read(item, medium, warnings)
+
+    @staticmethod
+    def _fluence_read(item, medium, warnings: list[str]) -> FluenceGPU | None:
+        """The fields ``item`` (a cache entry, or None) as a frame reads them, and what it says."""
         if not isinstance(item, FluenceGPU):
             return None
         if item.emission_points:

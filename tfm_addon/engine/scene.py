@@ -555,9 +555,9 @@ class RenderSettings:
     renders single scattering; more adds the octaves of ``multiple_scattering.octaves`` (from the
     same maps: no map depends on it). ``octaves``: those octaves given outright (None: the fitted
     rule for ``volume_bounces``; for fitting and benchmarks). ``lattice`` False: the fields of
-    engine/diffusion.py are neither built nor read (the viewport's coarse image while the maps are
-    rebuilt: the light's slab term stands in from 16 bounces on, and the media's emission is not
-    scattered for that image).
+    engine/diffusion.py are read where already built and none is built (the viewport's coarse
+    image: after a light move or a medium edit the light's slab term stands in for them from 16
+    bounces on, and the media's emission is not scattered for that image).
     """
 
     view_steps: int = 100
