@@ -35,7 +35,8 @@ def _puff(tmpdir: str, *, density: float, color: float, light: str = 'POINT') ->
     cf.volume_object(tmpdir, mat=mat)
 
 
-def _noise_cloud(tmpdir: str, *, density: float, color: float, light: str = 'POINT') -> None:
+def _noise_cloud(tmpdir: str, *, density: float, color: float, light: str | None = 'POINT',
+                 world=(0.0, 0.0, 0.0)) -> None:
     mat, nt, out = cf.material("Cloud")
     pv = cf.principled(nt, out, **{"Density Attribute": "", "Color": (color, color, color, 1.0)})
     coords = nt.nodes.new('ShaderNodeTexCoord')
@@ -47,7 +48,7 @@ def _noise_cloud(tmpdir: str, *, density: float, color: float, light: str = 'POI
     mr.inputs["To Max"].default_value = density
     nt.links.new(tex.outputs["Fac"], mr.inputs["Value"])
     nt.links.new(mr.outputs["Result"], pv.inputs["Density"])
-    cf.base(lights=light)
+    cf.base(lights=light, world=world)
     cf.cube_medium(mat)
 
 
@@ -142,13 +143,17 @@ MEDIA: dict[str, tuple[Callable[[str], None], str, float]] = {
     "glowing_smoke": (lambda d: _glowing_smoke(d, density=1.5, color=0.9),
                       "smoke puff, Density 1.5, Color 0.9, its core emitting (Emission Strength up to "
                       "6, orange), no lamp: lit by its own emission", 0.9),
+    "cloud_sky": (lambda d: _noise_cloud(d, density=3.0, color=1.0, light=None, world=(0.4, 0.5, 0.7)),
+                  "noise cloud, Map Range 0–3, white, lit by the world alone (a blue-grey sky, "
+                  "World Color (0.4, 0.5, 0.7)), no lamp", 1.0),
     "glowing_smoke_sun": (lambda d: _glowing_smoke(d, density=3.0, color=0.7, glow=12.0, light='SUN'),
                           "smoke puff, Density 3, Color 0.7, its core emitting (up to 12, orange), "
                           "lit by a sun too", 0.7),
 }
 FIT = ("thin_smoke", "thick_smoke", "cloud", "fog_box", "dense_smoke", "dark_smoke", "cloud_sun",
        "glowing_smoke")
-HELD_OUT = ("white_smoke", "dense_cloud_sun", "grey_smoke_spot", "fog_sun", "cumulus", "glowing_smoke_sun")
+HELD_OUT = ("white_smoke", "dense_cloud_sun", "grey_smoke_spot", "fog_sun", "cumulus", "glowing_smoke_sun",
+            "cloud_sky")
 
 
 def build(medium: str, tmpdir: str, bounces: int) -> None:
