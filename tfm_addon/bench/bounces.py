@@ -143,6 +143,8 @@ MEDIA: dict[str, tuple[Callable[[str], None], str, float]] = {
     "glowing_smoke": (lambda d: _glowing_smoke(d, density=1.5, color=0.9),
                       "smoke puff, Density 1.5, Color 0.9, its core emitting (Emission Strength up to "
                       "6, orange), no lamp: lit by its own emission", 0.9),
+    "smoke_area": (lambda d: _puff(d, density=2.5, color=0.9, light='AREA'),
+                   "smoke puff, Density 2.5, Color 0.9, an area light (1 m square, soft shadows)", 0.9),
     "cloud_sky": (lambda d: _noise_cloud(d, density=3.0, color=1.0, light=None, world=(0.4, 0.5, 0.7)),
                   "noise cloud, Map Range 0–3, white, lit by the world alone (a blue-grey sky, "
                   "World Color (0.4, 0.5, 0.7)), no lamp", 1.0),
@@ -153,7 +155,7 @@ MEDIA: dict[str, tuple[Callable[[str], None], str, float]] = {
 FIT = ("thin_smoke", "thick_smoke", "cloud", "fog_box", "dense_smoke", "dark_smoke", "cloud_sun",
        "glowing_smoke")
 HELD_OUT = ("white_smoke", "dense_cloud_sun", "grey_smoke_spot", "fog_sun", "cumulus", "glowing_smoke_sun",
-            "cloud_sky")
+            "cloud_sky", "smoke_area")
 
 
 def build(medium: str, tmpdir: str, bounces: int) -> None:
