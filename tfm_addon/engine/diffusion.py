@@ -381,12 +381,14 @@ def surface_fluence(lat: Lattice, samples: SurfaceSamples, irradiance: np.ndarra
 
 
 def fluence(lat: Lattice, meshes, arriving: Callable[[np.ndarray, np.ndarray | None], np.ndarray],
-            emitted: Callable[[np.ndarray, np.ndarray | None], np.ndarray] | None = None) -> Fluence:
+            emitted: Callable[[np.ndarray, np.ndarray | None, float], np.ndarray] | None = None) -> Fluence:
     """The fields. ``arriving(points, normals)``: the lights' radiance arriving at world points
     past the solids and media, summed over the lights (n, 3), W/m²; with ``normals``, the
-    irradiance of surfaces facing them there. ``emitted(points, normals)``: the same for the
-    media's own emission (None: they emit nothing); its fluence is a field of its own and the
-    source of a diffused light of its own, and the surfaces reflect it as the lights' light."""
+    irradiance of surfaces facing them there. ``emitted(points, normals, softening)``: the same
+    for the media's own emission (None: they emit nothing), its points of emission softened by
+    ``softening`` m² more (at the cells half a cell's side squared: a point of emission at a cell's
+    centre lights the whole cell); its fluence is a field of its own and the source of a diffused
+    light of its own, and the surfaces reflect it as the lights' light."""
     n_cells = int(np.prod(lat.shape))
     scattering = lat.sigma_s.reshape(-1, 3).any(axis=1)
     lights = np.zeros((n_cells, 3))
@@ -394,7 +396,7 @@ def fluence(lat: Lattice, meshes, arriving: Callable[[np.ndarray, np.ndarray | N
     if scattering.any():
         lights[scattering] = arriving(lat.points()[scattering], None)
         if emitted is not None:
-            emission[scattering] = emitted(lat.points()[scattering], None)
+            emission[scattering] = emitted(lat.points()[scattering], None, (0.5 * lat.h) ** 2)
     lights = lights.reshape(*lat.shape, 3)
     emission = emission.reshape(*lat.shape, 3)
     lo = lat.origin - 0.5 * lat.h
@@ -406,7 +408,7 @@ def fluence(lat: Lattice, meshes, arriving: Callable[[np.ndarray, np.ndarray | N
         lifted = samples.points + samples.normals * (1e-3 * lat.h)
         irradiance = arriving(lifted, samples.normals)
         if emitted is not None:
-            irradiance = irradiance + emitted(lifted, samples.normals)
+            irradiance = irradiance + emitted(lifted, samples.normals, 0.0)
         surface = surface_fluence(lat, samples, irradiance) * (lat.sigma_t.max(axis=-1) > 0.0)[..., None]
     diffused = diffuse_rgb(lat, lat.sigma_s * (lights + surface))
     emission_diffused = (diffuse_rgb(lat, lat.sigma_s * emission) if emission.any()

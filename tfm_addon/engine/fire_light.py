@@ -87,12 +87,13 @@ class FireLight:
         return out
 
 
-    def fluence(self, points: np.ndarray, rotation=None, offset=None) -> np.ndarray:
+    def fluence(self, points: np.ndarray, rotation=None, offset=None, softening: float = 0.0) -> np.ndarray:
         """(m, 3) W/m² the fluence at ``points`` (m, 3) (the light arriving from every direction,
         summed; placement as ``irradiance``): each point's intensity over its softened squared
-        distance, through its map's transmittance raised to the share of the way to the grid box's
-        edge that the point lies at (a map reaches that edge; a point inside the medium is shadowed
-        by the part of the ray before it, taken as the ray's mean), 1 beyond the edge."""
+        distance (its own softening plus ``softening``, m²: a point read over a lattice cell),
+        through its map's transmittance raised to the share of the way to the grid box's edge that
+        the point lies at (a map reaches that edge; a point inside the medium is shadowed by the
+        part of the ray before it, taken as the ray's mean), 1 beyond the edge."""
         r = np.eye(3) if rotation is None else np.asarray(rotation, np.float64)
         t = np.zeros(3) if offset is None else np.asarray(offset, np.float64)
         points = (np.asarray(points, np.float64) - t) @ r
@@ -107,7 +108,7 @@ class FireLight:
             _, t_out = boxes.slab(np.broadcast_to(o, v.shape), v @ to_index[:3, :3].T, lo, hi)
             share = np.clip(np.nan_to_num(1.0 / np.maximum(t_out, 1e-30), nan=0.0), 0.0, 1.0)
             trans = np.maximum(self.transmittance[i, uv[:, 1], uv[:, 0]], 1e-30) ** share[:, None]
-            out += self.intensity[i] * (1.0 / (r2 + self.softening[i]))[:, None] * trans
+            out += self.intensity[i] * (1.0 / (r2 + self.softening[i] + softening))[:, None] * trans
         return out
 
 

@@ -70,8 +70,8 @@ FITTED: dict[int, Octaves] = {
     1: Octaves(2, 0.7, 0.55, 0.5, surface=1.0, emission=0.7),
     2: Octaves(2, 0.4, 0.7, 0.5, surface=1.0, emission=1.2),
     4: Octaves(2, 0.5, 0.9, 0.5, surface=1.0, emission=1.7),
-    16: Octaves(2, 0.4, 0.625, 0.5, k=0.45, z=0.3, m=1.0, surface=1.0, grid=0.9, emission=2.0),
-    128: Octaves(2, 0.4, 0.625, 0.5, k=0.55, z=0.3, m=1.0, surface=1.0, grid=1.15, emission=2.0),
+    16: Octaves(2, 0.4, 0.625, 0.5, k=0.45, z=0.3, m=1.0, surface=1.0, grid=0.9, emission=2.05),
+    128: Octaves(2, 0.4, 0.625, 0.5, k=0.55, z=0.3, m=1.0, surface=1.0, grid=1.15, emission=2.05),
 }
 
 

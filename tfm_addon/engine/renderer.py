@@ -559,9 +559,9 @@ class Renderer:
                 light = fire_light(medium)
                 if light is not None:
                     rotation, _, offset = fire_placement(medium)
-                    def emitted(points, normals, light=light, rotation=rotation, offset=offset):
+                    def emitted(points, normals, softening, light=light, rotation=rotation, offset=offset):
                         if normals is None:
-                            return light.fluence(points, rotation, offset)
+                            return light.fluence(points, rotation, offset, softening)
                         return light.irradiance(points, normals, rotation, offset)
             gpu = FluenceGPU(self.gl, diffusion.fluence(lat, scene.meshes, arriving, emitted))
             gpu.emission_points = 0 if emitted is None else len(light)
