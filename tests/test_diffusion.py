@@ -107,3 +107,25 @@ def test_fine_grid_is_averaged_and_bad_values_are_empty():
     integral = lat.sigma_t[..., 0].sum() * lat.h ** 3
     assert np.isfinite(lat.sigma_t).all()
     assert abs(integral / expected - 1.0) < 0.03, (integral, expected)
+
+
+def test_a_light_linked_to_one_medium_is_scattered_first_by_it_alone():
+    """Light linking: a light that lights medium A only adds to the diffused light through A's
+    scattering; B, 1.5 m away across empty space, gets only what A's light reaches it (a little),
+    not the light's own (as much as A gets when it lights both)."""
+    def box(x, name):
+        b = np.diag([0.4, 0.4, 0.4, 1.0])
+        b[0, 3] = x
+        return Medium(sigma_a=(0.1, 0.1, 0.1), sigma_s=(8.0, 8.0, 8.0), box_to_world=b, name=name)
+
+    lat = diffusion.lattice([box(-1.0, "A"), box(1.0, "B")], max_side=24)
+    x = lat.points()[:, 0].reshape(lat.shape)
+    a, b = (x < -0.7) & (x > -1.3), (x > 0.7) & (x < 1.3)
+    ones = lambda points, normals=None: np.ones((len(points), 3))          # noqa: E731
+    both = diffusion.fluence(lat, [], ones).diffused[..., 0]
+    only_a = diffusion.fluence(lat, [], lambda p, n: np.zeros((len(p), 3)), linked=[(ones, ("A",))])
+    only_a = only_a.diffused[..., 0]
+    print("A", only_a[a].mean(), both[a].mean(), "B", only_a[b].mean(), both[b].mean())
+    np.testing.assert_allclose(only_a[a].mean(), both[a].mean(), rtol=0.05)
+    assert both[b].mean() > 0.9 * both[a].mean()
+    assert only_a[b].mean() < 0.1 * both[b].mean()

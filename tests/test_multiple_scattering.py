@@ -134,3 +134,29 @@ def test_diffusion_term_lights_thick_media_only(renderer):
         np.testing.assert_allclose(twice - single, 2.0 * (once - single), rtol=1e-3, atol=1e-5 * single.max())
         gains.append(twice.sum() / single.sum())
     assert gains[0] < 1.01 and gains[1] > 1.2, gains
+
+
+def test_a_light_linked_to_one_medium_adds_no_fields_to_the_other(fresh):
+    """Light linking with bounces: a light that lights medium A only gives medium B neither its
+    single scattering nor, through the lattice's fields, its diffused light (B gets only the little
+    of A's light that crosses the gap), while lighting both lights B as much as A."""
+    from tfm_addon.engine.scene import Light
+    from tfm_addon.scenes import grid_to_world, look_at, smoke_density
+
+    base = scenes.smoke_scene(width=48, height=32, n=20, with_bar=False, with_ground=False)
+    m = base.media[0]
+    media = tuple(dataclasses.replace(m, name=name, density=smoke_density(20),
+                                      index_to_world=grid_to_world((20, 20, 20), 1.4, (x, 0, 1.2)))
+                  for name, x in (("A", -1.2), ("B", 1.2)))
+    light = Light(kind="POINT", matrix_world=look_at((0.0, -1.0, 4.0), (0, 0, 1.0)), power_w=3000.0)
+    images = {}
+    for lit in (None, ("A",)):
+        scene = dataclasses.replace(base, media=media, lights=(dataclasses.replace(light, lit_media=lit),))
+        out = fresh.render(scene, dataclasses.replace(SETTINGS, volume_bounces=16))
+        images[lit] = out.passes["scattering"]
+    half = images[None].shape[1] // 2
+    left, right = (slice(None), slice(0, half)), (slice(None), slice(half, None))
+    assert images[None][right].sum() > 0.5 * images[None][left].sum()
+    # (the fields of the light through B, were they added, are 1.6 % of B's light here)
+    assert images[("A",)][right].sum() < 1e-3 * images[None][right].sum()
+    np.testing.assert_allclose(images[("A",)][left].sum(), images[None][left].sum(), rtol=0.05)

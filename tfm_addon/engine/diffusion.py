@@ -29,7 +29,7 @@ bounce count weighs the two fields in the camera pass (multiple_scattering.Octav
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Collection, Sequence
 from dataclasses import dataclass
 from functools import cached_property
 
@@ -56,12 +56,22 @@ AXES = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0,
 @dataclass(frozen=True)
 class Lattice:
     """Cell (i, j, k) is centred at ``origin`` + h (i, j, k), world; ``sigma_t``, ``sigma_s``
-    (nx, ny, nz, 3) per metre."""
+    (nx, ny, nz, 3) per metre; ``media_sigma_s`` each medium's own share of ``sigma_s`` by name
+    (for light linking: a light that lights some media only)."""
 
     origin: np.ndarray
     h: float
     sigma_t: np.ndarray
     sigma_s: np.ndarray
+    media_sigma_s: tuple[tuple[str, np.ndarray], ...] = ()
+
+    def sigma_s_of(self, names) -> np.ndarray:
+        """The scattering coefficient of the media named (the lattice's, where it holds no
+        medium's share)."""
+        if not self.media_sigma_s:
+            return self.sigma_s
+        own = [s for name, s in self.media_sigma_s if name in names]
+        return np.minimum(sum(own), self.sigma_s) if own else np.zeros_like(self.sigma_s)
 
     @property
     def shape(self) -> tuple[int, int, int]:
@@ -167,16 +177,18 @@ def lattice(media, max_side: int = MAX_SIDE) -> Lattice | None:
     origin = lo + 0.5 * h
     idx = np.indices(shape, dtype=np.float64).reshape(3, -1).T
     sigma_t = np.zeros((len(idx), 3))
-    sigma_s = np.zeros((len(idx), 3))
+    own = [np.zeros((len(idx), 3)) for _ in finite]         # each medium's sigma_s
     samplers = [(m, _sampler(m, h)) for m in finite]
     for offset in np.array([[x, y, z] for x in (-0.25, 0.25) for y in (-0.25, 0.25) for z in (-0.25, 0.25)]):
         p = origin + h * (idx + offset)
-        for m, sample in samplers:
+        for k, (m, sample) in enumerate(samplers):
             d, tint = sample(p)
             sigma_t += d[:, None] * np.asarray(m.sigma_t, np.float64) / 8.0
             s = d[:, None] * np.asarray(m.sigma_s, np.float64)
-            sigma_s += (s if tint is None else s * np.clip(tint, 0.0, None)) / 8.0
-    return Lattice(origin, h, sigma_t.reshape(*shape, 3), np.minimum(sigma_s, sigma_t).reshape(*shape, 3))
+            own[k] += (s if tint is None else s * np.clip(tint, 0.0, None)) / 8.0
+    sigma_s = np.minimum(sum(own), sigma_t).reshape(*shape, 3)
+    return Lattice(origin, h, sigma_t.reshape(*shape, 3), sigma_s,
+                   tuple((m.name, s.reshape(*shape, 3)) for m, s in zip(finite, own, strict=True)))
 
 
 def _shifted(a: np.ndarray, axis: int, step: int, fill) -> np.ndarray:
@@ -381,14 +393,18 @@ def surface_fluence(lat: Lattice, samples: SurfaceSamples, irradiance: np.ndarra
 
 
 def fluence(lat: Lattice, meshes, arriving: Callable[[np.ndarray, np.ndarray | None], np.ndarray],
-            emitted: Callable[[np.ndarray, np.ndarray | None, float], np.ndarray] | None = None) -> Fluence:
+            emitted: Callable[[np.ndarray, np.ndarray | None, float], np.ndarray] | None = None,
+            linked: Sequence[tuple[Callable[[np.ndarray], np.ndarray], Collection[str]]] = ()) -> Fluence:
     """The fields. ``arriving(points, normals)``: the lights' radiance arriving at world points
     past the solids and media, summed over the lights (n, 3), W/m²; with ``normals``, the
     irradiance of surfaces facing them there. ``emitted(points, normals, softening)``: the same
     for the media's own emission (None: they emit nothing), its points of emission softened by
     ``softening`` m² more (at the cells half a cell's side squared: a point of emission at a cell's
     centre lights the whole cell); its fluence is a field of its own and the source of a diffused
-    light of its own, and the surfaces reflect it as the lights' light."""
+    light of its own, and the surfaces reflect it as the lights' light. ``linked``: the lights that
+    light some media only (light linking), each as (its light arriving at points, the names of the
+    media it lights), left out of ``arriving``'s light at the cells: only those media scatter it
+    first (the light they scatter then reaches the others)."""
     n_cells = int(np.prod(lat.shape))
     scattering = lat.sigma_s.reshape(-1, 3).any(axis=1)
     lights = np.zeros((n_cells, 3))
@@ -410,7 +426,14 @@ def fluence(lat: Lattice, meshes, arriving: Callable[[np.ndarray, np.ndarray | N
         if emitted is not None:
             irradiance = irradiance + emitted(lifted, samples.normals, 0.0)
         surface = surface_fluence(lat, samples, irradiance) * (lat.sigma_t.max(axis=-1) > 0.0)[..., None]
-    diffused = diffuse_rgb(lat, lat.sigma_s * (lights + surface))
+    source = lat.sigma_s * (lights + surface)
+    for light, names in linked:
+        lit = lat.sigma_s_of(names).reshape(-1, 3).any(axis=1)
+        if lit.any():
+            own = np.zeros((n_cells, 3))
+            own[lit] = light(lat.points()[lit])
+            source = source + lat.sigma_s_of(names) * own.reshape(*lat.shape, 3)
+    diffused = diffuse_rgb(lat, source)
     emission_diffused = (diffuse_rgb(lat, lat.sigma_s * emission) if emission.any()
                          else np.zeros_like(emission))
     return Fluence(lat, *(f.astype(np.float32) for f in (surface, diffused, emission, emission_diffused)))

@@ -520,7 +520,8 @@ class Renderer:
                  and any(max(m.sigma_s) > 0.0 for m in media))
         if not plans and not emits:
             return None
-        key = (media_key, tuple((p.light.key, p.frame.key, p.light_t) for p in plans), scene.solids_key,
+        key = (media_key, tuple((p.light.key, p.frame.key, p.light_t, p.light.lit_media) for p in plans),
+               scene.solids_key,
                tuple(m.key for m in scene.meshes if not m.holdout), self._map_resolution(settings),
                settings.light_steps, settings.coefficients, settings.density_weight, settings.tfm_filter,
                emits)
@@ -537,17 +538,25 @@ class Renderer:
                             "scattered by them: they are left out.")
             return None
 
+        def probe(plan, points, normals=None):
+            return probe_light(
+                self.gl, points, IRRADIANCE if normals is not None else ARRIVING, normals,
+                medium=medium, medium_gpu=medium_gpu, settings=settings,
+                light=(plan.frame, plan.light.intensity_w_per_sr, plan.shadow, plan.gobo),
+                light_t=plan.light_t, tfm=plan.tfm, tfm_sigma_t=plan.tfm_sigma_t)
+
         def arriving(points, normals):
             total = np.zeros((len(points), 3))
             for plan in plans:
-                if not (plan.light.lights_surfaces if normals is not None else plan.light.lights_medium):
-                    continue
-                total += probe_light(
-                    self.gl, points, IRRADIANCE if normals is not None else ARRIVING, normals,
-                    medium=medium, medium_gpu=medium_gpu, settings=settings,
-                    light=(plan.frame, plan.light.intensity_w_per_sr, plan.shadow, plan.gobo),
-                    light_t=plan.light_t, tfm=plan.tfm, tfm_sigma_t=plan.tfm_sigma_t)
+                if normals is not None and plan.light.lights_surfaces:
+                    total += probe(plan, points, normals)
+                elif normals is None and plan.light.lights_medium and plan.light.lit_media is None:
+                    total += probe(plan, points)
             return total
+
+        # light linking: a light that lights some media only is scattered first by those alone
+        linked = [(lambda points, plan=plan: probe(plan, points), plan.light.lit_media) for plan in plans
+                  if plan.light.lights_medium and plan.light.lit_media is not None]
 
         def build():
             self.counters["fluences"] += 1
@@ -563,7 +572,7 @@ class Renderer:
                         if normals is None:
                             return light.fluence(points, rotation, offset, softening)
                         return light.irradiance(points, normals, rotation, offset)
-            gpu = FluenceGPU(self.gl, diffusion.fluence(lat, scene.meshes, arriving, emitted))
+            gpu = FluenceGPU(self.gl, diffusion.fluence(lat, scene.meshes, arriving, emitted, linked))
             gpu.emission_points = 0 if emitted is None else len(light)
             return gpu
 
