@@ -28,17 +28,21 @@ REF_DIR = Path(__file__).resolve().parents[2] / "tests" / "data" / "bounces"
 BOUNCES = (1, 2, 4, 16, 128)
 
 
-def _puff(tmpdir: str, *, density: float, color: float, light: str = 'POINT') -> None:
+def _puff(tmpdir: str, *, density: float, color: float, light: str = 'POINT', anisotropy: float = 0.0,
+          light_at=None) -> None:
     mat, nt, out = cf.material()
-    cf.principled(nt, out, Density=density, Color=(color, color, color, 1.0))
-    cf.base(lights=light)
+    cf.principled(nt, out, Density=density, Color=(color, color, color, 1.0), Anisotropy=anisotropy)
+    cf.base(lights=light if light_at is None else None)
+    if light_at is not None:
+        cf.light(light, location=light_at)
     cf.volume_object(tmpdir, mat=mat)
 
 
 def _noise_cloud(tmpdir: str, *, density: float, color: float, light: str | None = 'POINT',
-                 world=(0.0, 0.0, 0.0)) -> None:
+                 world=(0.0, 0.0, 0.0), anisotropy: float = 0.0, light_at=None) -> None:
     mat, nt, out = cf.material("Cloud")
-    pv = cf.principled(nt, out, **{"Density Attribute": "", "Color": (color, color, color, 1.0)})
+    pv = cf.principled(nt, out, **{"Density Attribute": "", "Color": (color, color, color, 1.0),
+                                   "Anisotropy": anisotropy})
     coords = nt.nodes.new('ShaderNodeTexCoord')
     tex = nt.nodes.new('ShaderNodeTexNoise')
     nt.links.new(coords.outputs["Object"], tex.inputs["Vector"])
@@ -48,7 +52,9 @@ def _noise_cloud(tmpdir: str, *, density: float, color: float, light: str | None
     mr.inputs["To Max"].default_value = density
     nt.links.new(tex.outputs["Fac"], mr.inputs["Value"])
     nt.links.new(mr.outputs["Result"], pv.inputs["Density"])
-    cf.base(lights=light, world=world)
+    cf.base(lights=light if light_at is None else None, world=world)
+    if light_at is not None:
+        cf.light(light, location=light_at)
     cf.cube_medium(mat)
 
 
@@ -143,6 +149,13 @@ MEDIA: dict[str, tuple[Callable[[str], None], str, float]] = {
     "glowing_smoke": (lambda d: _glowing_smoke(d, density=1.5, color=0.9),
                       "smoke puff, Density 1.5, Color 0.9, its core emitting (Emission Strength up to "
                       "6, orange), no lamp: lit by its own emission", 0.9),
+    "cloud_sun_forward": (lambda d: _noise_cloud(d, density=3.0, color=1.0, light='SUN', anisotropy=0.6),
+                          "noise cloud, Map Range 0–3, white, Anisotropy 0.6 (forward), lit by a sun", 1.0),
+    "cloud_backlit": (lambda d: _noise_cloud(d, density=3.0, color=1.0, light='SUN', anisotropy=0.6,
+                                             light_at=(0.8, 4.0, 2.0)),
+                      "noise cloud, Map Range 0–3, white, Anisotropy 0.6, lit by a sun from behind", 1.0),
+    "smoke_forward": (lambda d: _puff(d, density=2.5, color=0.9, anisotropy=0.5, light_at=(-1.5, 3.0, 2.5)),
+                      "smoke puff, Density 2.5, Color 0.9, Anisotropy 0.5, a point light behind it", 0.9),
     "smoke_area": (lambda d: _puff(d, density=2.5, color=0.9, light='AREA'),
                    "smoke puff, Density 2.5, Color 0.9, an area light (1 m square, soft shadows)", 0.9),
     "cloud_sky": (lambda d: _noise_cloud(d, density=3.0, color=1.0, light=None, world=(0.4, 0.5, 0.7)),
@@ -153,9 +166,11 @@ MEDIA: dict[str, tuple[Callable[[str], None], str, float]] = {
                           "lit by a sun too", 0.7),
 }
 FIT = ("thin_smoke", "thick_smoke", "cloud", "fog_box", "dense_smoke", "dark_smoke", "cloud_sun",
-       "glowing_smoke")
+       "glowing_smoke", "cloud_sun_forward", "cloud_backlit")
 HELD_OUT = ("white_smoke", "dense_cloud_sun", "grey_smoke_spot", "fog_sun", "cumulus", "glowing_smoke_sun",
-            "cloud_sky", "smoke_area")
+            "cloud_sky", "smoke_area", "smoke_forward")
+# the media that scatter anisotropically (the octaves' anisotropy factor c changes their images)
+ANISOTROPIC = ("cloud_sun_forward", "cloud_backlit", "smoke_forward")
 
 
 def build(medium: str, tmpdir: str, bounces: int) -> None:

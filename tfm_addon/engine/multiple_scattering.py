@@ -7,8 +7,8 @@ contribution scaled by (b albedo (1 - T_through))^n and the phase anisotropy by 
 add up. albedo = sigma_s / sigma_t of the medium there (light scattered n more times kept that
 share each time); T_through the transmittance of the whole light ray through the media there
 (read from the same map past the media's far side: in a thin medium light that scatters again
-mostly leaves, in a thick one it stays). c is the paper's 0.5, not fitted: every fitting medium is
-isotropic. Light that
+mostly leaves, in a thick one it stays). c is fitted with b on media of anisotropy 0 and 0.6 (lit
+from the front and from behind). Light that
 scattered many times has travelled through less medium on average, spreads forward less and is
 brighter in the shadowed parts of the medium: the octaves stand in for it with no new map.
 
@@ -64,14 +64,15 @@ SINGLE = Octaves()
 # Fitted against Cycles (scripts/fit_octaves.py on bench/bounces.FIT; docs/multiple_scattering.md):
 # bounce count -> octaves; a count between two rows takes the lower row. The surfaces' light is
 # taken whole from one bounce on; the diffused light carries the light that scatters many times in
-# thick media from 16 bounces on, more at 128 (only its weight may grow from the 16-bounce row:
-# more bounces never give less light), as Cycles' thick media are brighter at 128 than at 16.
+# thick media, a little from 4 bounces on, most from 16, more at 128 (only its weight may grow from
+# the 16-bounce row: more bounces never give less light), as Cycles' thick media are brighter at
+# 128 than at 16.
 FITTED: dict[int, Octaves] = {
-    1: Octaves(2, 0.7, 0.55, 0.5, surface=1.0, emission=0.7),
-    2: Octaves(2, 0.4, 0.7, 0.5, surface=1.0, emission=1.2),
-    4: Octaves(2, 0.5, 0.9, 0.5, surface=1.0, emission=1.7),
-    16: Octaves(2, 0.4, 0.625, 0.5, k=0.45, z=0.3, m=1.0, surface=1.0, grid=0.9, emission=2.05),
-    128: Octaves(2, 0.4, 0.625, 0.5, k=0.55, z=0.3, m=1.0, surface=1.0, grid=1.15, emission=2.05),
+    1: Octaves(2, 0.7, 0.575, 0.625, surface=1.0, grid=0.0, emission=0.7),
+    2: Octaves(2, 0.4, 0.775, 0.5, surface=1.0, grid=0.0, emission=1.2),
+    4: Octaves(2, 0.5, 0.95, 0.5, surface=1.0, grid=0.15, emission=1.7),
+    16: Octaves(2, 0.4, 0.725, 0.625, k=0.45, z=0.3, m=1.0, surface=1.0, grid=0.8, emission=2.05),
+    128: Octaves(2, 0.4, 0.725, 0.625, k=0.55, z=0.3, m=1.0, surface=1.0, grid=1.1, emission=2.05),
 }
 
 
