@@ -563,17 +563,9 @@ class Renderer:
             lat = self._fluences.get(media_key, lambda: _Value(diffusion.lattice(media)))[0].value
             if lat is None:
                 return _Value(None)
-            emitted = None
-            if emits:
-                light = fire_light(medium)
-                if light is not None:
-                    rotation, _, offset = fire_placement(medium)
-                    def emitted(points, normals, softening, light=light, rotation=rotation, offset=offset):
-                        if normals is None:
-                            return light.fluence(points, rotation, offset, softening)
-                        return light.irradiance(points, normals, rotation, offset)
+            emitted, points = _emission_light(medium) if emits else (None, 0)
             gpu = FluenceGPU(self.gl, diffusion.fluence(lat, scene.meshes, arriving, emitted, linked))
-            gpu.emission_points = 0 if emitted is None else len(light)
+            gpu.emission_points = points
             return gpu
 
         item = self._fluences.get(key, build)[0]
@@ -986,6 +978,23 @@ class _Frame:
     lights: list[_LightPlan]
     fire: FireGPU | None = None
     fluence: FluenceGPU | None = None
+
+
+def _emission_light(medium) -> tuple[Callable | None, int]:
+    """``medium``'s emission as diffusion.fluence's ``emitted`` (its fluence, or with normals its
+    irradiance, at world points) and the count of points it is taken from (None, 0: it emits
+    nothing there)."""
+    light = fire_light(medium)
+    if light is None:
+        return None, 0
+    rotation, _, offset = fire_placement(medium)
+
+    def emitted(points, normals, softening):
+        if normals is None:
+            return light.fluence(points, rotation, offset, softening)
+        return light.irradiance(points, normals, rotation, offset)
+
+    return emitted, len(light)
 
 
 def _fire_gpu(gl, medium) -> FireGPU | None:
