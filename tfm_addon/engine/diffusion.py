@@ -1,7 +1,8 @@
-"""Light that scatters many times in thick media, and light that the surfaces reflect into the
-media, on a coarse lattice over the media (numpy; the renderer supplies the light at points).
+"""Light that scatters many times in thick media, light that the surfaces reflect into the media,
+and the media's own emission, on a coarse lattice over the media (numpy; the renderer supplies
+the light at points).
 
-Both are read by the camera pass as a fluence (W/m², the light arriving at a point from every
+All are read by the camera pass as a fluence (W/m², the light arriving at a point from every
 direction) that the media scatter isotropically: sigma_s * fluence / (4 pi) per metre of ray.
 
 - The surfaces' light, ``surface``: the fluence that solids lit by the lights reflect (diffusely,
@@ -21,6 +22,12 @@ direction) that the media scatter isotropically: sigma_s * fluence / (4 pi) per 
   cell of half a boundary's, and lose ``EMPTY_LOSS`` of it per cell: light leaving a part of the
   medium reaches the parts around it (a porous cloud), or leaves. Conjugate gradients on the
   7-point finite-volume stencil, each face's resistance the sum of the two half cells'.
+
+- The emission, ``emission`` and ``emission_diffused``: the fluence of the media's own emission
+  (engine/fire_light.py's points) at each cell, and its diffused light (the same solve with it as
+  the source): a glowing core lighting the smoke around it.
+- Light linking: a light that lights some media only is a source of the diffused light through
+  their own scattering (``Lattice.media_sigma_s``).
 
 The lattice is world-aligned, cubic cells, at most ``MAX_SIDE`` a side, over the finite media's
 bounds (fog that fills the scene is left out). Nothing here depends on the bounce count: the
