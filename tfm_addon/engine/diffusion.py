@@ -435,11 +435,12 @@ def fluence(lat: Lattice, meshes, arriving: Callable[[np.ndarray, np.ndarray | N
         surface = surface_fluence(lat, samples, irradiance) * (lat.sigma_t.max(axis=-1) > 0.0)[..., None]
     source = lat.sigma_s * (lights + surface)
     for light, names in linked:
-        lit = lat.sigma_s_of(names).reshape(-1, 3).any(axis=1)
+        sigma_s = lat.sigma_s_of(names)
+        lit = sigma_s.reshape(-1, 3).any(axis=1)
         if lit.any():
             own = np.zeros((n_cells, 3))
             own[lit] = light(lat.points()[lit])
-            source = source + lat.sigma_s_of(names) * own.reshape(*lat.shape, 3)
+            source = source + sigma_s * own.reshape(*lat.shape, 3)
     diffused = diffuse_rgb(lat, source)
     emission_diffused = (diffuse_rgb(lat, lat.sigma_s * emission) if emission.any()
                          else np.zeros_like(emission))

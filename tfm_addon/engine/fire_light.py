@@ -71,21 +71,17 @@ class FireLight:
         """(m, 3) W/m² at ``points`` (m, 3) with unit ``normals``, the medium placed by
         ``rotation`` and ``offset`` (``placement``'s R and t; None: identity): what the shader
         computes (with the nearest map texel instead of a bilinear read)."""
-        r = np.eye(3) if rotation is None else np.asarray(rotation, np.float64)
-        t = np.zeros(3) if offset is None else np.asarray(offset, np.float64)
-        points = (np.asarray(points, np.float64) - t) @ r          # R^T (P - t): the points' frame
+        r = _rotation(rotation)
+        points = self._in_frame(points, rotation, offset)
         normals = np.asarray(normals, np.float64) @ r
-        positions = self.positions
         out = np.zeros((len(points), 3))
         for i in range(len(self)):
-            v = positions[i] - points
+            v = self.positions[i] - points
             r2 = np.einsum("ij,ij->i", v, v)
             cos = np.maximum(np.einsum("ij,ij->i", normals, v) / np.sqrt(r2), 0.0)
-            uv = np.clip((octahedral(-v / np.sqrt(r2)[:, None]) * DIRECTIONS).astype(int), 0, DIRECTIONS - 1)
-            t = self.transmittance[i, uv[:, 1], uv[:, 0]]
+            t = self._outward(i, -v / np.sqrt(r2)[:, None])
             out += self.intensity[i] * (cos / (r2 + self.softening[i]))[:, None] * t
         return out
-
 
     def fluence(self, points: np.ndarray, rotation=None, offset=None, softening: float = 0.0) -> np.ndarray:
         """(m, 3) W/m² the fluence at ``points`` (m, 3) (the light arriving from every direction,
@@ -94,22 +90,34 @@ class FireLight:
         through its map's transmittance raised to the share of the way to the grid box's edge that
         the point lies at (a map reaches that edge; a point inside the medium is shadowed by the
         part of the ray before it, taken as the ray's mean), 1 beyond the edge."""
-        r = np.eye(3) if rotation is None else np.asarray(rotation, np.float64)
-        t = np.zeros(3) if offset is None else np.asarray(offset, np.float64)
-        points = (np.asarray(points, np.float64) - t) @ r
+        points = self._in_frame(points, rotation, offset)
         to_index = np.asarray(self.to_index, np.float64)
         lo, hi = np.full(3, -1.0), np.asarray(self.grid_shape, np.float64)
         out = np.zeros((len(points), 3))
         for i in range(len(self)):
             v = points - self.positions[i]                       # from the point of emission
             r2 = np.maximum(np.einsum("ij,ij->i", v, v), 1e-30)
-            uv = np.clip((octahedral(v / np.sqrt(r2)[:, None]) * DIRECTIONS).astype(int), 0, DIRECTIONS - 1)
             o = to_index[:3, :3] @ self.positions[i] + to_index[:3, 3]
             _, t_out = boxes.slab(np.broadcast_to(o, v.shape), v @ to_index[:3, :3].T, lo, hi)
             share = np.clip(np.nan_to_num(1.0 / np.maximum(t_out, 1e-30), nan=0.0), 0.0, 1.0)
-            trans = np.maximum(self.transmittance[i, uv[:, 1], uv[:, 0]], 1e-30) ** share[:, None]
+            trans = np.maximum(self._outward(i, v / np.sqrt(r2)[:, None]), 1e-30) ** share[:, None]
             out += self.intensity[i] * (1.0 / (r2 + self.softening[i] + softening))[:, None] * trans
         return out
+
+    @staticmethod
+    def _in_frame(points: np.ndarray, rotation, offset) -> np.ndarray:
+        """World ``points`` in the points' frame: R^T (P - t)."""
+        t = np.zeros(3) if offset is None else np.asarray(offset, np.float64)
+        return (np.asarray(points, np.float64) - t) @ _rotation(rotation)
+
+    def _outward(self, i: int, directions: np.ndarray) -> np.ndarray:
+        """Point i's map at unit ``directions`` (m, 3) outwards: its nearest texel."""
+        uv = np.clip((octahedral(directions) * DIRECTIONS).astype(int), 0, DIRECTIONS - 1)
+        return self.transmittance[i, uv[:, 1], uv[:, 0]]
+
+
+def _rotation(rotation) -> np.ndarray:
+    return np.eye(3) if rotation is None else np.asarray(rotation, np.float64)
 
 
 def octahedral(d: np.ndarray) -> np.ndarray:

@@ -327,7 +327,7 @@ void main() {
 #if FIRST_PASS
                 src += ss * u_ambient;
 #if MS_GRID
-                src += ss * ms_fluence(ms_tc[0] + ms_tc[1] * t) * (0.25 / PI);      // scattered isotropically
+                src += ss * ms_fluence(ms_tc[0] + ms_tc[1] * t) * (0.25 / PI);   // scattered isotropically
 #endif
 #endif
 #if HAS_LIGHT
@@ -388,8 +388,8 @@ void main() {
             vec3 t_f = vec3(1.0);
             mat2x3 ms_tc = ms_ray(o, d);
             for (int i = 0; i < n_f; ++i) {
-                scatter += t_f * w_f * u_sigma_s * ms_fluence(ms_tc[0] + ms_tc[1] * (seg.x + (float(i) + step_at) * dt_f))
-                           * (0.25 / PI);
+                vec3 tc = ms_tc[0] + ms_tc[1] * (seg.x + (float(i) + step_at) * dt_f);
+                scatter += t_f * w_f * u_sigma_s * ms_fluence(tc) * (0.25 / PI);
                 t_f *= e_f;
                 if (max(max(t_f.r, t_f.g), t_f.b) < 1e-3) break;
             }
