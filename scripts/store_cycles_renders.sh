@@ -2,7 +2,7 @@
 # Renders with Cycles the scenes the Blender tests compare TFM against and stores the images in
 # tests/data/cycles/, named by what Cycles reads (tests/blender/blender_helpers.cycles_key); the
 # tests then read them instead of rendering Cycles again. A test whose scene has no stored image
-# renders it with Cycles, so run this after changing a compared scene (or Blender's version).
+# fails and names this command: run it after changing a compared scene (or Blender's version).
 # Arguments go to pytest (e.g. a test file: only its images are made; the others are kept).
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"

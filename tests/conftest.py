@@ -1,10 +1,15 @@
 """Shared fixtures: one renderer (one GL context) for the whole session, on the main thread, and
 a fresh one per test for tests that count what it builds."""
 
+import os
+import sys
 import threading
 import time
 
 import pytest
+
+# pytest runs with --import-mode=importlib: make the tests' shared modules (references.py) importable.
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 
 from tfm_addon.engine import Renderer
 

@@ -5,10 +5,10 @@ import math
 
 import numpy as np
 import pytest
+from references import render_reference
 
 from tfm_addon.engine import Camera, Light, Medium, RenderSettings, Scene
 from tfm_addon.engine.metrics import brightness_ratio, psnr, ssim
-from tfm_addon.engine.reference import render_reference
 from tfm_addon.scenes import (
     grid_to_world,
     homogeneous_box_scene,

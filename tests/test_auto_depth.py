@@ -8,11 +8,11 @@ import dataclasses
 
 import numpy as np
 import pytest
+from references import render_reference
 
 from tfm_addon import scenes
 from tfm_addon.engine import RenderSettings, quality
 from tfm_addon.engine.metrics import ssim
-from tfm_addon.engine.reference import render_reference
 
 
 def _smoke_at(tau: float):

@@ -4,10 +4,10 @@ import dataclasses
 import math
 
 import numpy as np
+from references import render_reference
 
 from tfm_addon.engine import Camera, Light, Medium, RenderSettings, Scene
 from tfm_addon.engine.metrics import ssim
-from tfm_addon.engine.reference import render_reference
 from tfm_addon.scenes import look_at, smoke_scene
 
 SETTINGS = RenderSettings(view_steps=48, light_steps=48, map_resolution=128)

@@ -12,12 +12,12 @@ import dataclasses
 
 import numpy as np
 import pytest
+from references import render_reference
 
 from tfm_addon import scenes
 from tfm_addon.engine import Renderer, RenderSettings, metrics
 from tfm_addon.engine import reference as ref_mod
 from tfm_addon.engine.passes import emission
-from tfm_addon.engine.reference import render_reference
 from tfm_addon.engine.scene import GridValue
 
 SETTINGS = RenderSettings(view_steps=96, light_steps=64, map_resolution=128, coefficients=8)

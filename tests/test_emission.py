@@ -5,10 +5,11 @@ import dataclasses
 
 import numpy as np
 import pytest
+from references import render_reference
 
 from tfm_addon import scenes
 from tfm_addon.engine import Medium, Renderer, RenderSettings, Scene, blackbody, metrics
-from tfm_addon.engine.reference import blackbody_rec709, render_reference
+from tfm_addon.engine.reference import blackbody_rec709
 from tfm_addon.engine.scene import HASHED, GridValue
 
 SETTINGS = RenderSettings(view_steps=96, light_steps=96, map_resolution=128, coefficients=8)

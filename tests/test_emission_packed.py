@@ -6,13 +6,13 @@ import dataclasses
 
 import numpy as np
 import pytest
+from references import render_reference
 
 from tfm_addon import scenes
 from tfm_addon.engine import Renderer, RenderSettings, Scene, metrics
 from tfm_addon.engine.medium_attributes import prepare_attributes
 from tfm_addon.engine.medium_grid import prepare_grid
 from tfm_addon.engine.passes import bindings, emission
-from tfm_addon.engine.reference import render_reference
 from tfm_addon.engine.scene import GridValue
 
 SETTINGS = RenderSettings(view_steps=96, light_steps=96, map_resolution=128, coefficients=8)

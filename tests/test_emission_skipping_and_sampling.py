@@ -110,8 +110,9 @@ def test_a_long_light_step_reads_true_means_on_odd_and_even_grids(fresh, n):
     scene = dataclasses.replace(base, media=(medium,))
     settings = RenderSettings(method="BRUTE_FORCE", view_steps=48, light_steps=16)
     img = fresh.render(scene, settings).rgb
+    from references import render_reference
+
     from tfm_addon.engine.metrics import brightness_ratio
-    from tfm_addon.engine.reference import render_reference
 
     ref = render_reference(scene, view_steps=48, light_steps=256).rgb
     ratio = brightness_ratio(img, ref)

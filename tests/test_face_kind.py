@@ -6,10 +6,10 @@ import dataclasses
 
 import numpy as np
 import pytest
+from references import render_reference
 
 from tfm_addon.engine import Light, Renderer, RenderSettings, Scene
 from tfm_addon.engine.metrics import ssim
-from tfm_addon.engine.reference import render_reference
 from tfm_addon.scenes import box_mesh, gobo_box_scene, look_at, plane_mesh, smoke_scene, translate_scale
 
 SETTINGS = RenderSettings(view_steps=64, light_steps=64, map_resolution=96, coefficients=6)

@@ -6,10 +6,10 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from references import render_reference
 
 from tfm_addon import scenes
 from tfm_addon.engine import RenderSettings, metrics
-from tfm_addon.engine.reference import render_reference
 
 WORLD = (0.2, 0.3, 0.5)
 

@@ -6,10 +6,10 @@ import dataclasses
 
 import numpy as np
 import pytest
+from references import render_reference
 
 from tfm_addon import scenes
 from tfm_addon.engine import RenderSettings, metrics
-from tfm_addon.engine.reference import render_reference
 from tfm_addon.engine.scene import GlowBlocks, GridValue
 
 SETTINGS = RenderSettings(view_steps=96, light_steps=96, map_resolution=128, coefficients=8)

@@ -6,10 +6,10 @@ import dataclasses
 
 import numpy as np
 import pytest
+from references import render_reference
 
 from tfm_addon import scenes
 from tfm_addon.engine import Renderer, RenderSettings, metrics
-from tfm_addon.engine.reference import render_reference
 
 SETTINGS = RenderSettings(view_steps=64, light_steps=64, map_resolution=96, coefficients=6)
 

@@ -9,6 +9,7 @@ import dataclasses
 
 import numpy as np
 import pytest
+from references import render_reference
 from scipy import ndimage
 
 from tfm_addon.engine import Medium, RenderSettings
@@ -17,7 +18,6 @@ from tfm_addon.engine.metrics import brightness_ratio, ssim
 from tfm_addon.engine.passes import bindings
 from tfm_addon.engine.passes import tfm as tfm_pass
 from tfm_addon.engine.passes.bindings import OCCUPANCY_BLOCK, MediaGPU, occupancy, occupancy_level1
-from tfm_addon.engine.reference import render_reference
 from tfm_addon.scenes import grid_to_world, smoke_scene
 
 

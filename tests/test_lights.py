@@ -6,10 +6,10 @@ import math
 
 import numpy as np
 import pytest
+from references import render_reference
 
 from tfm_addon.engine import Camera, Light, Medium, RenderSettings, Scene
 from tfm_addon.engine.metrics import brightness_ratio, ssim
-from tfm_addon.engine.reference import render_reference
 from tfm_addon.scenes import box_mesh, grid_to_world, look_at, plane_mesh, smoke_density, translate_scale
 
 STEPS = dict(view_steps=96, light_steps=96)

@@ -97,8 +97,9 @@ def test_clipping_empties_densities_below_it(renderer):
 def test_the_reference_clips_and_cleans_the_grid_as_the_renderer_does(renderer):
     """reference.py reads Medium.clipping and renders bad voxels as 0 with its own code (it read
     the raw grid: NaN everywhere from one NaN voxel; without the NaN, twice the mean error)."""
+    from references import render_reference
+
     from tfm_addon.engine.metrics import ssim
-    from tfm_addon.engine.reference import render_reference
 
     scene = smoke_scene(width=40, height=24, n=24)
     d = np.array(scene.media[0].density)
@@ -279,9 +280,10 @@ def test_randomised_scenes_render_finite_and_warned(renderer):
     the well-posed CUSTOM ones (a grid or box of optical depth <= 8, a cone <= 170 degrees) are
     within SSIM 0.98 of the reference. (AUTO is not compared: on these 16^3 grids at 24x16 it
     chooses 32 view steps, SSIM 0.945 on scene 65; its rule is tuned on the benchmark's scenes.)"""
+    from references import render_reference
+
     from tfm_addon.engine.medium_grid import clean_density
     from tfm_addon.engine.metrics import ssim
-    from tfm_addon.engine.reference import render_reference
 
     rng = np.random.default_rng(14)
     custom = RenderSettings(view_steps=48, light_steps=48, map_resolution=64, coefficients=16)

@@ -7,6 +7,7 @@ import dataclasses
 
 import numpy as np
 import pytest
+from references import render_reference
 from scipy import ndimage
 
 from tfm_addon.engine import Medium, RenderSettings
@@ -16,7 +17,6 @@ from tfm_addon.engine.light import LightFrame
 from tfm_addon.engine.metrics import brightness_ratio, ssim
 from tfm_addon.engine.passes.bindings import OCCUPANCY_BLOCK, occupancy
 from tfm_addon.engine.passes.tfm import footprint_resolution, tfm_resolution
-from tfm_addon.engine.reference import render_reference
 from tfm_addon.scenes import grid_to_world, smoke_density, smoke_scene
 
 STEPS = dict(view_steps=96, light_steps=96)
@@ -82,7 +82,7 @@ def test_unshadowed_is_the_frame_with_light_transmittance_one(renderer, sparse_s
     # The reference with every integral toward the light set to 0 (the solids still shadow).
     monkeypatch.setattr(reference_module._Field, "integral_to",
                         lambda self, points, light: np.zeros(len(points)))
-    ref = render_reference(sparse_scene, **STEPS)
+    ref = render_reference(sparse_scene, tag="no integral toward the light", **STEPS)
     assert ssim(out.rgb, ref.rgb) >= 0.99
     assert abs(brightness_ratio(out.rgb, ref.rgb) - 1) <= 0.02
     assert ssim(out.passes["scattering"], ref.passes["scattering"]) >= 0.99

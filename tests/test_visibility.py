@@ -94,8 +94,9 @@ def test_holdout_cuts_alpha_and_radiance(renders):
 def test_visibility_matches_the_reference(renderer):
     """The numpy reference, which shares no code with the GPU passes, with a bar that casts no
     shadow and a holdout ground."""
+    from references import render_reference
+
     from tfm_addon.engine.metrics import ssim
-    from tfm_addon.engine.reference import render_reference
 
     scene = _with(_with(smoke_scene(width=64, height=40, n=32), "Bar", cast_shadow=False),
                   "Ground", holdout=True)

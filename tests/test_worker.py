@@ -225,11 +225,9 @@ def test_an_interrupted_waiter_cancels_its_job():
 
     from tfm_addon.engine.worker import wait_for
     job.set_progress(0.5)
-    t0 = time.perf_counter()
     with pytest.raises(KeyboardInterrupt):
         wait_for(job, progress=interrupt)
     assert job.cancelled()
     assert worker.call(lambda r: "next", timeout_s=2) == "next"   # the thread is free again
-    assert time.perf_counter() - t0 < 2
     assert recorder.ran == ["frame", "frame stopped"]
     assert worker.close(5)

@@ -4,10 +4,10 @@ light's transmittance in closed form, against the numpy reference (which marches
 import dataclasses
 
 import numpy as np
+from references import render_reference
 
 from tfm_addon.engine import Light, Medium, RenderSettings
 from tfm_addon.engine.metrics import brightness_ratio, ssim
-from tfm_addon.engine.reference import render_reference
 from tfm_addon.scenes import look_at, smoke_scene
 
 FOG = Medium(sigma_a=(0.01, 0.01, 0.01), sigma_s=(0.06, 0.05, 0.04), anisotropy=0.3, name="World fog")

@@ -39,7 +39,8 @@ def read_passes(path: str) -> dict[str, np.ndarray]:
 
 def render_passes(directory, name: str = "render") -> dict[str, np.ndarray]:
     """bpy.ops.render.render() on the context scene; its Combined and passes as arrays. Cycles'
-    renders come from CYCLES_RENDERS when that scene was rendered and stored before."""
+    renders come from CYCLES_RENDERS, where the scene's render was stored (a missing one fails the
+    test with the command that makes it)."""
     import bpy
 
     scene = bpy.context.scene
@@ -49,6 +50,12 @@ def render_passes(directory, name: str = "render") -> dict[str, np.ndarray]:
         if os.path.exists(stored):
             with np.load(stored) as f:
                 return {k: f[k] for k in f.files}
+        if os.environ.get(STORE_ENV) != "1":
+            import pytest
+
+            pytest.fail(f"no stored Cycles render {os.path.relpath(stored, ROOT)} for this scene: make it "
+                        f"with `bash scripts/store_cycles_renders.sh <this test file>` and commit it",
+                        pytrace=False)
     bpy.ops.render.render()
     settings = scene.render.image_settings
     settings.media_type = 'MULTI_LAYER_IMAGE'

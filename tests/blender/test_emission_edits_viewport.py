@@ -106,8 +106,9 @@ def test_a_strength_grid_with_negative_voxels_glows_as_in_cycles(blank, tmp_path
     render (the strength combined per voxel, its clamp per voxel) agrees with Cycles within 3 % in
     brightness; the clamp of the trilinear blend (as the numpy reference models it) is less than
     0.7 of it."""
+    from references import render_reference
+
     from tfm_addon.engine import metrics
-    from tfm_addon.engine.reference import render_reference
 
     scene = scenes.fire_scene(64, 36, 24, kind="EMISSION")
     m = scene.media[0]
