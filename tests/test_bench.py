@@ -3,7 +3,8 @@ fail: one row per scene and method, density weighting beating a truncated series
 no TFM for homogeneous media or lights that miss the medium, Cycles converging.
 
 One run of ``python -m tfm_addon.bench --quick`` in a subprocess (its own GL context and, for
-Cycles/EEVEE, its own Blender process), about a minute on 2 cores with llvmpipe."""
+Cycles/EEVEE, its own Blender process), with the numpy ground truths read from
+tests/data/bench_cache (named by scene content; a missing one is rendered there)."""
 
 from __future__ import annotations
 
@@ -33,7 +34,8 @@ def _csv(path: Path) -> list[dict]:
 @pytest.fixture(scope="module")
 def bench(tmp_path_factory) -> Path:
     out = tmp_path_factory.mktemp("bench")
-    proc = subprocess.run([sys.executable, "-m", "tfm_addon.bench", "--quick", "--out", str(out)],
+    proc = subprocess.run([sys.executable, "-m", "tfm_addon.bench", "--quick", "--out", str(out),
+                           "--cache", str(ROOT / "tests" / "data" / "bench_cache")],
                           cwd=ROOT, capture_output=True, text=True, timeout=900)
     assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
     assert "[####" in proc.stderr, "the progress bar is missing"

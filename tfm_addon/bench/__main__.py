@@ -5,7 +5,8 @@ summary.md, the method table (results.md/.csv) with its speed-accuracy charts, t
 Table 1, the stability sweeps, Cycles and EEVEE, the renderer table, and EXR/PNG images of every
 render and of its error. A progress bar runs on stderr; the summary is printed at the end.
 
---quick: small sizes, for the tests (about 3 minutes on 2 cores with llvmpipe).
+--quick: small sizes, for the tests (about a minute on 2 cores with llvmpipe; half that with
+--cache tests/data/bench_cache, the ground truths the tests keep).
 --only conformance (run only when named): the conformance suite against Cycles, every row of
 tfm_addon/bench/conformance.py rendered by TFM and compared with its stored Cycles reference, written
 to docs/conformance.md and docs/conformance/ (a Blender subprocess; about 10 s).
@@ -44,7 +45,10 @@ def main(argv: list[str] | None = None) -> int:
                              "--gpu run on a slow machine)")
     parser.add_argument("--no-blender", action="store_true", help="skip Cycles and EEVEE")
     parser.add_argument("--no-cache", action="store_true",
-                        help="recompute ground truths even if <out>/cache holds them")
+                        help="recompute ground truths even if the cache folder holds them")
+    parser.add_argument("--cache", type=Path, default=None,
+                        help="the folder of ground truths kept between runs, named by scene content "
+                             "(default <out>/cache)")
     args = parser.parse_args(argv)
 
     from ..engine import Renderer
@@ -72,7 +76,7 @@ def main(argv: list[str] | None = None) -> int:
             return rc
     out = args.out
     out.mkdir(parents=True, exist_ok=True)
-    cache = None if args.no_cache else out / "cache"
+    cache = None if args.no_cache else args.cache or out / "cache"
     t_start = time.perf_counter()
 
     renderer = Renderer()
