@@ -4,9 +4,12 @@
     python scripts/demo.py --fire --out out/     # a burning plume: emission and blackbody
 
 Runs Blender as a Python module (bpy). Writes a procedural smoke .vdb, builds a scene around it
-(a spot light, a bar casting a shadow through the smoke, a ground plane, a camera), enables the
-add-on, renders one frame with the TFM engine and writes a PNG and a multilayer EXR (Combined,
-Scattering, Surfaces, Transmittance), printing where they are and how long the frame took.
+(a spot light whose beam shows in a thin fog, a bar under it casting a shaft of shadow down
+through the smoke plume, a crate, a ground plane, a camera), enables the add-on, renders one frame
+with the TFM engine at the add-on's defaults (quality Auto, the default samples) and writes a PNG
+and a multilayer EXR (Combined, Scattering, Surfaces, Transmittance), printing where they are, how
+long the frame took and what Auto chose. Giving any of --view-steps, --light-steps, --coefficients
+or --map-resolution renders with quality Custom instead.
 
 The add-on is installed the way a user installs it when a built extension is found in dist/
 (``scripts/build_extension.py``) or given with --zip; otherwise it is registered straight from
@@ -31,17 +34,19 @@ def parse_args(argv=None):
     p.add_argument("--width", type=int, default=640)
     p.add_argument("--height", type=int, default=360)
     p.add_argument("--grid", type=int, default=64, help="smoke grid side, voxels")
-    p.add_argument("--view-steps", type=int, default=100)
-    p.add_argument("--light-steps", type=int, default=100)
-    p.add_argument("--coefficients", type=int, default=8)
-    p.add_argument("--map-resolution", type=int, default=512)
+    p.add_argument("--samples", type=int, default=0,
+                   help="antialiasing samples (0: the add-on's default)")
+    p.add_argument("--view-steps", type=int, default=None, help="quality Custom: view steps")
+    p.add_argument("--light-steps", type=int, default=None, help="quality Custom: shadow steps")
+    p.add_argument("--coefficients", type=int, default=None, help="quality Custom: coefficients")
+    p.add_argument("--map-resolution", type=int, default=None, help="quality Custom: map size")
     p.add_argument("--zip", default=None,
                    help="extension zip to install (default: the newest in dist/ when it is newer "
                         "than the sources, else the repository's tfm_addon is registered)")
     p.add_argument("--direct", action="store_true",
                    help="register tfm_addon from this repository instead of installing the zip")
     p.add_argument("--blend", action="store_true", help="also save the scene as a .blend file")
-    p.add_argument("--fog", type=float, default=0.015,
+    p.add_argument("--fog", type=float, default=0.04,
                    help="density of the fog on the World's Volume output, in which the spot's beam and "
                         "the bar's shadow shaft show (0: none)")
     p.add_argument("--fire", action="store_true",
@@ -125,15 +130,17 @@ def main(argv=None) -> int:
     engine_api = importlib.import_module(addon.__name__ + ".engine")
 
     bpy.ops.wm.read_homefile(use_empty=True)
-    make = scenes.fire_demo_scene if args.fire else scenes.demo_scene
+    make = scenes.fire_demo_scene if args.fire else scenes.shaft_demo_scene
     demo = make(width=args.width, height=args.height, n=args.grid)
     stem = "tfm_fire" if args.fire else "tfm_demo"
-    settings = engine_api.RenderSettings(
-        view_steps=args.view_steps, light_steps=args.light_steps, coefficients=args.coefficients,
-        map_resolution=args.map_resolution)
-    scene_builder.build(demo, out_dir, settings=settings, name="Demo")
+    custom = {k: v for k, v in (("view_steps", args.view_steps), ("light_steps", args.light_steps),
+                                ("coefficients", args.coefficients), ("map_resolution", args.map_resolution))
+              if v is not None}
+    settings = engine_api.RenderSettings(quality="CUSTOM", **custom) if custom else None
+    scene_builder.build(demo, out_dir, settings=settings, name="Demo", samples=args.samples)
     scene = bpy.context.scene
     scene.render.engine = 'TFM'
+    scene.render.film_transparent = False
     if args.fog > 0.0 and not args.fire:     # fog in the air, as artists show a light's beam
         nt = scene.world.node_tree
         fog = nt.nodes.new('ShaderNodeVolumeScatter')
@@ -166,8 +173,10 @@ def main(argv=None) -> int:
         print(f"{level}: {message}")
     print(f"add-on: {how}")
     what = "burning plume (density, flame, temperature)" if args.fire else "smoke plume"
-    print(f"scene: {args.width}x{args.height}, {what} {args.grid}x{args.grid}x{3 * args.grid // 2} "
-          f"({os.path.join(out_dir, 'Demo_density.vdb')})")
+    print(f"scene: {args.width}x{args.height}, {final_render.last_samples[0]} samples, {what} "
+          f"{args.grid}x{args.grid}x{3 * args.grid // 2} ({os.path.join(out_dir, 'Demo_density.vdb')})")
+    chosen = [m for _, m in final_render.last_messages if m.startswith("Auto quality")]
+    print(f"quality: {chosen[0] if chosen else 'Custom ' + str(custom)}")
     print(f"PNG: {png}")
     print(f"EXR: {exr}")
     engine_s = final_render.last_timings.get("total", float("nan"))

@@ -69,7 +69,7 @@ def _scenes():
 
 
 # (SSIM at least, brightness ratio within): the bars; the area light is an approximation
-# whose tolerance docs/architecture.md states.
+# whose tolerance docs/benchmark.md states ("Measurements behind design choices").
 LIMITS = {"sun_shaft": (0.98, 0.03), "point_inside": (0.98, 0.03), "two_overlapping": (0.98, 0.03),
           "instanced_three": (0.98, 0.03), "area": (0.97, 0.10)}
 

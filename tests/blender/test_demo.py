@@ -19,6 +19,9 @@ def test_demo_writes_a_lit_plume_and_reports_the_frame_time(tmp_path):
         capture_output=True, text=True, timeout=600, cwd=ROOT)
     assert proc.returncode == 0, proc.stdout + proc.stderr
     assert re.search(r"frame time: \d+\.\d+ s", proc.stdout), proc.stdout
+    # at the add-on's defaults: quality Auto (its choice printed) and the default samples
+    assert re.search(r"^quality: Auto quality: Steps \d+", proc.stdout, re.M), proc.stdout
+    assert re.search(r"^scene: 96x54, 16 samples", proc.stdout, re.M), proc.stdout
     assert os.path.getsize(tmp_path / "tfm_demo.png") > 0
     layers = read_exr(tmp_path / "tfm_demo.exr")
     scatter = np.stack([layers[f"ViewLayer.Scattering.{c}"] for c in "RGB"], axis=-1)

@@ -12,6 +12,7 @@ compared through one colour pipeline. Blender's own Cycles preview cannot be giv
 (the preview scene keeps its own; measured: 4 and 64 samples gave the same pixels, 11-16 s).
 """
 
+import hashlib
 import importlib
 import os
 import time
@@ -182,6 +183,29 @@ def _as_preview(scene, directory, name):
     return rgba
 
 
+def _stored_cycles_preview(scene, setup, material, directory):
+    """Cycles' image of the rebuilt preview scene (``_as_preview``), stored in CYCLES_RENDERS under
+    a digest of what it renders: the recorded set-up (geometry, lights, camera, world, film, view),
+    the material's node tree, the samples and Blender's version. A missing one fails the test with
+    the command that makes it."""
+    from blender_helpers import CYCLES_RENDERS, ROOT, STORE_ENV, _node_tree
+    from references import _digest
+
+    parts = [bpy.app.version_string, str(CYCLES_SAMPLES), repr(_node_tree(material.node_tree, [], set()))]
+    _digest(setup, parts)
+    path = os.path.join(CYCLES_RENDERS, "preview_" + hashlib.sha1("\n".join(parts).encode()).hexdigest()[:20]
+                        + ".npz")
+    if os.path.exists(path):
+        with np.load(path) as f:
+            return f["rgba"]
+    if os.environ.get(STORE_ENV) != "1":
+        pytest.fail(f"no stored Cycles preview {os.path.relpath(path, ROOT)}: make it with "
+                    f"`bash scripts/store_cycles_renders.sh tests/blender/test_preview.py`", pytrace=False)
+    rgba = _as_preview(scene, directory, "cycles")
+    np.savez_compressed(path, rgba=rgba)
+    return rgba
+
+
 CASES = [("volume", "SPHERE"), ("volume", "CUBE"), ("surface", "SPHERE")]
 
 
@@ -206,7 +230,7 @@ def test_preview_matches_cycles(blank, tmp_path, kind, shape):
     for k, value in setup["view"].items():
         setattr(scene.view_settings, k, value)
     t0 = time.perf_counter()
-    cycles = _as_preview(scene, tmp_path, "cycles")
+    cycles = _stored_cycles_preview(scene, setup, material, tmp_path)
     cycles_s = time.perf_counter() - t0
 
     mask_t, mask_c = tfm[..., 3] > 0.05, cycles[..., 3] > 0.05

@@ -380,7 +380,7 @@ def _label(instance) -> str:
 def mesh_volume_resolution(size: tuple[int, int]) -> int:
     """Voxels along a mesh medium's longest side, from the image size only (so that no camera
     move changes it): about one voxel per pixel of the longer image side, rounded down to 32, 48,
-    64, 96 or 128 (docs/architecture.md, "Media shaped by their mesh", has the measurements)."""
+    64, 96 or 128 (docs/benchmark.md, "Measurements behind design choices", has the measurements)."""
     want = max(size)
     steps = (32, 48, 64, 96, 128)
     return max([n for n in steps if n <= want], default=steps[0])
