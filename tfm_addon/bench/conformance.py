@@ -17,11 +17,19 @@ rows it does not render yet ('reported'); ``WRONG`` the rows it renders wrongly 
 References: ``scripts/make_conformance_refs.py`` stores ``tests/data/conformance/<id>.npz``;
 ``tests/blender/test_conformance.py`` checks the rows; ``python -m tfm_addon.bench --only
 conformance`` writes docs/conformance.md.
+
+Controls: every row has a negative control (``Row.control``), its scene with the row's subject set
+back to Blender's default, which TFM must render outside the row's thresholds (unless the row is in
+``WEAK_CONTROL``): ``scripts/make_conformance_refs.py --controls`` stores its figures as
+``tests/data/conformance/<id>.control.json``; ``tests/blender/test_conformance_controls.py`` checks
+them.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import hashlib
+import json
 import math
 import os
 import time
@@ -56,6 +64,21 @@ WRONG: dict[str, str] = {
     "blackbody_node": "the red channel 4.5 % dark against Cycles (Blackbody node at 1500 K into Emission "
                       "Color; green and blue within 1.5 %); the cause is not found",
 }
+# Rows whose control (``Row.control``: the row's subject at Blender's default) does not fail the row
+# because the setting barely changes the image in the row's scene. The value says why. Every other
+# row's control must fail the row (tests/blender/test_conformance_controls.py).
+WEAK_CONTROL: dict[str, str] = {
+    "clipping": "Clipping 0.1 empties only the puff's faint rim (grid values 0.02 to 0.1): at the default "
+                "0.001 the image is the same within the thresholds (SSIM 0.9994, brightness 1.000)",
+    "ramp_ease_color": "Ease and Linear interpolation differ little between this ramp's three stops: the "
+                       "control (Linear) is within the thresholds (SSIM 0.998, brightness 1.000)",
+    "ramp_ease_density": "Ease and Linear interpolation differ little between this ramp's three stops: the "
+                         "control (Linear) is within the thresholds (SSIM 0.989, brightness 1.002)",
+    "light_volume_factor": "Cycles' direct light in the medium ignores the Volume factor (the row checks "
+                           "that TFM does too): at the default 1 the image is the same",
+    "surface_smooth_sphere": "at 64x48 the UV sphere's facets hardly show: flat shading is within the "
+                             "thresholds (SSIM 0.993, brightness 0.999)",
+}
 
 
 @dataclasses.dataclass
@@ -68,6 +91,20 @@ class Row:
     bounces: int = 0                # Cycles reference at these volume bounces (the row sets them)
     transparent_bounces: int = 0    # Cycles reference at these transparent bounces (Blender's default 8)
     note: str = ""
+    # The row's negative control, run after ``build``: the row's subject (the setting or node the
+    # row is about) set back to Blender's default, or where it is the default already, the nearest
+    # meaningful thing taken out. Rendered by TFM it must fail the row (``render_control``), unless
+    # the row is in WEAK_CONTROL.
+    control: Callable[[], None] | None = None
+    control_note: str = ""          # the control's one-line description (default: its docstring)
+
+    @property
+    def control_text(self) -> str:
+        """The control's one-line description: ``control_note``, else the control's docstring."""
+        if self.control_note:
+            return self.control_note
+        doc = (self.control.__doc__ or "") if self.control is not None else ""
+        return " ".join(doc.split())
 
     @property
     def expect(self) -> str:
@@ -309,18 +346,128 @@ def row(id: str, title: str, **kw):
     return wrap
 
 
+# ---------------------------------------------------------------------------------------------
+# Controls: each changes a built row's scene back to Blender's default in the row's subject
+# (``Row.control``); its docstring is its one-line description.
+
+def _owners():
+    """The materials, then the Worlds, that have node trees."""
+    import bpy
+
+    return [o for o in (*bpy.data.materials, *bpy.data.worlds) if o.node_tree is not None]
+
+
+def node_of(label: str, material: str | None = None):
+    """The first node of the type the Add menu calls ``label`` ('Principled Volume') in the
+    materials, then the Worlds (only in the material or World named ``material`` when given)."""
+    for owner in _owners():
+        if material is None or owner.name == material:
+            for node in owner.node_tree.nodes:
+                if node.bl_label == label:
+                    return node
+    raise LookupError(f"no {label} node in the scene")
+
+
+def _input(node, key: str):
+    """``node``'s input by identifier, else by name."""
+    return next((s for s in node.inputs if s.identifier == key), None) or node.inputs[key]
+
+
+def input_at_default(node, key: str) -> None:
+    """``node``'s input ``key`` (an identifier or a name) unlinked and at the value it has on a new
+    node of the same type."""
+    tree = node.id_data
+    sock = _input(node, key)
+    for link in list(sock.links):
+        tree.links.remove(link)
+    if hasattr(sock, "default_value"):
+        fresh = tree.nodes.new(node.bl_idname)
+        try:
+            sock.default_value = socket(fresh.inputs, sock.identifier).default_value
+        finally:
+            tree.nodes.remove(fresh)
+
+
+def at_default(label: str, *keys: str, material: str | None = None, doc: str = ""):
+    """A control: inputs ``keys`` of the first ``label`` node (``node_of``) unlinked and at their
+    defaults; ``doc`` its description (default: says so)."""
+    def control():
+        node = node_of(label, material)
+        for key in keys:
+            input_at_default(node, key)
+    control.__doc__ = doc or f"{label} {' and '.join(keys)} at the default{'s' if len(keys) > 1 else ''}"
+    return control
+
+
+def assign(target: Callable[[], object], doc: str, **values):
+    """A control: ``values`` (attribute: value) set on ``target()``; ``doc`` its description."""
+    def control():
+        ob = target()
+        for k, v in values.items():
+            setattr(ob, k, v)
+    control.__doc__ = doc
+    return control
+
+
+def light_object():
+    """The scene's (first) light object."""
+    import bpy
+
+    return next(ob for ob in bpy.context.scene.objects if ob.type == 'LIGHT')
+
+
+def volume(name: str | None = None):
+    """The scene's (first) Volume object, or the object ``name``."""
+    import bpy
+
+    if name is not None:
+        return bpy.data.objects[name]
+    return next(ob for ob in bpy.context.scene.objects if ob.type == 'VOLUME')
+
+
+def active_scene():
+    """The scene being built."""
+    import bpy
+
+    return bpy.context.scene
+
+
+def wearing(material: str):
+    """The scene's (first) object with the material ``material``."""
+    return next(ob for ob in active_scene().objects
+                if material in {m.name for m in getattr(ob.data, "materials", ()) if m is not None})
+
+
+def volume_output_unlinked():
+    """The Material Output's Volume unlinked: the medium taken out (the row's shader is at its
+    defaults already)"""
+    out = node_of("Material Output", "Smoke")
+    for link in list(out.inputs["Volume"].links):
+        out.id_data.links.remove(link)
+
+
+# The density chains' control: Principled Volume reading `density` straight (Blender's default).
+density_chain_out = at_default(
+    "Principled Volume", "Density", "Density Attribute",
+    doc="Principled Volume Density and Density Attribute at their defaults (1, `density`): the node "
+        "chain into Density taken out")
+
+
 def _pv_row(tmpdir, grids=None, **inputs):
     mat, nt, out = material()
     principled(nt, out, **inputs)
     smoke_with(tmpdir, mat, grids)
 
 
-@row("principled_default", "Principled Volume (default values)")
+@row("principled_default", "Principled Volume (default values)",
+     control=volume_output_unlinked)
 def _(tmpdir):
     _pv_row(tmpdir)
 
 
-@row("volume_scatter", "Volume Scatter (Density from Attribute `density`)")
+@row("volume_scatter", "Volume Scatter (Density from Attribute `density`)",
+     control=at_default("Volume Scatter", "Density", doc="Volume Scatter Density at the default (1, "
+                        "unlinked: the shader reads no grid)"))
 def _(tmpdir):
     mat, nt, out = material()
     node = nt.nodes.new('ShaderNodeVolumeScatter')
@@ -329,7 +476,9 @@ def _(tmpdir):
     smoke_with(tmpdir, mat)
 
 
-@row("volume_absorption", "Volume Absorption (Density from Attribute `density`)")
+@row("volume_absorption", "Volume Absorption (Density from Attribute `density`)",
+     control=at_default("Volume Absorption", "Density", doc="Volume Absorption Density at the default "
+                        "(1, unlinked: the shader reads no grid)"))
 def _(tmpdir):
     mat, nt, out = material()
     node = nt.nodes.new('ShaderNodeVolumeAbsorption')
@@ -338,7 +487,9 @@ def _(tmpdir):
     smoke_with(tmpdir, mat)
 
 
-@row("add_shader", "Add Shader: Principled Volume + Volume Absorption", coloured=True)
+@row("add_shader", "Add Shader: Principled Volume + Volume Absorption", coloured=True,
+     control=at_default("Add Shader", "Shader_001", doc="Add Shader's second input unlinked (as a new "
+                        "Add Shader has it): the Volume Absorption taken out"))
 def _(tmpdir):
     mat, nt, out = material()
     pv = principled(nt)
@@ -354,7 +505,7 @@ def _(tmpdir):
 
 
 @row("mix_shader", "Mix Shader, constant factor 0.3 (Principled Volume, Volume Scatter)",
-     coloured=True)
+     coloured=True, control=at_default("Mix Shader", "Fac"))
 def _(tmpdir):
     mat, nt, out = material()
     pv = principled(nt, Color=(0.9, 0.4, 0.2, 1.0))
@@ -369,44 +520,53 @@ def _(tmpdir):
     smoke_with(tmpdir, mat)
 
 
-@row("anisotropy_pos", "Principled Volume Anisotropy +0.6")
+@row("anisotropy_pos", "Principled Volume Anisotropy +0.6",
+     control=at_default("Principled Volume", "Anisotropy"))
 def _(tmpdir):
     _pv_row(tmpdir, Anisotropy=0.6)
 
 
-@row("anisotropy_neg", "Principled Volume Anisotropy −0.4")
+@row("anisotropy_neg", "Principled Volume Anisotropy −0.4",
+     control=at_default("Principled Volume", "Anisotropy"))
 def _(tmpdir):
     _pv_row(tmpdir, Anisotropy=-0.4)
 
 
-@row("density_5", "Principled Volume Density 5 × Density Attribute `density`")
+@row("density_5", "Principled Volume Density 5 × Density Attribute `density`",
+     control=at_default("Principled Volume", "Density"))
 def _(tmpdir):
     _pv_row(tmpdir, Density=5.0)
 
 
-@row("color", "Principled Volume Color (constant, orange)", coloured=True)
+@row("color", "Principled Volume Color (constant, orange)", coloured=True,
+     control=at_default("Principled Volume", "Color"))
 def _(tmpdir):
     _pv_row(tmpdir, Color=(0.9, 0.45, 0.15, 1.0))
 
 
-@row("absorption_color", "Principled Volume Absorption Color (blue)", coloured=True)
+@row("absorption_color", "Principled Volume Absorption Color (blue)", coloured=True,
+     control=at_default("Principled Volume", "Absorption Color"))
 def _(tmpdir):
     _pv_row(tmpdir, **{"Absorption Color": (0.2, 0.45, 0.9, 1.0)})
 
 
-@row("color_attribute", "Principled Volume Color Attribute from a Vec3 grid `color`", coloured=True)
+@row("color_attribute", "Principled Volume Color Attribute from a Vec3 grid `color`", coloured=True,
+     control=at_default("Principled Volume", "Color Attribute"))
 def _(tmpdir):
     _pv_row(tmpdir, grids={"density": density_grid(), "color": color_grid()},
             **{"Color Attribute": "color"})
 
 
-@row("emission_constant", "Principled Volume Emission Strength constant (0.3)", emissive=True)
+@row("emission_constant", "Principled Volume Emission Strength constant (0.3)", emissive=True,
+     control=at_default("Principled Volume", "Emission Strength"))
 def _(tmpdir):
     _pv_row(tmpdir, **{"Emission Strength": 0.3})
 
 
 @row("emission_attribute_math", "Emission Strength from Attribute `density` → Math Multiply 0.5",
-     coloured=True, emissive=True)
+     coloured=True, emissive=True,
+     control=at_default("Principled Volume", "Emission Strength", doc="Principled Volume Emission "
+                        "Strength at the default (0): the chain into it taken out"))
 def _(tmpdir):
     mat, nt, out = material()
     pv = principled(nt, out, **{"Emission Color": (1.0, 0.5, 0.2, 1.0)})
@@ -416,21 +576,26 @@ def _(tmpdir):
 
 
 @row("blackbody_grid", "Principled Volume Blackbody Intensity 1, Temperature Attribute `temperature`",
-     coloured=True, emissive=True)
+     coloured=True, emissive=True, control=at_default("Principled Volume", "Blackbody Intensity"))
 def _(tmpdir):
     _pv_row(tmpdir, grids={"density": density_grid(), "temperature": temperature_grid()},
             **{"Blackbody Intensity": 1.0, "Temperature Attribute": "temperature"})
 
 
+# Space Object is Blender's default: the control is the other space.
 @row("space_object_scaled", "Volume ▸ Render ▸ Space Object, object scaled 0.02 (grid in cm, "
-     "Density 0.02)")
+     "Density 0.02)",
+     control=assign(lambda: volume().data.render, "Volume ▸ Render ▸ Space World (Space Object, the "
+                    "row's, is the default): the density per world metre", space='WORLD'))
 def _(tmpdir):
     mat, nt, out = material()
     principled(nt, out, Density=0.02)
     smoke_with(tmpdir, mat, voxel=VOXEL * 50.0, scale=(0.02, 0.02, 0.02))
 
 
-@row("space_world_half", "Volume ▸ Render ▸ Space World, object scaled 0.5")
+@row("space_world_half", "Volume ▸ Render ▸ Space World, object scaled 0.5",
+     control=assign(lambda: volume().data.render, "Volume ▸ Render ▸ Space at the default (Object)",
+                    space='OBJECT'))
 def _(tmpdir):
     mat, nt, out = material()
     principled(nt, out)
@@ -438,7 +603,14 @@ def _(tmpdir):
     ob.data.render.space = 'WORLD'
 
 
-@row("scale_nonuniform", "Object scaled non-uniformly (1.4, 1, 0.6), Space Object")
+def _unscaled():
+    """The Volume object's scale at the default (1, 1, 1), kept centred where it was"""
+    ob = volume()
+    ob.location = [loc / s for loc, s in zip(ob.location, ob.scale, strict=True)]
+    ob.scale = (1.0, 1.0, 1.0)
+
+
+@row("scale_nonuniform", "Object scaled non-uniformly (1.4, 1, 0.6), Space Object", control=_unscaled)
 def _(tmpdir):
     _pv_row_scaled(tmpdir, (1.4, 1.0, 0.6))
 
@@ -449,7 +621,9 @@ def _pv_row_scaled(tmpdir, scale):
     smoke_with(tmpdir, mat, scale=scale)
 
 
-@row("clipping", "Volume ▸ Render ▸ Clipping 0.1")
+@row("clipping", "Volume ▸ Render ▸ Clipping 0.1",
+     control=assign(lambda: volume().data.render, "Volume ▸ Render ▸ Clipping at the default (0.001)",
+                    clipping=0.001))
 def _(tmpdir):
     mat, nt, out = material()
     principled(nt, out)
@@ -457,13 +631,22 @@ def _(tmpdir):
     ob.data.render.clipping = 0.1
 
 
-@row("no_material", "Volume object without a material (Cycles' default volume shader)")
+def _empty_material():
+    """A new material (Blender's: a Principled BSDF surface, nothing in Volume) on the Volume object,
+    which has none in the row (the default of Add ▸ Volume): the medium taken out"""
+    import bpy
+
+    volume().data.materials.append(bpy.data.materials.new("New"))
+
+
+@row("no_material", "Volume object without a material (Cycles' default volume shader)",
+     control=_empty_material)
 def _(tmpdir):
     smoke_with(tmpdir, None)
 
 
 @row("no_grid_shader", "Volume shader that reads no grid (Density Attribute empty): Cycles renders "
-     "nothing")
+     "nothing", control=at_default("Principled Volume", "Density Attribute"))
 def _(tmpdir):
     _pv_row(tmpdir, **{"Density Attribute": ""})
 
@@ -484,9 +667,15 @@ for _op, _args in (('POWER', (2.0,)), ('MINIMUM', (1.2,)), ('SMOOTH_MIN', (1.2, 
     def _build(tmpdir, op=_op, args=_args, clamp=_clamp):
         _density_chain(tmpdir, lambda nt, g: math_node(nt, op, g, *args, clamp=clamp).outputs[0])
 
+    # Minimum and Smooth Min cap the density at 1.2, inside the puff's opaque core: taking the node
+    # out changes the image too little to fail the row, so their control sets the Math node's values
+    # back to its defaults (0.5) instead.
+    _control = density_chain_out if _op not in ('MINIMUM', 'SMOOTH_MIN') else at_default(
+        "Math", "Value_001", "Value_002", doc=f"Math {_op.title().replace('_', ' ')} values at the "
+                                              f"defaults (0.5 for the row's {', '.join(map(str, _args))})")
     ROWS.append(Row(id=f"math_{_op.lower()}", title=f"Math {_op.title().replace('_', ' ')}"
                     f"{' ' + ', '.join(map(str, _args)) if _args else ''}{' (Clamp)' if _clamp else ''}"
-                    " on `density` → Density", build=_build))
+                    " on `density` → Density", build=_build, control=_control))
 
 
 for _interp in ('LINEAR', 'STEPPED', 'SMOOTHSTEP', 'SMOOTHERSTEP'):
@@ -507,7 +696,10 @@ for _interp in ('LINEAR', 'STEPPED', 'SMOOTHSTEP', 'SMOOTHERSTEP'):
 
     ROWS.append(Row(id=f"map_range_{_interp.lower()}",
                     title=f"Map Range {_interp.title()} (clamp) 0.2–2 → 0–3 on `density` → Density",
-                    build=_build))
+                    build=_build,
+                    control=density_chain_out if _interp == 'LINEAR' else
+                    assign(lambda: node_of("Map Range"), "Map Range interpolation at the default (Linear)",
+                           interpolation_type='LINEAR')))
 
 
 def _ramp(nt, g, interp: str, colours: bool):
@@ -545,13 +737,19 @@ for _interp in ('LINEAR', 'CONSTANT', 'EASE'):
             return math_node(nt, 'MULTIPLY', node.outputs["Color"], 3.0).outputs[0]
         _density_chain(tmpdir, make)
 
+    _linear_ramp = assign(lambda: node_of("Color Ramp").color_ramp,
+                          "Color Ramp interpolation at the default (Linear)", interpolation='LINEAR')
     ROWS.append(Row(id=f"ramp_{_interp.lower()}_color", title=f"Color Ramp {_interp.title()} "
-                    "(`density`/3) → Color", build=_build_color, coloured=True))
+                    "(`density`/3) → Color", build=_build_color, coloured=True,
+                    control=_linear_ramp if _interp != 'LINEAR' else at_default(
+                        "Principled Volume", "Color", doc="Principled Volume Color at the default: the "
+                        "Color Ramp taken out (its interpolation, Linear, is the default)")))
     ROWS.append(Row(id=f"ramp_{_interp.lower()}_density", title=f"Color Ramp {_interp.title()} "
-                    "(`density`/3) → ×3 → Density", build=_build_density))
+                    "(`density`/3) → ×3 → Density", build=_build_density,
+                    control=_linear_ramp if _interp != 'LINEAR' else density_chain_out))
 
 
-@row("float_curve", "Float Curve (`density`/3, an S curve) → ×3 → Density")
+@row("float_curve", "Float Curve (`density`/3, an S curve) → ×3 → Density", control=density_chain_out)
 def _(tmpdir):
     def make(nt, g):
         node = nt.nodes.new('ShaderNodeFloatCurve')
@@ -566,7 +764,8 @@ def _(tmpdir):
     _density_chain(tmpdir, make)
 
 
-@row("mix_float", "Mix (Float, Mix) factor 0.5 of `density` and 2.0 → Density")
+@row("mix_float", "Mix (Float, Mix) factor 0.5 of `density` and 2.0 → Density",
+     control=at_default("Mix", "B_Float", doc="Mix B at the default (0)"))
 def _(tmpdir):
     def make(nt, g):
         node = nt.nodes.new('ShaderNodeMix')
@@ -592,10 +791,14 @@ for _blend in ('MIX', 'MULTIPLY', 'ADD'):
         smoke_with(tmpdir, mat, {"density": density_grid(), "color": color_grid()})
 
     ROWS.append(Row(id=f"mix_color_{_blend.lower()}", title=f"Mix (Color, {_blend.title()}) factor 0.6 of "
-                    "orange and Attribute `color` → Color", build=_build, coloured=True))
+                    "orange and Attribute `color` → Color", build=_build, coloured=True,
+                    control=assign(lambda: node_of("Mix"), "Mix blend type at the default (Mix)",
+                                   blend_type='MIX') if _blend != 'MIX' else at_default(
+                        "Mix", "A_Color", doc="The Mix's A at the default (0.5 grey, for the orange; the "
+                        "blend type, Mix, is the default)")))
 
 
-@row("clamp", "Clamp (Min Max 0.3–1.5) on `density` → Density")
+@row("clamp", "Clamp (Min Max 0.3–1.5) on `density` → Density", control=at_default("Clamp", "Min", "Max"))
 def _(tmpdir):
     def make(nt, g):
         node = nt.nodes.new('ShaderNodeClamp')
@@ -606,7 +809,10 @@ def _(tmpdir):
     _density_chain(tmpdir, make)
 
 
-@row("invert", "Invert (factor 1) of Attribute `color` → Color", coloured=True)
+# The Invert's factor 1 is the default: the control turns it to 0 (the colour passes uninverted).
+@row("invert", "Invert (factor 1) of Attribute `color` → Color", coloured=True,
+     control=assign(lambda: node_of("Invert Color").inputs["Fac"], "Invert factor 0 (the row's 1 is the "
+                    "default): the colour passes uninverted", default_value=0.0))
 def _(tmpdir):
     mat, nt, out = material()
     pv = principled(nt, out)
@@ -616,8 +822,19 @@ def _(tmpdir):
     smoke_with(tmpdir, mat, {"density": density_grid(), "color": color_grid()})
 
 
+def channels_straight(separate: str, combine: str):
+    """A control: the ``separate`` node's outputs wired to the ``combine`` node's inputs in order
+    (the row rotates the channels)."""
+    def control():
+        sep, comb = node_of(separate), node_of(combine)
+        for i in range(3):
+            sep.id_data.links.new(sep.outputs[i], comb.inputs[i])
+    control.__doc__ = f"{separate} → {combine} wired straight (the channels not rotated)"
+    return control
+
+
 @row("separate_combine_color", "Separate Color → Combine Color (channels rotated) of `color` → Color",
-     coloured=True)
+     coloured=True, control=channels_straight("Separate Color", "Combine Color"))
 def _(tmpdir):
     mat, nt, out = material()
     pv = principled(nt, out)
@@ -631,7 +848,7 @@ def _(tmpdir):
 
 
 @row("separate_combine_xyz", "Separate XYZ of Vector `color` → Combine XYZ (Z, X, Y) → Color",
-     coloured=True)
+     coloured=True, control=channels_straight("Separate XYZ", "Combine XYZ"))
 def _(tmpdir):
     mat, nt, out = material()
     pv = principled(nt, out)
@@ -645,7 +862,7 @@ def _(tmpdir):
 
 
 @row("blackbody_node", "Blackbody node (1500 K) → Emission Color; Emission Strength `density`×0.5",
-     coloured=True, emissive=True)
+     coloured=True, emissive=True, control=at_default("Blackbody", "Temperature"))
 def _(tmpdir):
     mat, nt, out = material()
     pv = principled(nt, out)
@@ -657,7 +874,9 @@ def _(tmpdir):
     smoke_with(tmpdir, mat)
 
 
-@row("value_rgb", "Value node (2.0) → Density, RGB node → Color", coloured=True)
+@row("value_rgb", "Value node (2.0) → Density, RGB node → Color", coloured=True,
+     control=at_default("Principled Volume", "Density", "Color", doc="Principled Volume Density and Color "
+                        "at their defaults: the Value and RGB nodes taken out"))
 def _(tmpdir):
     mat, nt, out = material()
     pv = principled(nt, out)
@@ -670,13 +889,16 @@ def _(tmpdir):
     smoke_with(tmpdir, mat)
 
 
-@row("volume_info", "Volume Info Density → Principled Volume Density (Density Attribute empty)")
+@row("volume_info", "Volume Info Density → Principled Volume Density (Density Attribute empty)",
+     control=at_default("Principled Volume", "Density", doc="Principled Volume Density at the default "
+                        "(1): the Volume Info taken out (Density Attribute stays empty: no grid is read)"))
 def _(tmpdir):
     _density_chain(tmpdir, lambda nt, g: nt.nodes.new('ShaderNodeVolumeInfo').outputs["Density"])
 
 
 @row("volume_coefficients", "Volume Coefficients: absorption (0.4, 0.5, 0.7) and scatter "
-     "(0.6, 0.5, 0.3), each Vector Math Scale by `density`", coloured=True)
+     "(0.6, 0.5, 0.3), each Vector Math Scale by `density`", coloured=True,
+     control=at_default("Volume Coefficients", "Absorption Coefficients", "Scatter Coefficients"))
 def _(tmpdir):
     mat, nt, out = material()
     node = nt.nodes.new('ShaderNodeVolumeCoefficients')
@@ -694,7 +916,8 @@ def _(tmpdir):
 
 
 @row("volume_coefficients_mesh", "Volume Coefficients, constant (absorption 0.3, 0.35, 0.5; scatter "
-     "0.5, 0.4, 0.25), on a 2 m cube mesh", coloured=True)
+     "0.5, 0.4, 0.25), on a 2 m cube mesh", coloured=True,
+     control=at_default("Volume Coefficients", "Absorption Coefficients", "Scatter Coefficients"))
 def _(tmpdir):
     mat, nt, out = material("Fog")
     node = nt.nodes.new('ShaderNodeVolumeCoefficients')
@@ -707,7 +930,7 @@ def _(tmpdir):
 
 
 @row("emission_shader", "Emission shader (Strength `density`×0.5, orange) into the Volume output",
-     coloured=True, emissive=True)
+     coloured=True, emissive=True, control=at_default("Emission", "Color"))
 def _(tmpdir):
     mat, nt, out = material()
     node = nt.nodes.new('ShaderNodeEmission')
@@ -737,17 +960,30 @@ def _texture_cube(tmpdir, texture: str):
     cube_medium(mat)
 
 
-@row("noise_cloud", "Noise Texture (Object) → Map Range → Density, 2 m cube, volume-only material")
+@row("noise_cloud", "Noise Texture (Object) → Map Range → Density, 2 m cube, volume-only material",
+     control=at_default("Noise Texture", "Vector", doc="Noise Texture Vector at the default (unlinked: "
+                        "Generated coordinates)"))
 def _(tmpdir):
     _texture_cube(tmpdir, 'ShaderNodeTexNoise')
 
 
-@row("gradient_texture", "Gradient Texture (Object, linear) → Map Range → Density, 2 m cube")
+@row("gradient_texture", "Gradient Texture (Object, linear) → Map Range → Density, 2 m cube",
+     control=at_default("Gradient Texture", "Vector", doc="Gradient Texture Vector at the default "
+                        "(unlinked: Generated coordinates)"))
 def _(tmpdir):
     _texture_cube(tmpdir, 'ShaderNodeTexGradient')
 
 
-@row("mesh_medium", "Mesh medium: 2 m cube with a volume-only Principled Volume (Density 0.8)")
+def _default_surface():
+    """The cube's material with a new material's surface (a Principled BSDF into Surface): not
+    volume-only, the cube opaque (Density 1 for 0.8 changes the image too little to fail the row)"""
+    out = node_of("Material Output", "Fog")
+    bsdf = out.id_data.nodes.new('ShaderNodeBsdfPrincipled')
+    out.id_data.links.new(bsdf.outputs[0], out.inputs["Surface"])
+
+
+@row("mesh_medium", "Mesh medium: 2 m cube with a volume-only Principled Volume (Density 0.8)",
+     control=_default_surface)
 def _(tmpdir):
     mat, nt, out = material("Fog")
     principled(nt, out, Density=0.8)
@@ -755,7 +991,9 @@ def _(tmpdir):
     cube_medium(mat)
 
 
-@row("two_volumes", "Two overlapping Volume objects (grey and orange)", coloured=True)
+@row("two_volumes", "Two overlapping Volume objects (grey and orange)", coloured=True,
+     control=assign(lambda: volume("Smoke B"), "The second Volume object (orange) hidden from the render: "
+                    "one volume, no overlap", hide_render=True))
 def _(tmpdir):
     base()
     for name, loc, colour in (("Smoke A", (-0.45, 0.0, 0.0), (0.5, 0.5, 0.5, 1.0)),
@@ -774,8 +1012,16 @@ for _kind, _loc in (('SPOT', (2.5, -2.5, 3.0)), ('POINT', (-1.8, -1.5, 2.2)), ('
         light(kind, loc)
         volume_object(tmpdir, mat=mat)
 
+    # Point is the Add ▸ Light operator's default type: the point light's control puts it at the
+    # operator's default location instead (the 3D cursor, the origin, inside the smoke).
     ROWS.append(Row(id=f"light_{_kind.lower()}", title=f"{_kind.title()} light (Add menu defaults) "
-                    "with the smoke", build=_build))
+                    "with the smoke", build=_build,
+                    control=assign(lambda: light_object().data, f"The {_kind.title()} light's type at the "
+                                   "Add ▸ Light operator's default (Point), its power kept", type='POINT')
+                    if _kind != 'POINT' else
+                    assign(light_object, "The point light at the Add ▸ Light operator's default location "
+                           "(the 3D cursor: the origin, inside the smoke; Point is the default type)",
+                           location=(0.0, 0.0, 0.0))))
 
 
 for _flag, _what in (('visible_volume_scatter', "Volume Scatter"), ('visible_diffuse', "Diffuse")):
@@ -787,10 +1033,13 @@ for _flag, _what in (('visible_volume_scatter', "Volume Scatter"), ('visible_dif
         volume_object(tmpdir, mat=mat)
 
     ROWS.append(Row(id=f"light_{_flag}_off", title=f"Spot light, Object ▸ Visibility ▸ Ray Visibility ▸ "
-                    f"{_what} off", build=_build))
+                    f"{_what} off", build=_build,
+                    control=assign(light_object, f"The light's Ray Visibility ▸ {_what} at the default (on)",
+                                   **{_flag: True})))
 
 
-@row("area_normalize_off", "Area light 1.5 × 1.5 m, Normalize off (its power grows with its area)")
+@row("area_normalize_off", "Area light 1.5 × 1.5 m, Normalize off (its power grows with its area)",
+     control=assign(lambda: light_object().data, "Area light Normalize at the default (on)", normalize=True))
 def _(tmpdir):
     mat, nt, out = material()
     principled(nt, out)
@@ -802,7 +1051,9 @@ def _(tmpdir):
 
 
 @row("light_volume_factor", "Spot light, Light ▸ Influence ▸ Volume factor 0.3 (Cycles' direct light in "
-     "the medium is unchanged by it)")
+     "the medium is unchanged by it)",
+     control=assign(lambda: light_object().data, "Light ▸ Influence ▸ Volume factor at the default (1)",
+                    volume_factor=1.0))
 def _(tmpdir):
     mat, nt, out = material()
     principled(nt, out)
@@ -824,8 +1075,16 @@ def linking_collection(lamp, role: str, objects, state: str = 'INCLUDE') -> None
         entry.light_linking.link_state = state
 
 
+def _no_link_collection(role: str):
+    """A control: the light's Light Linking receiver (``role`` 'receiver') or Shadow Linking blocker
+    ('blocker') collection at the default (none)."""
+    kind = 'Light' if role == 'receiver' else 'Shadow'
+    return assign(lambda: light_object().light_linking, f"The light's {kind} Linking {role} collection at "
+                  "the default (none)", **{f"{role}_collection": None})
+
+
 @row("light_linking_excludes_smoke", "Spot light whose Light Linking receiver collection excludes the smoke "
-     "(the smoke dark, the ground lit)")
+     "(the smoke dark, the ground lit)", control=_no_link_collection("receiver"))
 def _(tmpdir):
     mat, nt, out = material()
     principled(nt, out)
@@ -835,7 +1094,7 @@ def _(tmpdir):
 
 
 @row("light_linking_one_of_two_volumes", "Point light whose Light Linking receiver collection includes one "
-     "of two Volume objects (the other dark)")
+     "of two Volume objects (the other dark)", control=_no_link_collection("receiver"))
 def _(tmpdir):
     import bpy
 
@@ -851,7 +1110,7 @@ def _(tmpdir):
 
 
 @row("light_linking_excludes_a_cube", "Point light whose Light Linking receiver collection excludes a cube "
-     "beside the smoke (the cube dark, the ground and smoke lit)")
+     "beside the smoke (the cube dark, the ground and smoke lit)", control=_no_link_collection("receiver"))
 def _(tmpdir):
     import bpy
 
@@ -886,10 +1145,12 @@ for _what in ('bar', 'smoke'):
     ROWS.append(Row(id=f"shadow_linking_excludes_{_what}",
                     title=f"Spot light past a bar into the smoke, its Shadow Linking blocker collection "
                           f"excluding the {_what} (no shadow from it)",
-                    build=lambda tmpdir, what=_what: _shadow_linked_spot(tmpdir, what)))
+                    build=lambda tmpdir, what=_what: _shadow_linked_spot(tmpdir, what),
+                    control=_no_link_collection("blocker")))
 
 
-@row("area_spread", "Area light 1 m, Spread 60° (Cycles' soft-box grid)")
+@row("area_spread", "Area light 1 m, Spread 60° (Cycles' soft-box grid)",
+     control=assign(lambda: light_object().data, "Area light Spread at the default (180°)", spread=math.pi))
 def _(tmpdir):
     mat, nt, out = material()
     principled(nt, out)
@@ -913,6 +1174,11 @@ def _bar(z: float = 1.8, width: float = 0.06, along_y: bool = False, y: float = 
 # bar, so that a sharp sun's shadow (as dark as the bar is wide) differs from the soft one.
 SUN_BAR = dict(z=10.0, width=0.5, along_y=True, y=-0.8)
 
+# The lights' sizes as the Add ▸ Light operator makes them: (in words, the settings).
+_DEFAULT_SIZE = {'AREA': ("1 m square", dict(size=1.0, size_y=1.0, shape='SQUARE')),
+                 'SPOT': ("radius 0", dict(shadow_soft_size=0.0)),
+                 'SUN': ("angle 0.526°", dict(angle=math.radians(0.526)))}
+
 for _id, _kind, _title, _size, _bar_at in (
         ("soft_area", 'AREA', "Area light 0.6 × 0.3 m past a 6 cm bar into the smoke (soft shadow)",
          dict(size=0.6, size_y=0.3, shape='RECTANGLE'), dict(z=1.8)),
@@ -930,11 +1196,16 @@ for _id, _kind, _title, _size, _bar_at in (
         _bar(**bar_at)
         volume_object(tmpdir, mat=mat)
 
-    ROWS.append(Row(id=_id, title=_title, build=_build))
+    ROWS.append(Row(id=_id, title=_title, build=_build,
+                    control=assign(lambda: light_object().data, f"The {_kind.title()} light's size at "
+                                   f"the Add ▸ Light operator's default ({_DEFAULT_SIZE[_kind][0]})",
+                                   **_DEFAULT_SIZE[_kind][1])))
 
 
 @row("world_hdri", "World ▸ Environment Texture (an equirectangular image made by code) lighting the "
-     "smoke, no lamp", coloured=True)
+     "smoke, no lamp", coloured=True,
+     control=at_default("Background", "Color", doc="World Background Color at the default (a new "
+                        "Background node's grey 0.8): the Environment Texture taken out"))
 def _(tmpdir):
     import bpy
 
@@ -967,7 +1238,9 @@ def _sky_image(width: int = 64, height: int = 32):
     return image
 
 
-@row("mesh_shadow", "A mesh (Diffuse plane) casting its shadow into the smoke")
+@row("mesh_shadow", "A mesh (Diffuse plane) casting its shadow into the smoke",
+     control=assign(lambda: wearing("Occluder"), "The occluding plane's Ray Visibility ▸ Shadow "
+                    "off (on, the row's, is the default): it casts no shadow", visible_shadow=False))
 def _(tmpdir):
     import bpy
 
@@ -980,7 +1253,13 @@ def _(tmpdir):
     occluder.data.materials.append(_diffuse("Occluder", (0.5, 0.5, 0.5)))
 
 
-@row("world_color", "World colour (0.3, 0.4, 0.6) lighting the smoke, no lamp", coloured=True)
+def _new_world_colour():
+    """The World colour at a new World's default (0.05 grey)"""
+    _world((0.05, 0.05, 0.05))
+
+
+@row("world_color", "World colour (0.3, 0.4, 0.6) lighting the smoke, no lamp", coloured=True,
+     control=_new_world_colour)
 def _(tmpdir):
     mat, nt, out = material()
     principled(nt, out)
@@ -989,7 +1268,9 @@ def _(tmpdir):
 
 
 @row("world_gradient", "World ▸ Background Color from nodes: Texture Coordinate Generated → Separate XYZ Z → "
-     "Map Range (−0.2–1 → 0–1) → Mix (Color) ground → sky, Strength 1.5", coloured=True)
+     "Map Range (−0.2–1 → 0–1) → Mix (Color) ground → sky, Strength 1.5", coloured=True,
+     control=at_default("Mix", "Factor_Float", doc="The Mix's Factor at the default (0.5, unlinked): the "
+                        "gradient taken out, one colour halfway between ground and sky"))
 def _(tmpdir):
     import bpy
 
@@ -1013,7 +1294,8 @@ def _(tmpdir):
 
 
 @row("world_sky", "World ▸ Background Color from a Sky Texture (Multiple Scattering, Blender's default)",
-     coloured=True)
+     coloured=True, control=at_default("Background", "Color", doc="World Background Color at the default "
+                                       "(a new Background node's grey 0.8): the Sky Texture taken out"))
 def _(tmpdir):
     import bpy
 
@@ -1039,7 +1321,9 @@ for _flag, _what in (("scatter", "Volume Scatter"), ("diffuse", "Diffuse")):
         volume_object(tmpdir, mat=mat)
 
     ROWS.append(Row(id=f"world_{_flag}_off", title=f"World colour (0.3, 0.4, 0.6), World ▸ Settings ▸ Ray "
-                    f"Visibility ▸ {_what} off", build=_build, coloured=True))
+                    f"Visibility ▸ {_what} off", build=_build, coloured=True,
+                    control=assign(lambda: active_scene().world.cycles_visibility, f"World ▸ Settings ▸ Ray "
+                                   f"Visibility ▸ {_what} at the default (on)", **{_flag: True})))
 
 
 def _world_volume(node_type: str, density: float) -> None:
@@ -1052,19 +1336,22 @@ def _world_volume(node_type: str, density: float) -> None:
     nt.links.new(node.outputs[0], out.inputs["Volume"])
 
 
-@row("world_fog", "World ▸ Volume: Volume Scatter (density 0.08) filling the scene, spot light and ground")
+@row("world_fog", "World ▸ Volume: Volume Scatter (density 0.08) filling the scene, spot light and ground",
+     control=at_default("Volume Scatter", "Density"))
 def _(tmpdir):
     base(lights='SPOT')
     _world_volume('ShaderNodeVolumeScatter', 0.08)
 
 
-@row("world_fog_principled", "World ▸ Volume: Principled Volume (density 0.05) filling the scene, point")
+@row("world_fog_principled", "World ▸ Volume: Principled Volume (density 0.05) filling the scene, point",
+     control=at_default("Principled Volume", "Density"))
 def _(tmpdir):
     base()
     _world_volume('ShaderNodeVolumePrincipled', 0.05)
 
 
-@row("world_fog_beside_smoke", "World ▸ Volume: Volume Scatter fog beside a smoke volume")
+@row("world_fog_beside_smoke", "World ▸ Volume: Volume Scatter fog beside a smoke volume",
+     control=at_default("Volume Scatter", "Density"))
 def _(tmpdir):
     mat, nt, out = material()
     principled(nt, out)
@@ -1080,7 +1367,9 @@ def _resolution(width: int, height: int) -> None:
     r.resolution_x, r.resolution_y = width, height
 
 
-@row("dof", "Camera ▸ Depth of Field: focus 3 m (the smoke at 7 m), f/0.25, 160x90")
+@row("dof", "Camera ▸ Depth of Field: focus 3 m (the smoke at 7 m), f/0.25, 160x90",
+     control=assign(lambda: active_scene().camera.data.dof, "Camera ▸ Depth of Field at the default (off)",
+                    use_dof=False))
 def _(tmpdir):
     import bpy
 
@@ -1091,7 +1380,10 @@ def _(tmpdir):
 
 
 @row("dof_blades", "Depth of Field: focus on an object 2.5 m away, f/0.2, 5 blades turned 20°, ratio 2, "
-     "160x90")
+     "160x90",
+     control=assign(lambda: active_scene().camera.data.dof, "Depth of Field ▸ Aperture blades, rotation and "
+                    "ratio at the defaults (0: a round aperture, 0°, 1)", aperture_blades=0,
+                    aperture_rotation=0.0, aperture_ratio=1.0))
 def _(tmpdir):
     import math
 
@@ -1117,7 +1409,12 @@ def _moving(ob, step=(0.8, 0.0, 0.0)) -> None:
     bpy.context.scene.frame_set(1)
 
 
-@row("motion_blur_volume", "Render ▸ Motion Blur (shutter 0.5, centre): the smoke moving 0.8 m a frame")
+_no_motion_blur = assign(lambda: active_scene().render, "Render ▸ Motion Blur at the default (off)",
+                         use_motion_blur=False)
+
+
+@row("motion_blur_volume", "Render ▸ Motion Blur (shutter 0.5, centre): the smoke moving 0.8 m a frame",
+     control=_no_motion_blur)
 def _(tmpdir):
     import bpy
 
@@ -1128,7 +1425,8 @@ def _(tmpdir):
     bpy.context.scene.render.use_motion_blur = True
 
 
-@row("motion_blur_camera", "Render ▸ Motion Blur (shutter 1, start): the camera moving 0.4 m a frame")
+@row("motion_blur_camera", "Render ▸ Motion Blur (shutter 1, start): the camera moving 0.4 m a frame",
+     control=_no_motion_blur)
 def _(tmpdir):
     import bpy
 
@@ -1139,8 +1437,11 @@ def _(tmpdir):
     r.use_motion_blur, r.motion_blur_shutter, r.motion_blur_position = True, 1.0, 'START'
 
 
+# The fire lights the ground by Blender's default (Ray Visibility ▸ Diffuse on): the control turns
+# that off.
 @row("fire_lights_ground", "A fire (Emission shader + Volume Absorption) lighting the ground, no lamp",
-     coloured=True)
+     coloured=True, control=assign(lambda: volume("Fire"), "The fire's Ray Visibility ▸ Diffuse off (on, the "
+                                   "row's, is the default): it lights no surface", visible_diffuse=False))
 def _(tmpdir):
     mat, nt, out = material("Fire")
     emission = nt.nodes.new('ShaderNodeEmission')
@@ -1191,7 +1492,14 @@ def surface_ground(shader: str | None = None, **inputs):
     return mat, node
 
 
-@row("surface_principled_default", "Ground: Blender's default Principled BSDF at a grazing view, point light")
+def _ground_without_material():
+    """The ground's material taken out (Cycles' default surface, a grey diffuse): its Principled BSDF
+    is at Blender's defaults already"""
+    wearing("Ground").data.materials.clear()
+
+
+@row("surface_principled_default", "Ground: Blender's default Principled BSDF at a grazing view, point light",
+     control=_ground_without_material)
 def _(tmpdir):
     base(ground=False)
     _grazing_view()
@@ -1199,7 +1507,7 @@ def _(tmpdir):
 
 
 @row("surface_principled_metal", "Ground: Principled BSDF Metallic 1, Roughness 0.3, copper colour, under "
-     "the smoke", coloured=True)
+     "the smoke", coloured=True, control=at_default("Principled BSDF", "Metallic"))
 def _(tmpdir):
     mat, nt, out = material()
     principled(nt, out)
@@ -1209,8 +1517,17 @@ def _(tmpdir):
     volume_object(tmpdir, mat=mat)
 
 
+def _default_specular():
+    """Principled BSDF Specular IOR Level, Specular Tint and distribution at the defaults (0.5, white,
+    Multiscatter GGX)"""
+    node = node_of("Principled BSDF")
+    for key in ("Specular IOR Level", "Specular Tint"):
+        input_at_default(node, key)
+    node.distribution = 'MULTI_GGX'
+
+
 @row("surface_principled_specular", "Ground: Principled BSDF blue, Roughness 0.2, Specular IOR Level 1, "
-     "Specular Tint orange, plain GGX", coloured=True)
+     "Specular Tint orange, plain GGX", coloured=True, control=_default_specular)
 def _(tmpdir):
     base(ground=False)
     _grazing_view()
@@ -1219,7 +1536,8 @@ def _(tmpdir):
     node.distribution = 'GGX'
 
 
-@row("surface_glossy", "Ground: Glossy BSDF (0.8, 0.7, 0.5), Roughness 0.3", coloured=True)
+@row("surface_glossy", "Ground: Glossy BSDF (0.8, 0.7, 0.5), Roughness 0.3", coloured=True,
+     control=at_default("Glossy BSDF", "Color", "Roughness"))
 def _(tmpdir):
     base(ground=False)
     _grazing_view()
@@ -1227,7 +1545,7 @@ def _(tmpdir):
 
 
 @row("surface_mix_shader", "Ground: Mix Shader 0.3 of two Principled BSDFs (red, green) from an RGB node",
-     coloured=True)
+     coloured=True, control=at_default("Mix Shader", "Fac"))
 def _(tmpdir):
     base(ground=False)
     _grazing_view()
@@ -1258,7 +1576,7 @@ def _test_image(width: int = 32, height: int = 16):
 
 
 @row("surface_checker_smoke", "Ground: Checker Texture (Generated coordinates) → Principled Base Color, "
-     "behind the smoke", coloured=True)
+     "behind the smoke", coloured=True, control=at_default("Checker Texture", "Scale", "Color1"))
 def _(tmpdir):
     mat, nt, out = material()
     principled(nt, out)
@@ -1272,7 +1590,9 @@ def _(tmpdir):
 
 
 @row("surface_image_smoke", "Ground: Image Texture (UV map, 8-bit sRGB) → Color Ramp-free Mix (Multiply) → "
-     "Diffuse, behind the smoke", coloured=True)
+     "Diffuse, behind the smoke", coloured=True,
+     control=at_default("Mix", "A_Color", doc="The Mix's A at the default (0.5 grey, unlinked): the Image "
+                        "Texture taken out"))
 def _(tmpdir):
     mat, nt, out = material()
     principled(nt, out)
@@ -1291,7 +1611,7 @@ def _(tmpdir):
 
 
 @row("surface_noise_ramp", "Ground: Noise Texture (Generated, scale 3) → Color Ramp → Principled Base "
-     "Color", coloured=True)
+     "Color", coloured=True, control=at_default("Noise Texture", "Scale"))
 def _(tmpdir):
     base(ground=False)
     ground, bsdf = surface_ground()
@@ -1307,7 +1627,9 @@ def _(tmpdir):
 
 
 @row("surface_image_generated", "Ground: Image Texture on Generated coordinates (Texture Coordinate) → "
-     "Principled Base Color, Closest interpolation", coloured=True)
+     "Principled Base Color, Closest interpolation", coloured=True,
+     control=assign(lambda: node_of("Image Texture"), "Image Texture interpolation at the default (Linear)",
+                    interpolation='Linear'))
 def _(tmpdir):
     base(ground=False)
     ground, bsdf = surface_ground()
@@ -1321,7 +1643,9 @@ def _(tmpdir):
 
 
 @row("surface_roughness_texture", "Ground: copper Principled BSDF, Checker Fac → Map Range → Roughness "
-     "(0.15 and 0.6), Metallic 1, at a grazing view", coloured=True)
+     "(0.15 and 0.6), Metallic 1, at a grazing view", coloured=True,
+     control=at_default("Principled BSDF", "Roughness", doc="Principled BSDF Roughness at the default (0.5, "
+                        "unlinked): the checker taken out"))
 def _(tmpdir):
     base(ground=False)
     _grazing_view()
@@ -1335,8 +1659,15 @@ def _(tmpdir):
     gnt.links.new(ranged.outputs["Result"], bsdf.inputs["Roughness"])
 
 
+def _shade_flat():
+    """The sphere's faces flat-shaded, as Add ▸ Mesh ▸ UV Sphere makes them"""
+    mesh = wearing("Ball").data
+    mesh.polygons.foreach_set("use_smooth", [False] * len(mesh.polygons))
+    mesh.update()
+
+
 @row("surface_smooth_sphere", "A smooth-shaded UV sphere (Shade Smooth), Principled BSDF red, Roughness "
-     "0.3, on the ground", coloured=True)
+     "0.3, on the ground", coloured=True, control=_shade_flat)
 def _(tmpdir):
     import bpy
 
@@ -1351,7 +1682,8 @@ def _(tmpdir):
 
 
 @row("surface_alpha_smoke", "A vertical plane, Principled BSDF orange, Alpha 0.4, in front of the smoke "
-     "(its shadow falls out of view), Cycles at 8 transparent bounces", coloured=True, transparent_bounces=8)
+     "(its shadow falls out of view), Cycles at 8 transparent bounces", coloured=True, transparent_bounces=8,
+     control=at_default("Principled BSDF", "Alpha", material="Veil"))
 def _(tmpdir):
     import bpy
 
@@ -1369,7 +1701,7 @@ def _(tmpdir):
 
 @row("surface_alpha_shadow", "A horizontal plane, Principled BSDF orange, Alpha 0.4, over the ground "
      "(its shadow lets 60 % of the light through), Cycles at 8 transparent bounces", coloured=True,
-     transparent_bounces=8)
+     transparent_bounces=8, control=at_default("Principled BSDF", "Alpha", material="Veil"))
 def _(tmpdir):
     import bpy
 
@@ -1384,7 +1716,8 @@ def _(tmpdir):
 
 @row("surface_alpha_smoke_shadow", "A plane, Principled BSDF Alpha 0.4, between the light and the smoke "
      "(its corner seen at the top right): the smoke and the ground in its shadow, Cycles at 8 "
-     "transparent bounces", transparent_bounces=8)
+     "transparent bounces", transparent_bounces=8,
+     control=at_default("Principled BSDF", "Alpha", material="Veil"))
 def _(tmpdir):
     import bpy
 
@@ -1399,7 +1732,9 @@ def _(tmpdir):
     volume_object(tmpdir, mat=mat)
 
 
-@row("spot_grazing_floor", "Spot light low over a Diffuse floor (the light grazes it)")
+@row("spot_grazing_floor", "Spot light low over a Diffuse floor (the light grazes it)",
+     control=assign(lambda: light_object().data, "Spot light Spot Size at the default (45°)",
+                    spot_size=math.pi / 4))
 def _(tmpdir):
     base(lights=None, ground=False)
     _grazing_view()
@@ -1410,7 +1745,9 @@ def _(tmpdir):
 
 
 @row("volume_bounces_16", "Light Paths ▸ Max Bounces ▸ Volume 16: white smoke (Density 1.5, Color 1), "
-     "Cycles reference at 16 volume bounces", bounces=16)
+     "Cycles reference at 16 volume bounces", bounces=16,
+     control=assign(lambda: active_scene().cycles, "Light Paths ▸ Max Bounces ▸ Volume at the default (0)",
+                    volume_bounces=0))
 def _(tmpdir):
     import bpy
 
@@ -1420,7 +1757,9 @@ def _(tmpdir):
 
 @row("emission_scattered", "Object ▸ Visibility ▸ Volume Scatter on (the default): smoke lit by its "
      "glowing core alone (Emission Strength `density` through Map Range 1.6–2.6 → 0–6), no lamp; "
-     "Cycles scatters the emission with no bounces", coloured=True)
+     "Cycles scatters the emission with no bounces", coloured=True,
+     control=assign(volume, "The smoke's Ray Visibility ▸ Volume Scatter off (on, the row's, is the "
+                    "default): its emission lights no volume", visible_volume_scatter=False))
 def _(tmpdir):
     from . import bounces
 
@@ -1516,11 +1855,14 @@ class TfmResult:
     messages: list[str]
 
 
-def render_tfm(r: Row, tmpdir: str, samples: int = TFM_SAMPLES) -> TfmResult:
-    """Row ``r`` rendered by TFM (the add-on's settings at their defaults but ``samples``)."""
+def render_tfm(r: Row, tmpdir: str, samples: int = TFM_SAMPLES, control: bool = False) -> TfmResult:
+    """Row ``r`` rendered by TFM (the add-on's settings at their defaults but ``samples``); with
+    ``control``, the row's control applied after its build."""
     import bpy
 
     build(r, tmpdir)
+    if control:
+        r.control()
     scene = bpy.context.scene
     scene.render.engine = 'TFM'
     scene.render.film_transparent = True
@@ -1530,7 +1872,12 @@ def render_tfm(r: Row, tmpdir: str, samples: int = TFM_SAMPLES) -> TfmResult:
     bpy.ops.render.render()
     seconds = time.perf_counter() - t0
     messages = [m for _, m in fr.last_messages]
-    return TfmResult(_read_render(tmpdir, f"{r.id}_tfm"), seconds, messages)
+    return TfmResult(_read_render(tmpdir, f"{r.id}_{'control' if control else 'tfm'}"), seconds, messages)
+
+
+def render_control(r: Row, tmpdir: str) -> TfmResult:
+    """Row ``r``'s control (``Row.control``) rendered by TFM as ``render_tfm`` renders the row."""
+    return render_tfm(r, tmpdir, control=True)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -1574,6 +1921,29 @@ def compare(r: Row, tfm: np.ndarray, cycles: np.ndarray) -> Comparison:
     else:
         ratios = (metrics.brightness_ratio(tfm, cycles),)
     return Comparison(ssim, ratios)
+
+
+def reference_sha1(row_id: str, directory: Path = REF_DIR) -> str:
+    """The SHA-1 of the stored reference file ``<id>.npz``."""
+    return hashlib.sha1((directory / f"{row_id}.npz").read_bytes()).hexdigest()
+
+
+def save_control(row_id: str, comparison: Comparison, directory: Path = REF_DIR, **meta) -> Path:
+    """The row's control against its reference, stored beside it as ``<id>.control.json``: the
+    control's description, SSIM, brightness ratios, whether it fails the row, the reference's SHA-1
+    (the figures hold for that reference) and ``meta``."""
+    data = {"row": row_id, "control": ROW_BY_ID[row_id].control_text,
+            "ssim": float(comparison.ssim), "ratios": [float(q) for q in comparison.ratios],
+            "fails": not comparison.passes(),
+            "reference_sha1": reference_sha1(row_id, directory), **meta}
+    path = directory / f"{row_id}.control.json"
+    path.write_text(json.dumps(data, indent=1, ensure_ascii=False) + "\n")
+    return path
+
+
+def load_control(row_id: str, directory: Path = REF_DIR) -> dict:
+    """The stored figures of the row's control (``save_control``)."""
+    return json.loads((directory / f"{row_id}.control.json").read_text())
 
 
 def report_lines(messages: list[str], row: Row) -> list[str]:
