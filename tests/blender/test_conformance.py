@@ -3,9 +3,9 @@
 A 'rendered' row must match its stored Cycles reference (tests/data/conformance/<id>.npz, made by
 scripts/make_conformance_refs.py): SSIM >= 0.98 and total brightness within 3 % (per channel for
 coloured media). A 'reported' row must say its line in the render report; once the engine renders
-it, the test fails with the row's figures and asks for the row to be flipped (delete its line in
-``conformance.EXPECT``). A 'wrong' row (the engine renders it wrongly without a word) is an
-expected failure that fails as soon as it matches (delete its line in ``conformance.WRONG``).
+it, the test fails with the row's figures and asks for the row to be flipped (its entry in
+tests/data/conformance/manifest.toml). A 'wrong' row (the engine renders it wrongly without a word)
+is an expected failure that fails as soon as it matches (flip its entry there).
 """
 
 import bpy
@@ -36,7 +36,7 @@ def test_row(blank, tmp_path, row):
                         + _figures(row, comparison, result))
     else:
         if comparison.passes():
-            pytest.fail("the row now matches Cycles: delete it from conformance.WRONG; "
+            pytest.fail("the row now matches Cycles: make it 'rendered' in the manifest; "
                         + _figures(row, comparison, result))
         pytest.xfail(f"{row.wrong}; " + _figures(row, comparison, result))
 

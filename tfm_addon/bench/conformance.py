@@ -9,10 +9,11 @@ a World (black, unless the row lights with it), a dark grey (0.2) Diffuse ground
 medium's shadow and,
 unless the row says otherwise, a point light of 1000 W.
 
-``EXPECT`` says, per row id, the exact substring of the render-report line TFM gives today for the
-rows it does not render yet ('reported'); ``WRONG`` the rows it renders wrongly without a word
-('wrong'); every other row is expected to render within the thresholds ('rendered': ``SSIM_MIN``,
-``BRIGHTNESS_TOL``, per channel for coloured media). Flipping a row is deleting its line there.
+The manifest (``tests/data/conformance/manifest.toml``) gives every row its expected status:
+'rendered' (within ``SSIM_MIN`` and ``BRIGHTNESS_TOL``, per channel for coloured media), 'reported'
+(not rendered yet, with the exact substring of its render-report line, ``EXPECT``) or 'wrong'
+(rendered wrongly without a word, ``WRONG``), each status but 'rendered' with its reason. Flipping
+a row is changing its entry there.
 
 References: ``scripts/make_conformance_refs.py`` stores ``tests/data/conformance/<id>.npz``;
 ``tests/blender/test_conformance.py`` checks the rows; ``python -m tfm_addon.bench --only
@@ -48,37 +49,31 @@ REF_DIR = Path(__file__).resolve().parents[2] / "tests" / "data" / "conformance"
 # TFM as the test renders it: the add-on's defaults (quality AUTO, Samples 0: 16 antialiasing samples).
 TFM_SAMPLES = 0
 
-# How each row fares today, by id. Rows in neither table are expected to render within the
-# thresholds ('rendered'). Flipping a row is deleting its line.
-#
+# How each row is expected to fare, by id: tests/data/conformance/manifest.toml, one entry per row
+# with its status and, for every status but 'rendered', its reason (the file's header says more).
+MANIFEST = REF_DIR / "manifest.toml"
+
+
+def manifest() -> dict[str, dict]:
+    """The manifest's entries by row id."""
+    import tomllib
+
+    with open(MANIFEST, "rb") as f:
+        return tomllib.load(f)
+
+
+_EXPECTED = manifest()
 # 'reported': TFM does not render the row yet and says so; the value is the exact substring of the
 # render-report line the user sees (``final_render.last_messages``).
-_NOT_READ = "is not read by the engine; using the TFM settings instead"
-EXPECT: dict[str, str] = {
-    "clamp": "gives a medium where the grids are empty, up to Cycles' volume bounds",
-    "mix_float": "gives a medium where the grids are empty, up to Cycles' volume bounds",
-}
+EXPECT: dict[str, str] = {k: v["report"] for k, v in _EXPECTED.items() if v["status"] == "reported"}
 # 'wrong': TFM renders the row, wrongly, and says nothing: a defect this suite found. The value
 # says what differs from Cycles.
-WRONG: dict[str, str] = {
-    "blackbody_node": "the red channel 4.5 % dark against Cycles (Blackbody node at 1500 K into Emission "
-                      "Color; green and blue within 1.5 %); the cause is not found",
-}
+WRONG: dict[str, str] = {k: v["reason"] for k, v in _EXPECTED.items() if v["status"] == "wrong"}
 # Rows whose control (``Row.control``: the row's subject at Blender's default) does not fail the row
 # because the setting barely changes the image in the row's scene. The value says why. Every other
 # row's control must fail the row (tests/blender/test_conformance_controls.py).
-WEAK_CONTROL: dict[str, str] = {
-    "clipping": "Clipping 0.1 empties only the puff's faint rim (grid values 0.02 to 0.1): at the default "
-                "0.001 the image is the same within the thresholds (SSIM 0.9994, brightness 1.000)",
-    "ramp_ease_color": "Ease and Linear interpolation differ little between this ramp's three stops: the "
-                       "control (Linear) is within the thresholds (SSIM 0.998, brightness 1.000)",
-    "ramp_ease_density": "Ease and Linear interpolation differ little between this ramp's three stops: the "
-                         "control (Linear) is within the thresholds (SSIM 0.989, brightness 1.002)",
-    "light_volume_factor": "Cycles' direct light in the medium ignores the Volume factor (the row checks "
-                           "that TFM does too): at the default 1 the image is the same",
-    "surface_smooth_sphere": "at 64x48 the UV sphere's facets hardly show: flat shading is within the "
-                             "thresholds (SSIM 0.993, brightness 0.999)",
-}
+WEAK_CONTROL: dict[str, str] = {k: v["control_reason"] for k, v in _EXPECTED.items()
+                                if v.get("control") == "weak"}
 
 
 @dataclasses.dataclass
@@ -2065,12 +2060,12 @@ def write_page(page_rows: list[PageRow], md: Path, png_dir: Path, blender: str, 
         "volume-scatter visibility off in both renders (they compare the emission alone; a fire "
         "lighting the ground has its own row).",
         "- Expectation: **rendered** must pass; **reported** rows are not rendered yet and must "
-        "say their line in the render report (`conformance.EXPECT`); **wrong** rows render wrongly "
-        "without a word (`conformance.WRONG`). Flipping a row is deleting its line there.",
+        "say their line in the render report; **wrong** rows render wrongly without a word; each row's "
+        "status and, but for rendered rows, its reason are in `tests/data/conformance/manifest.toml`.",
         "- Images: Cycles | TFM | difference (×4, display values, both scaled by the Cycles image's "
         "white).",
         "",
-        "Today: " + ", ".join(f"{v} {k}" for k, v in sorted(counts.items())) + ".",
+        "Today: " + counts_text(counts) + ".",
         "",
         "| row | setting / node | expected | status | SSIM | brightness | TFM (s) | report / note | "
         "Cycles \\| TFM \\| diff |",
@@ -2094,7 +2089,32 @@ def write_page(page_rows: list[PageRow], md: Path, png_dir: Path, blender: str, 
     text = "\n".join(lines) + "\n"
     md.parent.mkdir(parents=True, exist_ok=True)
     md.write_text(text)
+    write_readme_counts(f"{len(page_rows)} rows: {counts_text(counts)}")
     return text
+
+
+README = Path(__file__).resolve().parents[2] / "README.md"
+README_MARKS = ("<!-- conformance counts -->", "<!-- /conformance counts -->")
+
+
+def counts_text(counts: dict[str, int]) -> str:
+    """'101 pass, 2 reported, 1 wrong': the rows per status, as the page and the README say it."""
+    return ", ".join(f"{v} {k}" for k, v in sorted(counts.items()))
+
+
+def readme_counts(text: str | None = None) -> str:
+    """What the README says between its conformance-count marks."""
+    text = README.read_text() if text is None else text
+    start, end = README_MARKS
+    return text[text.index(start) + len(start):text.index(end)]
+
+
+def write_readme_counts(summary: str) -> None:
+    """Put ``summary`` between the README's conformance-count marks (the page's writer does)."""
+    text = README.read_text()
+    old = readme_counts(text)
+    README.write_text(text.replace(README_MARKS[0] + old + README_MARKS[1],
+                                   README_MARKS[0] + summary + README_MARKS[1], 1))
 
 
 def main(argv: list[str] | None = None) -> int:
