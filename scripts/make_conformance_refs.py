@@ -10,6 +10,7 @@ cycles_single_scattering``). The two halves are compared with each other (SSIM, 
 as the convergence check; the file keeps, beside the float16 RGB image (top row first): the total
 samples, the seconds, the Blender version, the row's title and the seed-against-seed figures.
 
+Every reference made is then checked with its row's negative control, as ``--controls`` does.
 ``--controls`` renders no Cycles: it renders each row's control (``conformance.Row.control``: the
 row's subject set back to Blender's default) by TFM, compares it with the stored reference and
 writes ``<id>.control.json`` beside it. It exits non-zero when a control does not fail its row
@@ -110,7 +111,9 @@ def main(argv: list[str] | None = None) -> int:
     out = args.out or conformance.REF_DIR
     rows = conformance.rows(args.rows)
     t_all = time.perf_counter()
-    rc = check_controls(rows, out) if args.controls else make_references(rows, out, args.samples)
+    rc = 0 if args.controls else make_references(rows, out, args.samples)
+    # a reference made is checked at once: its row's control must fail against it
+    rc = rc or check_controls(rows, out)
     print(f"all: {time.perf_counter() - t_all:.0f} s", flush=True)
     return rc
 
