@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import csv
 import math
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -222,3 +223,14 @@ def test_viewport_section_times_every_edit_and_an_orbit_rebuilds_no_map(bench):
             assert r["tfms"] >= 1 and r["grid_uploads"] == 0, r
     if blender_available():
         assert {e["edit"] for e in data["callbacks"]["edits"]} >= {"light move", "frame change (.vdb)"}
+
+
+def test_the_readme_s_speed_sentence_is_written_from_the_method_table(results):
+    from tfm_addon.bench import readme, summary
+
+    rows = [dict(r, seconds=float(r["seconds"]), ssim=float(r["ssim"]),
+                 vs_floor=float(r["vs_floor"]) if r["vs_floor"] else None) for r in results]
+    text = summary.headline(rows)
+    assert re.fullmatch(r"Auto cost \d+\.\d–\d+\.\d× the floor on \d scenes \(.+\), at SSIM ≥ 0\.\d{3}, "
+                        r"and was \d+–\d+× faster than the double-march brute force", text), text
+    assert "Auto cost" in readme.block("speed")         # the README holds the full run's sentence

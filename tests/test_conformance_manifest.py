@@ -4,7 +4,7 @@ counts are those the conformance page's writer made from the rows (docs/conforma
 
 import re
 
-from tfm_addon.bench import conformance
+from tfm_addon.bench import conformance, readme
 
 STATUSES = {"rendered", "reported", "wrong"}
 
@@ -33,7 +33,7 @@ def test_the_manifest_names_every_row_once_with_a_status_and_its_reasons():
 
 
 def _page_counts() -> dict[str, int]:
-    text = (conformance.README.parent / "docs" / "conformance.md").read_text()
+    text = (readme.README.parent / "docs" / "conformance.md").read_text()
     today = re.search(r"^Today: (.*)\.$", text, re.M).group(1)
     return {k: int(v) for v, k in (part.split(" ", 1) for part in today.split(", "))}
 
@@ -44,4 +44,5 @@ def test_the_documents_count_every_row_and_agree():
     assert sum(counts.values()) == len(conformance.ROWS)
     assert counts.get("reported", 0) == statuses.count("reported")
     assert counts.get("wrong", 0) == statuses.count("wrong")
-    assert conformance.readme_counts() == f"{len(conformance.ROWS)} rows: {conformance.counts_text(counts)}"
+    assert readme.block("conformance counts") == (f"{len(conformance.ROWS)} rows: "
+                                                  f"{conformance.counts_text(counts)}")

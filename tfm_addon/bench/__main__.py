@@ -52,7 +52,16 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
 
     from ..engine import Renderer
-    from . import blender_bench, methods_table, paper_table, renderer_bench, scene_set, summary, sweeps
+    from . import (
+        blender_bench,
+        methods_table,
+        paper_table,
+        readme,
+        renderer_bench,
+        scene_set,
+        summary,
+        sweeps,
+    )
     from . import config as configs
     from .charts import have_matplotlib, speed_accuracy
     from .common import machine_line
@@ -167,6 +176,8 @@ def main(argv: list[str] | None = None) -> int:
     if viewport_text:
         text += "\n" + viewport_text + "\n"
         (out / "summary.md").write_text(text)
+    if config is configs.FULL and rows and "methods" in sections:   # the README's figure, from this run
+        readme.write_block("speed", summary.headline(rows))
     print(text)
     return 0
 

@@ -39,6 +39,8 @@ from pathlib import Path
 
 import numpy as np
 
+from . import readme
+
 WIDTH, HEIGHT = 64, 48
 SSIM_MIN = 0.98
 BRIGHTNESS_TOL = 0.03
@@ -2089,32 +2091,13 @@ def write_page(page_rows: list[PageRow], md: Path, png_dir: Path, blender: str, 
     text = "\n".join(lines) + "\n"
     md.parent.mkdir(parents=True, exist_ok=True)
     md.write_text(text)
-    write_readme_counts(f"{len(page_rows)} rows: {counts_text(counts)}")
+    readme.write_block("conformance counts", f"{len(page_rows)} rows: {counts_text(counts)}")
     return text
-
-
-README = Path(__file__).resolve().parents[2] / "README.md"
-README_MARKS = ("<!-- conformance counts -->", "<!-- /conformance counts -->")
 
 
 def counts_text(counts: dict[str, int]) -> str:
     """'101 pass, 2 reported, 1 wrong': the rows per status, as the page and the README say it."""
     return ", ".join(f"{v} {k}" for k, v in sorted(counts.items()))
-
-
-def readme_counts(text: str | None = None) -> str:
-    """What the README says between its conformance-count marks."""
-    text = README.read_text() if text is None else text
-    start, end = README_MARKS
-    return text[text.index(start) + len(start):text.index(end)]
-
-
-def write_readme_counts(summary: str) -> None:
-    """Put ``summary`` between the README's conformance-count marks (the page's writer does)."""
-    text = README.read_text()
-    old = readme_counts(text)
-    README.write_text(text.replace(README_MARKS[0] + old + README_MARKS[1],
-                                   README_MARKS[0] + summary + README_MARKS[1], 1))
 
 
 def main(argv: list[str] | None = None) -> int:
