@@ -6,7 +6,7 @@ Imports ``bpy`` (through ``render_engine``); only ``tfm_addon.register`` imports
 
 import bpy
 
-from . import extract, preflight, render_engine, viewport
+from . import extract, final_render, preflight, render_engine, viewport
 from .render_worker import close_worker
 from .volumes import grid_cache
 
@@ -14,8 +14,15 @@ _register_classes, _unregister_classes = bpy.utils.register_classes_factory(
     render_engine.classes + preflight.classes)
 
 
+@bpy.app.handlers.persistent
+def _file_loaded(*_args) -> None:
+    """A file opened (or File ▸ New): what Auto chose belonged to the other file's renders."""
+    final_render.auto_choices.clear()
+
+
 def register():
     _register_classes()
+    bpy.app.handlers.load_post.append(_file_loaded)
 
 
 def shutdown():
@@ -28,6 +35,8 @@ def unregister():
     # The GL thread and the viewport's timer end before the engine class goes: nothing of ours
     # runs against an unregistered class.
     shutdown()
+    if _file_loaded in bpy.app.handlers.load_post:
+        bpy.app.handlers.load_post.remove(_file_loaded)
     _unregister_classes()
     grid_cache.clear()
     extract.clear_simplified()

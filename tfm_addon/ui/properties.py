@@ -12,6 +12,21 @@ from bpy.props import (
 )
 
 
+def _quality_changed(self, context):
+    """Custom starts from what Auto chose for the scene's last final render (its steps, shadow
+    steps and coefficients): the same picture at Auto's cost, to be tuned from there. Without a
+    render yet, Custom keeps its own values."""
+    if self.quality != 'CUSTOM':
+        return
+    from ..blender import final_render
+
+    chosen = final_render.auto_choices.get(self.id_data.name)
+    if chosen:
+        self.view_steps = int(chosen["view_steps"])
+        self.light_steps = int(chosen["light_steps"])
+        self.coefficients = int(chosen["coefficients"])
+
+
 class TFM_SceneSettings(bpy.types.PropertyGroup):
     """Render settings of the TFM engine (Render Properties)."""
 
@@ -21,9 +36,10 @@ class TFM_SceneSettings(bpy.types.PropertyGroup):
             ('AUTO', "Auto", "Choose the steps, shadow steps, coefficients and map sizes from the scene: "
                              "the fewest that keep the picture within SSIM 0.99 of a converged one. "
                              "The panel and the render report show what was chosen", 0),
-            ('CUSTOM', "Custom", "Set the steps, shadow steps, coefficients and density weight by hand", 1),
+            ('CUSTOM', "Custom", "Set the steps, shadow steps, coefficients and density weight by hand, "
+                                 "starting from what Auto chose for the last render", 1),
         ),
-        default='AUTO',
+        default='AUTO', update=_quality_changed,
         description="Who sets the volume quality: Auto from the scene, or you",
     )
     view_steps: IntProperty(
