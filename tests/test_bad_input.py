@@ -66,14 +66,18 @@ def test_empty_grid_renders_the_surfaces_alone(renderer):
     np.testing.assert_allclose(out.combined, alone.combined, atol=1e-6)
 
 
-@pytest.mark.parametrize("change", [dict(spot_size_rad=0.0), dict(power_w=0.0)], ids=["cone", "power"])
-def test_zero_cone_or_power_renders_black_without_nan(renderer, change):
+@pytest.mark.parametrize(("change", "said"), [
+    (dict(spot_size_rad=0.0), "has a spot cone of angle 0"), (dict(power_w=0.0), "has zero power"),
+    (dict(power_w=-500.0), "has a negative power (-500 W), which renders as no light"),
+    (dict(color=(0.0, 0.0, 0.0)), "has a black colour")], ids=["cone", "power", "negative", "black"])
+def test_a_dark_light_renders_black_without_nan_and_says_why(renderer, change, said):
     scene = smoke_scene(width=48, height=32, n=32)
-    scene = replace(scene, lights=(replace(scene.lights[0], **change),))
+    scene = replace(scene, lights=(replace(scene.lights[0], name="Key", **change),))
     out = renderer.render(scene, SETTINGS)
     assert np.isfinite(out.combined).all()
     assert out.rgb.max() == 0.0
-    assert any("zero power" in w for w in out.warnings)
+    lines = [w for w in out.warnings if w.startswith("No light lights the scene")]
+    assert lines == [f"No light lights the scene ('Key' {said}): no light beam."], out.warnings
 
 
 def test_no_spot_light_renders_surfaces_and_ambient_and_says_why(renderer):

@@ -335,8 +335,22 @@ def _hull_planes(points: np.ndarray) -> np.ndarray:
 
 def is_dark(light: Light) -> bool:
     """A light that adds nothing: no power, no colour or (a spot) no cone."""
-    no_cone = light.kind == "SPOT" and light.spot_size_rad <= 0.0
-    return light.power_w <= 0.0 or max(light.color) <= 0.0 or no_cone
+    return bool(why_dark(light))
+
+
+def why_dark(light: Light) -> str:
+    """Why ``light`` adds nothing, as the render report says it ('' where it lights): a negative
+    or zero power (Blender renders a negative power as no light), no colour, or a spot's cone of
+    angle 0."""
+    if light.power_w < 0.0:
+        return f"a negative power ({light.power_w:g} W), which renders as no light"
+    if light.power_w == 0.0:
+        return "zero power"
+    if max(light.color) <= 0.0:
+        return "a black colour"
+    if light.kind == "SPOT" and light.spot_size_rad <= 0.0:
+        return "a spot cone of angle 0"
+    return ""
 
 
 def cone_meets_box(frame: LightFrame, box_to_world: np.ndarray, lo, hi) -> bool:

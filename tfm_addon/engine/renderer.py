@@ -25,6 +25,7 @@ from .light import (
     is_dark,
     soft_extent,
     solids_may_shadow,
+    why_dark,
 )
 from .medium_grid import grid_allowances, prepare_grid
 from .output import RenderOutput
@@ -642,7 +643,8 @@ class Renderer:
                                         m.clipping)
                 notes = list(dict.fromkeys(notes + list(grid.warnings)))
                 if grid.is_empty:
-                    notes.append("The density grid is empty: only the surfaces are rendered.")
+                    notes.append("The density grid is empty (no voxel above zero): the medium renders "
+                                 "nothing.")
                 self.counters["grid_uploads"] += 1
                 gpu = MediumGPU(self.gl, m, grid)
                 gpu.key = key
@@ -1124,8 +1126,10 @@ def _frame_notes(scene: Scene, lights, warnings: list[str]) -> list[str]:
         warnings.append(f"The scene has no spot light (nor any other light): only {lit_by} are rendered, "
                         f"and the medium scatters no light beam.")
     elif not [light for light in lights if not light.from_world]:
-        warnings.append("Every light has zero power or colour (or a spot no cone angle): no "
-                        "light beam.")
+        dark = [light for light in scene.lights if not light.from_world]
+        warnings.append("No light lights the scene (" + "; ".join(
+            f"'{light.name or light.kind.title()}' has {why_dark(light) or 'no reach'}" for light in dark)
+            + "): no light beam.")
     warnings = list(dict.fromkeys(warnings))       # once each, however many faces said it
     return warnings + [w for w in map(cone_warning, lights) if w]
 
