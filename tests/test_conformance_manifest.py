@@ -20,7 +20,9 @@ def test_the_manifest_names_every_row_once_with_a_status_and_its_reasons():
         allowed = {"status", "control", "control_reason"}
         if status == "reported":
             assert entry.get("report") and entry.get("reason"), row_id
-            allowed |= {"report", "reason"}
+            # its image is checked too: equal to its control's, or at its approximation's floor
+            assert entry.get("same_as_control") is True or {"ssim", "brightness"} <= set(entry), row_id
+            allowed |= {"report", "reason", "same_as_control", "ssim", "brightness"}
         elif status == "wrong":
             assert entry.get("reason"), row_id
             allowed |= {"reason"}

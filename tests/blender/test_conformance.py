@@ -2,10 +2,12 @@
 
 A 'rendered' row must match its stored Cycles reference (tests/data/conformance/<id>.npz, made by
 scripts/make_conformance_refs.py): SSIM >= 0.98 and total brightness within 3 % (per channel for
-coloured media). A 'reported' row must say its line in the render report; once the engine renders
-it, the test fails with the row's figures and asks for the row to be flipped (its entry in
-tests/data/conformance/manifest.toml). A 'wrong' row (the engine renders it wrongly without a word)
-is an expected failure that fails as soon as it matches (flip its entry there).
+coloured media). A 'reported' row must say its line in the render report and keep its image: equal
+to its control's where the setting is ignored, else at its approximation's floor (both in the
+manifest); once the report line goes, the test fails with the row's figures and asks for the row to
+be flipped (its entry in tests/data/conformance/manifest.toml). A 'wrong' row (the engine renders
+it wrongly without a word) is an expected failure that fails as soon as it matches (flip its entry
+there).
 """
 
 import bpy
@@ -34,6 +36,14 @@ def test_row(blank, tmp_path, row):
             pytest.fail(f"the report no longer says {row.report!r}: flip the row to 'rendered' if it "
                         f"passes ({'it does' if comparison.passes() else 'it does not'}); "
                         + _figures(row, comparison, result))
+        wanted = row.reported_image
+        if wanted.get("same_as_control"):     # the setting is ignored: the image is its control's
+            control = conformance.render_control(row, str(tmp_path / "control"))
+            assert float(abs(control.image - result.image).max()) <= 1e-5, _figures(row, comparison, result)
+        else:                                 # rendered in part: at its approximation's floor
+            assert comparison.ssim >= wanted["ssim"], _figures(row, comparison, result)
+            assert all(abs(q - 1.0) <= wanted["brightness"] for q in comparison.ratios), \
+                _figures(row, comparison, result)
     else:
         if comparison.passes():
             pytest.fail("the row now matches Cycles: make it 'rendered' in the manifest; "

@@ -118,6 +118,17 @@ class Row:
         """For a 'wrong' row: what differs from Cycles."""
         return WRONG.get(self.id, "")
 
+    @property
+    def reported_image(self) -> dict:
+        """For a 'reported' row, what its image must still be: ``{"same_as_control": True}`` where
+        the engine ignores the row's setting (the image equals its control's, the setting left at
+        its default), or ``{"ssim": s, "brightness": b}`` where it renders the setting in part (the
+        documented approximation's floor against Cycles: SSIM >= s, brightness within b)."""
+        entry = _EXPECTED.get(self.id, {})
+        if entry.get("same_as_control"):
+            return {"same_as_control": True}
+        return {k: float(entry[k]) for k in ("ssim", "brightness") if k in entry}
+
 
 # ---------------------------------------------------------------------------------------------
 # Grids (deterministic)
