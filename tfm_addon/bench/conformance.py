@@ -629,14 +629,25 @@ def _pv_row_scaled(tmpdir, scale):
     smoke_with(tmpdir, mat, scale=scale)
 
 
-@row("clipping", "Volume ▸ Render ▸ Clipping 0.1",
-     control=assign(lambda: volume().data.render, "Volume ▸ Render ▸ Clipping at the default (0.001)",
-                    clipping=0.001))
-def _(tmpdir):
+def _clipped(tmpdir, clipping: float):
     mat, nt, out = material()
     principled(nt, out)
     ob = smoke_with(tmpdir, mat)
-    ob.data.render.clipping = 0.1
+    ob.data.render.clipping = clipping
+
+
+_default_clipping = assign(lambda: volume().data.render, "Volume ▸ Render ▸ Clipping at the default (0.001)",
+                           clipping=0.001)
+
+
+@row("clipping", "Volume ▸ Render ▸ Clipping 0.1", control=_default_clipping)
+def _(tmpdir):
+    _clipped(tmpdir, 0.1)
+
+
+@row("clipping_strong", "Volume ▸ Render ▸ Clipping 0.4", control=_default_clipping)
+def _(tmpdir):
+    _clipped(tmpdir, 0.4)
 
 
 def _empty_material():
@@ -711,12 +722,18 @@ for _interp in ('LINEAR', 'STEPPED', 'SMOOTHSTEP', 'SMOOTHERSTEP'):
 
 
 def _ramp(nt, g, interp: str, colours: bool):
+    """A Color Ramp of ``g``; Ease's rows use two stops far apart (the whole of the density's range
+    between them, where Ease and Linear differ most), the others three."""
     node = nt.nodes.new('ShaderNodeValToRGB')
     ramp = node.color_ramp
     ramp.interpolation = interp
     ramp.elements[0].position = 0.1
     ramp.elements[1].position = 0.9
-    if colours:
+    if interp == 'EASE':
+        ramp.elements[0].position, ramp.elements[1].position = 0.0, 0.6
+        ramp.elements[0].color = (0.9, 0.3, 0.1, 1.0) if colours else (0.0, 0.0, 0.0, 1.0)
+        ramp.elements[1].color = (0.2, 0.6, 0.95, 1.0) if colours else (1.0, 1.0, 1.0, 1.0)
+    elif colours:
         ramp.elements[0].color = (0.9, 0.3, 0.1, 1.0)
         ramp.elements[1].color = (0.2, 0.6, 0.95, 1.0)
         mid = ramp.elements.new(0.5)
@@ -1674,13 +1691,13 @@ def _shade_flat():
     mesh.update()
 
 
-@row("surface_smooth_sphere", "A smooth-shaded UV sphere (Shade Smooth), Principled BSDF red, Roughness "
-     "0.3, on the ground", coloured=True, control=_shade_flat)
+@row("surface_smooth_sphere", "A smooth-shaded coarse UV sphere (10 segments, 6 rings, Shade Smooth), "
+     "Principled BSDF red, Roughness 0.3, on the ground", coloured=True, control=_shade_flat)
 def _(tmpdir):
     import bpy
 
     base()
-    bpy.ops.mesh.primitive_uv_sphere_add(radius=0.9, location=(0.0, 0.0, -0.35))
+    bpy.ops.mesh.primitive_uv_sphere_add(segments=10, ring_count=6, radius=0.9, location=(0.0, 0.0, -0.35))
     bpy.ops.object.shade_smooth()
     mat = bpy.data.materials.new("Ball")
     bsdf = mat.node_tree.nodes["Principled BSDF"]
