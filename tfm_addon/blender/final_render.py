@@ -10,7 +10,9 @@ from __future__ import annotations
 import dataclasses
 import math
 import os
+import signal
 import sys
+import threading
 import time
 import traceback
 
@@ -21,7 +23,7 @@ from ..engine.sampling import auto_samples
 from .camera import border_window
 from .extract import extract
 from .motion import read_motion
-from .render_worker import get_worker
+from .render_worker import close_worker, get_worker
 
 # Blender pass name -> RenderOutput pass name.
 PASSES = (("Scattering", "scattering"), ("Surfaces", "surfaces"), ("Transmittance", "transmittance"))
@@ -136,10 +138,108 @@ def _background() -> bool:
 
 
 def exit_process(code: int) -> None:
-    """End command-line Blender at once with ``code`` (strict mode; tests replace it)."""
+    """End command-line Blender at once with ``code`` (strict mode, a stop signal; tests replace
+    it): Python's and C's buffered output is flushed, nothing else runs (no teardown)."""
     sys.stdout.flush()
     sys.stderr.flush()
+    try:
+        import ctypes
+
+        ctypes.CDLL(None).fflush(None)    # Blender's own lines (C stdio), e.g. the last 'Saved:'
+    except (OSError, AttributeError, TypeError):
+        pass
     os._exit(code)
+
+
+# ---------------------------------------------------------------- stop signals
+# SIGINT (Ctrl+C) and SIGTERM (a render farm's cancel) while background Blender renders: the
+# handler only records the signal; the frame's GL job sees it at its next check (between passes)
+# and stops, the frame reports an error so that Blender neither writes it nor renders the next
+# one, and when Blender ends the render job (its render_cancel / render_complete handlers) the
+# process exits with 128 + the signal's number. A second signal exits at once.
+STOP_SIGNALS = ("SIGINT", "SIGTERM")
+_stop: dict = {"signal": None, "previous": {}}
+
+
+def stop_exit_code(signum: int) -> int:
+    """The exit status of a process stopped by ``signum`` (the shells' convention: 130, 143)."""
+    return 128 + int(signum)
+
+
+def stop_requested() -> str | None:
+    """The name of the stop signal received during this render job (None: none)."""
+    signum = _stop["signal"]
+    return None if signum is None else signal.Signals(signum).name
+
+
+def _on_stop_signal(signum, frame) -> None:
+    # On the main thread between two bytecodes, possibly inside a lock or a write of the waiting
+    # code: set a flag, write with os.write, take no lock.
+    if _stop["signal"] is not None:
+        os.write(2, f"TFM: a second stop signal ({signal.Signals(signum).name}): exiting at once "
+                    f"with status {stop_exit_code(_stop['signal'])}\n".encode())
+        os._exit(stop_exit_code(_stop["signal"]))
+    _stop["signal"] = signum
+    os.write(2, f"TFM: {signal.Signals(signum).name} received: stopping the render; the frame "
+                f"being rendered is not written\n".encode())
+
+
+def guard_signals() -> bool:
+    """Called as a final render starts (RenderEngine.render): in background Blender, on the main
+    thread, SIGINT and SIGTERM only ask the render to stop (``stop_requested``) until Blender ends
+    the render job; then the previous handlers come back. A signal that is ignored, or handled
+    outside Python (Blender's own Ctrl+C break in the ``blender`` executable), is left alone, as is
+    any signal in Blender's interface. True while guarded."""
+    if _stop["previous"]:
+        return True
+    if not _background() or threading.current_thread() is not threading.main_thread():
+        return False
+    import bpy
+
+    for name in STOP_SIGNALS:
+        signum = getattr(signal, name, None)
+        current = None if signum is None else signal.getsignal(signum)
+        if not (callable(current) or (current == signal.SIG_DFL and name == "SIGTERM")):
+            continue
+        try:
+            _stop["previous"][signum] = signal.signal(signum, _on_stop_signal)
+        except (ValueError, OSError):
+            pass
+    if _stop["previous"]:
+        bpy.app.handlers.render_complete.append(_render_job_ended)
+        bpy.app.handlers.render_cancel.append(_render_job_ended)
+    return bool(_stop["previous"])
+
+
+def unguard_signals() -> None:
+    """Put back the handlers ``guard_signals`` replaced and forget its Blender handlers."""
+    import bpy
+
+    for handlers in (bpy.app.handlers.render_complete, bpy.app.handlers.render_cancel):
+        while _render_job_ended in handlers:
+            handlers.remove(_render_job_ended)
+    previous, _stop["previous"] = _stop["previous"], {}
+    for signum, handler in previous.items():
+        signal.signal(signum, handler)
+
+
+def _render_job_ended(*args) -> None:
+    """Blender's render_complete / render_cancel: the handlers come back; after a stop signal
+    (every frame finished before it was written by now) the process exits."""
+    unguard_signals()
+    if _stop["signal"] is not None:
+        exit_stopped()
+
+
+def exit_stopped() -> None:
+    """End the process after a stop signal: the GL thread ends (its job was cancelled) and
+    releases its context, then the process exits with 128 + the signal's number."""
+    signum = _stop["signal"]
+    code = stop_exit_code(signum)
+    print(f"TFM: render stopped by {signal.Signals(signum).name}: frames finished before it are "
+          f"written, the interrupted one is not; exiting with status {code}", file=sys.stderr, flush=True)
+    close_worker()
+    exit_process(code)
 
 
 _addon_version: list[str] = []
@@ -282,7 +382,9 @@ def auto_line(chosen: dict) -> str:
 def render(engine, depsgraph) -> None:
     """RenderEngine.render: one frame of one view layer. A final render prints one log line
     (``log_frame``); in strict mode a frame that would render without something it needs is an
-    error, and command-line Blender exits with STRICT_EXIT_CODE."""
+    error, and command-line Blender exits with STRICT_EXIT_CODE. A stop signal (``guard_signals``)
+    or a KeyboardInterrupt stops the frame's GL job and fails the frame with an error: Blender
+    writes nothing of it and renders no further frame."""
     last_messages.clear()
     last_timings.clear()
     last_samples[0] = 0
@@ -293,12 +395,20 @@ def render(engine, depsgraph) -> None:
     strict = strict_mode(scene)
     start = time.perf_counter()
     width, height = engine.resolution_x, engine.resolution_y
+    interrupted = stop_requested()
     try:
-        status = _render(engine, depsgraph, strict)
-    except KeyboardInterrupt:      # Ctrl+C in a script: the GL job was cancelled (wait_for)
-        print(f"TFM frame {scene.frame_current} ({depsgraph.view_layer.name}) interrupted after "
-              f"{time.perf_counter() - start:.2f} s", flush=True)
-        raise
+        status = "cancelled" if interrupted else _render(engine, depsgraph, strict)
+    except KeyboardInterrupt:      # Ctrl+C in a script with Python's own handler: the GL job
+        status = "cancelled"       # was cancelled and has stopped (wait_for)
+        interrupted = "SIGINT (KeyboardInterrupt)"
+    interrupted = interrupted or stop_requested()
+    if interrupted and status != "written":
+        # An error, not a cancel: Blender then neither writes this frame (nor any result of it,
+        # tiles included) nor renders the next one. Raising instead would not do: Blender prints
+        # the exception, writes the frame as it stands and goes on with the animation.
+        _tell(engine, 'ERROR', f"TFM: interrupted by {interrupted}; frame {scene.frame_current} "
+                               f"is not written")
+        status = f"interrupted: {interrupted}; the frame is not written"
     log_frame(scene, depsgraph.view_layer.name, width, height, last_samples[0] or sample_count(scene),
               time.perf_counter() - start, status, get_worker())
     if strict and status.startswith("failed") and _background():
@@ -354,9 +464,12 @@ def _render(engine, depsgraph, strict: bool) -> str:
             for message in notes:
                 _warn(engine, message, preview)
             scene_to_render = dataclasses.replace(scene_to_render, motion=motion)
+        if stop_requested():
+            raise RenderCancelled("stopped by a signal before the frame's GL work")
         if tile is None:
             output = get_worker().render(scene_to_render, settings,
-                                         cancel=engine.test_break, progress=progress, samples=samples,
+                                         cancel=lambda: stop_requested() or engine.test_break(),
+                                         progress=progress, samples=samples,
                                          client="preview" if preview else "final")
         else:
             output = _render_tiles(engine, scene_to_render, settings, samples, tile,
@@ -391,10 +504,15 @@ def _render_tiles(engine, scene, settings, samples: int, side: int, view_layer, 
     passes = enabled_passes(view_layer)
     worker = get_worker()
 
+    def cancel():
+        return bool(stop_requested()) or engine.test_break()
+
     def render_tile(tile_scene, tile_settings, until, whites, with_passes):
+        if cancel():     # before the next tile's GL work; its tiles written so far are not saved
+            raise RenderCancelled("The frame was cancelled between two tiles.")
         size = pixel_window(tile_scene.camera)[2:]
         worker.call(lambda r: r.trim_pools(size), timeout_s=60.0)    # one tile size's GL images
-        return worker.render(tile_scene, tile_settings, cancel=engine.test_break, samples=samples,
+        return worker.render(tile_scene, tile_settings, cancel=cancel, samples=samples,
                              passes=with_passes, until=until, whites=whites)
 
     def write(tile, out):

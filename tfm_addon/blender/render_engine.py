@@ -33,6 +33,8 @@ class TFMRenderEngine(bpy.types.RenderEngine):
         self._viewport_error = None
 
     def render(self, depsgraph):
+        if not self.is_preview:   # background Blender: SIGINT/SIGTERM stop the render job cleanly
+            final_render.guard_signals()
         final_render.render(self, depsgraph)
 
     def update_render_passes(self, scene=None, renderlayer=None):

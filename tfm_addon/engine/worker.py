@@ -30,6 +30,7 @@ from .scene import RenderSettings, Scene
 OPEN, CLOSING, CLOSED = "open", "closing", "closed"
 POLL_S = 0.02  # how often a waiting host thread looks at its cancel and progress callbacks
 HANDSHAKE_S = 1.0  # the longest the GL thread waits for a host's answer between passes
+STOP_WAIT_S = 5.0  # the longest a waiter leaving without a result waits for its cancelled job to stop
 
 
 class WorkerClosed(RendererError):
@@ -349,8 +350,9 @@ def wait_for(job: Job, cancel: Callable[[], bool] | None = None,
     each fraction it reported and ``cancel()`` each time the job checks in (``Job.check_in``,
     between passes; a true value cancels it). Waits in steps of ``poll_s`` seconds. A waiter
     that stops waiting without a result (Ctrl+C's KeyboardInterrupt, an error in a callback)
-    cancels the job first: the GL thread stops it at its next check instead of finishing a frame
-    nobody will read."""
+    cancels the job first and waits up to STOP_WAIT_S for it to stop (the GL thread stops it at
+    its next check instead of finishing a frame nobody will read), so that the exception goes on
+    with the GL thread idle, not rendering while the host unwinds or exits."""
     job.lockstep = cancel is not None
     try:
         while True:
@@ -369,4 +371,5 @@ def wait_for(job: Job, cancel: Callable[[], bool] | None = None,
     except BaseException:
         if not job.done:
             job.cancel()
+            job.wait(STOP_WAIT_S)   # a second Ctrl+C here ends the wait, the job stays cancelled
         raise
