@@ -49,6 +49,10 @@ STRICT_EXIT_CODE = 1           # command-line Blender's exit status when strict 
 # unreadable file or grid): errors in strict mode. A grid with no active voxels is content.
 MISSING_MARKERS = ("rendering without it",)
 NOT_MISSING = ("has no active voxels",)
+# Report lines that name a documented approximation (docs/multiple_scattering.md, docs/blender.md:
+# what it does and how far it is from Cycles): Info. Every other line the engine says is a setting,
+# node or file not read or read in part: Warning (a farm's strict mode fails the task on it).
+APPROXIMATION_MARKERS = ("multiple scattering approximated by",)
 
 
 BUDGET_ENV = "TFM_MEMORY_BUDGET_GB"   # GiB; overrides scene.tfm.memory_budget_gb
@@ -124,6 +128,11 @@ def strict_mode(scene) -> bool:
     if os.environ.get(STRICT_ENV, "").strip().lower() in ("1", "true", "yes", "on"):
         return True
     return bool(getattr(getattr(scene, "tfm", None), "strict", False))
+
+
+def severity(message: str) -> str:
+    """'INFO' for a documented approximation, else 'WARNING' (see APPROXIMATION_MARKERS)."""
+    return 'INFO' if any(m in message for m in APPROXIMATION_MARKERS) else 'WARNING'
 
 
 def missing_data(message: str) -> bool:
@@ -343,9 +352,9 @@ def _start_frame(scene_name: str, frame: int, layer: str) -> None:
 
 
 def _tell(engine, level: str, message: str) -> None:
-    if level == 'WARNING':
+    if level in ('WARNING', 'INFO'):
         if message in _job["told"]:
-            return                     # said earlier in this render job
+            return                     # said earlier in this render job (a frame range)
         _job["told"].add(message)
     last_messages.append((level, message))
     if level == 'ERROR':
@@ -354,13 +363,14 @@ def _tell(engine, level: str, message: str) -> None:
 
 
 def _warn(engine, message: str, preview: bool) -> None:
-    """A warning for the user; in a material preview, once per session (and on the console)."""
+    """A report line for the user, at its ``severity``; in a material preview, once per session
+    (and on the console)."""
     if preview:
         if message in _preview_reported:
             return
         _preview_reported.add(message)
         print(f"TFM material preview: {message}")
-    _tell(engine, 'WARNING', message)
+    _tell(engine, severity(message), message)
 
 
 def auto_fields(chosen: dict) -> list[tuple[str, str]]:

@@ -842,7 +842,8 @@ class Renderer:
         chroma = {tuple(np.round(slots[i].medium.sigma_t / max(float(slots[i].medium.sigma_t.max()),
                                                                   1e-12), 3)) for i in reached}
         if len(chroma) > 1:
-            warnings.append(f"Light '{light.name}': the media it reaches differ in extinction colour; "
+            who = "The world's light" if light.from_world else f"Light '{light.name}'"
+            warnings.append(f"{who}: the media it reaches differ in extinction colour; "
                             f"its transmittance map uses the colour of '{ref.name}' for all.")
         n = int(min(max(settings.coefficients, 1), 16))
         if settings.density_weight is None:

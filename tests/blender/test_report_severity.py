@@ -1,0 +1,43 @@
+"""What a farm reads in the log of a command-line render: a documented approximation (multiple
+scattering at Volume Bounces) is Info, said once for the frame range, as is what Auto chose; a
+clean render prints no line with "Warning" (Deadline's strict mode fails a task on one); a setting
+the engine does not read stays a Warning."""
+
+import bpy
+from blender_helpers import smoke
+from test_farm import _worker
+
+from tfm_addon.blender import scene_builder
+
+
+def _log(blank, tmp_path, edit=None) -> list[str]:
+    scene_builder.build(smoke(width=32, height=24, n=16), str(tmp_path))
+    scene = bpy.context.scene
+    scene.tfm.samples = 1
+    scene.frame_start, scene.frame_end = 1, 3
+    scene.cycles.volume_bounces = 16
+    if edit is not None:
+        edit(scene)
+    blend = str(tmp_path / "farm.blend")
+    bpy.ops.wm.save_as_mainfile(filepath=blend)
+    (tmp_path / "out").mkdir()
+    done = _worker(blend, 1, 3, str(tmp_path / "out"))
+    assert done.returncode == 0, done.stdout[-2000:] + done.stderr[-2000:]
+    assert len(list((tmp_path / "out").iterdir())) == 3
+    return (done.stdout + done.stderr).splitlines()
+
+
+def test_an_approximation_is_info_once_per_frame_range_and_a_clean_render_warns_nothing(blank, tmp_path):
+    lines = _log(blank, tmp_path)
+    bounces = [line for line in lines if "multiple scattering approximated by" in line]
+    assert len(bounces) == 1 and bounces[0].startswith("Info: Volume Bounces 16"), bounces
+    assert len([line for line in lines if "Auto quality:" in line]) == 1, lines
+    assert not [line for line in lines if "warning" in line.lower()], lines
+
+
+def test_a_setting_not_read_stays_a_warning(blank, tmp_path):
+    def panoramic(scene):
+        scene.camera.data.type = 'PANO'
+    lines = _log(blank, tmp_path, panoramic)
+    warned = [line for line in lines if line.startswith("Warning:")]
+    assert len(warned) == 1 and "anoramic" in warned[0], lines
