@@ -1,7 +1,9 @@
 """What a farm reads in the log of a command-line render: a documented approximation (multiple
 scattering at Volume Bounces) is Info, said once for the frame range, as is what Auto chose; a
 clean render prints no line with "Warning" (Deadline's strict mode fails a task on one); a setting
-the engine does not read stays a Warning."""
+the engine does not read stays a Warning; a long frame prints its progress as farm managers read it."""
+
+import re
 
 import bpy
 from blender_helpers import smoke
@@ -41,3 +43,17 @@ def test_a_setting_not_read_stays_a_warning(blank, tmp_path):
     lines = _log(blank, tmp_path, panoramic)
     warned = [line for line in lines if line.startswith("Warning:")]
     assert len(warned) == 1 and "anoramic" in warned[0], lines
+
+
+# Deadline's Blender adaptor reads a frame's progress from lines this expression matches
+# (deadline-cloud-for-blender, BlenderAdaptor._get_regex_callbacks: Cycles' form).
+DEADLINE_PROGRESS = re.compile(r"^Fra:.*Sample\s(\d+)\/(\d+)$")
+
+
+def test_a_long_frame_prints_its_progress_as_farm_managers_read_it(blank, tmp_path, monkeypatch):
+    monkeypatch.setenv("TFM_PROGRESS_AFTER_S", "0")      # every frame counts as long here
+    lines = _log(blank, tmp_path, lambda scene: setattr(scene.tfm, "samples", 16))
+    seen = [DEADLINE_PROGRESS.match(line) for line in lines]
+    progress = [(int(m.group(1)), int(m.group(2))) for m in seen if m]
+    assert progress and all(n == 16 and 0 <= k <= 16 for k, n in progress), lines
+    assert [line for line in lines if line.startswith("Fra:1 ")], lines

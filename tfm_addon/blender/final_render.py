@@ -55,6 +55,18 @@ NOT_MISSING = ("has no active voxels",)
 APPROXIMATION_MARKERS = ("multiple scattering approximated by",)
 
 
+# A command-line frame running longer than this many seconds prints its progress on stdout, at most
+# once a second, as a farm manager reads it ("Fra:<frame> ... Sample <k>/<n>", the form of Cycles'
+# lines that Deadline's Blender adaptor and Flamenco parse). TFM_PROGRESS_AFTER_S overrides it.
+PROGRESS_AFTER_S = 2.0
+PROGRESS_EVERY_S = 1.0
+
+
+def progress_line(frame: int, layer: str, done: int, samples: int, seconds: float) -> str:
+    """A farm-readable progress line: done of ``samples`` samples of the frame (across its tiles)."""
+    return f"Fra:{frame} | TFM | {layer} | Time:{seconds:.1f} s | Sample {done}/{samples}"
+
+
 BUDGET_ENV = "TFM_MEMORY_BUDGET_GB"   # GiB; overrides scene.tfm.memory_budget_gb
 GIB = 1024 ** 3
 # Bytes a pixel of a final render takes at its peak beyond Blender's render result, measured with
@@ -459,6 +471,9 @@ def _render(engine, depsgraph, strict: bool) -> str:
         last_samples[0] = samples
         engine.update_stats("", "TFM: rendering" if samples == 1 else f"TFM: sample 1/{samples}")
         shown = [0]
+        started, logged = time.perf_counter(), [0.0]
+        log_after = float(os.environ.get("TFM_PROGRESS_AFTER_S", PROGRESS_AFTER_S))
+        log = _background() and not preview
 
         def progress(fraction):  # on Blender's render thread, like test_break
             engine.update_progress(fraction)
@@ -466,6 +481,12 @@ def _render(engine, depsgraph, strict: bool) -> str:
             if samples > 1 and k != shown[0]:
                 shown[0] = k
                 engine.update_stats("", f"TFM: sample {k}/{samples}")
+            now = time.perf_counter() - started
+            if log and now >= log_after and (not logged[0] or now - logged[0] >= PROGRESS_EVERY_S):
+                logged[0] = now
+                done = min(int(fraction * samples), samples)
+                print(progress_line(scene.frame_current, depsgraph.view_layer.name, done, samples, now),
+                      flush=True)
 
         scene_to_render = extraction.scene()
         if not preview:     # motion blur: matrices across the shutter (blender/motion.py)
