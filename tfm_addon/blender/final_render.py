@@ -463,7 +463,7 @@ def _render(engine, depsgraph, strict: bool) -> str:
                 _warn(engine, message, preview)
         if missing:
             return _fail(engine, "Strict mode: " + "; ".join(
-                m.replace("; rendering without it", "") for m in missing))
+                m.split("; rendering without it")[0] for m in missing))
         settings = extraction.settings
         if preview:
             settings = preview_settings(settings, width, height)

@@ -8,6 +8,7 @@ from dataclasses import replace
 import numpy as np
 
 from ..engine.scene import Light
+from . import files
 from .camera import without_scale
 
 
@@ -25,10 +26,12 @@ def light_power_w(light) -> float:
 
 
 def image_pixels(image) -> np.ndarray:
-    """An image's pixels as an (h, w, 3) float32 array, top row first, scene-linear."""
+    """An image's pixels as an (h, w, 3) float32 array, top row first, scene-linear; an image
+    without pixels (its file missing: files.image_problem) raises ValueError."""
+    problem = files.image_problem("", image, files.scene_frame())
+    if problem is not None:
+        raise ValueError(problem)
     w, h = image.size
-    if w == 0 or h == 0:
-        raise ValueError(f"image '{image.name}' has no pixels (missing file?)")
     flat = np.empty(w * h * image.channels, dtype=np.float32)
     image.pixels.foreach_get(flat)
     rgba = flat.reshape(h, w, image.channels)
@@ -55,10 +58,13 @@ def spot_light(light_object, matrix_world, warnings: list[str]) -> Light:
     settings = getattr(light, "tfm", None)
     gobo = None
     if settings is not None and settings.gobo is not None:
-        try:
+        problem = files.image_problem(f"Light '{light_object.name}': its projected texture",
+                                      settings.gobo, files.scene_frame())
+        if problem is None:
             gobo = image_pixels(settings.gobo)
-        except ValueError as ex:
-            warnings.append(f"Light '{light_object.name}': projected texture ignored: {ex}")
+        else:       # projected in Cycles' missing-texture pink, as Cycles shows a missing image
+            warnings.append(problem)
+            gobo = np.full((2, 2, 3), files.MISSING_PINK, np.float32)
     return Light(
         matrix_world=without_scale(matrix_world),
         color=light_color(light),

@@ -14,6 +14,7 @@ import numpy as np
 from ..engine import shading
 from ..engine.scene import _digest as digest
 from ..engine.shading import Input, Link, Node, ShaderGraph
+from . import files
 from .materials import output_node
 
 RAMP_TABLE_SIZE = 256    # Cycles' RAMP_TABLE_SIZE
@@ -82,7 +83,7 @@ KINDS = {
     'ShaderNodeTexWave': ("TEX_WAVE", _props("wave_type", "bands_direction", "rings_direction",
                                              "wave_profile")),
     'ShaderNodeTexChecker': ("TEX_CHECKER", None),
-    'ShaderNodeTexImage': ("TEX_IMAGE", lambda n: (("image", image_key(n.image)),
+    'ShaderNodeTexImage': ("TEX_IMAGE", lambda n: (("image", image_key(n.image, n.image_user)),
                                                    ("interpolation", n.interpolation),
                                                    ("extension", n.extension))),
     'ShaderNodeUVMap': ("UV_MAP", None),
@@ -101,11 +102,18 @@ KINDS = {
 SURFACE_ONLY = {'ShaderNodeTexImage', 'ShaderNodeUVMap'}   # they read UV coordinates
 
 
-def image_key(image) -> str:
+MISSING_IMAGE = "missing image"    # the key of an image without pixels: never registered, so the
+#                                    engine shades it in Cycles' missing-texture pink
+
+
+def image_key(image, image_user=None) -> str:
     """An image's content key (name, size, dirty flag, file); its pixels are read once per key into
-    ``shading.IMAGES``."""
+    ``shading.IMAGES``. An image whose file is missing or gives no pixels (files.image_problem)
+    has the key MISSING_IMAGE, which the engine renders in Cycles' missing-texture pink."""
     if image is None:
         return ""
+    if files.image_problem("", image, files.scene_frame(), image_user) is not None:
+        return MISSING_IMAGE
     key = digest("image", image.name, tuple(image.size), bool(image.is_dirty), image.filepath)
     if key not in shading.IMAGES:
         w, h = image.size
@@ -120,9 +128,25 @@ def image_key(image) -> str:
     return key
 
 
+def image_note(node, owner: str = "") -> str | None:
+    """The report line of an Image or Environment Texture ``node`` whose image cannot give its
+    pixels this frame (files.image_problem; the owner is the material or world named by the
+    caller, ``owner`` what goes between), else None."""
+    image = getattr(node, "image", None)
+    if image is None:
+        return None
+    return files.image_problem(f"{owner}node '{node.name}'", image, files.scene_frame(),
+                               getattr(node, "image_user", None))
+
+
 def _unsupported_setting(node, surface: bool = False) -> str | None:
-    """Why a node of a known type cannot be evaluated as set, or None."""
+    """Why a node of a known type cannot be evaluated as set, or None. (An Image Texture whose
+    image is missing is evaluated anywhere: Cycles' missing-texture pink, whatever the
+    coordinates.)"""
     kind = node.bl_idname
+    if kind == 'ShaderNodeTexImage' and node.image is not None and image_key(
+            node.image, node.image_user) == MISSING_IMAGE:
+        return None
     if kind in SURFACE_ONLY and not surface:
         return "in a volume"
     if kind == 'ShaderNodeTexImage' and (node.image is None or node.projection != 'FLAT'):
@@ -188,8 +212,9 @@ def _constant(socket):
 
 
 class _Compiler:
-    def __init__(self, surface: bool = False):
+    def __init__(self, surface: bool = False, owner: str = ""):
         self.surface = surface       # a surface's graph: UV coordinates exist
+        self.owner = owner           # what the notes of a missing image name before the node
         self.nodes: list[Node] = []
         self.index: dict = {}        # Blender node -> its number in ``nodes``
         self.notes: dict[str, None] = {}
@@ -239,6 +264,9 @@ class _Compiler:
         row = KINDS.get(node.bl_idname)
         why = _unsupported_setting(node, self.surface) if row is not None else None
         if row is None or why:
+            missing = image_note(node, self.owner)      # e.g. an Environment Texture in a graph
+            if missing is not None:
+                self.notes.setdefault(missing, None)
             if why:
                 self.notes.setdefault(f"node '{node.name}' ({node.bl_label}) {why} is not read by the "
                                       f"engine; what it feeds reads its own value", None)
@@ -250,8 +278,13 @@ class _Compiler:
         if node.bl_idname == 'ShaderNodeVolumeScatter' and phase != 'HENYEY_GREENSTEIN':
             self.notes.setdefault(f"'{node.name}' uses the {node.phase.replace('_', ' ').title()} phase "
                                   f"function, rendered as Henyey-Greenstein with its anisotropy", None)
+        if kind == "TEX_IMAGE":
+            missing = image_note(node, self.owner)
+            if missing is not None:
+                self.notes.setdefault(missing, None)
         inputs = tuple(self.input(name, s) for name, s in _inputs(node))
-        if kind.startswith("TEX_") and kind != "TEX_CHECKER":
+        if kind.startswith("TEX_") and kind != "TEX_CHECKER" and not (
+                kind == "TEX_IMAGE" and image_key(node.image, node.image_user) == MISSING_IMAGE):
             varying = [i.name for i in inputs if i.name != "Vector" and isinstance(i.value, Link)]
             if varying:
                 self.notes.setdefault(f"'{node.name}' ({node.bl_label}): a linked {', '.join(varying)} "
@@ -268,7 +301,8 @@ def compile_volume(material, texspace=None, output: str = "Volume") -> ShaderGra
     out = output_node(material)
     if out is None:
         return None
-    c = _Compiler()
+    material_owner = getattr(material, "id_type", "") == 'MATERIAL'     # a world names itself
+    c = _Compiler(owner=f"material '{material.name}', " if material_owner else "")
     node, socket = c.source(out.inputs[output])
     if node is None:
         return None

@@ -2,8 +2,9 @@
 
 ``check(scene)`` lists what would make the scene's frames render wrong on this machine: the render
 engine not TFM, a file the scene reads missing (a Volume's .vdb or every frame of its sequence in
-the frame range, a fluid domain's baked cache for those frames, an image, a linked library), each
-with the absolute path tried, and OpenGL not available (else its vendor and renderer are named).
+the frame range, a fluid domain's baked cache for those frames, an image (each UDIM tile, each
+frame of a sequence), a linked library), each with the absolute path tried (images in the
+renderer's message form, files.py), and OpenGL not available (else its vendor and renderer are named).
 The operator ``bpy.ops.tfm.preflight()`` prints the lines and, where there are problems, reports an
 error, which a script called from the command line turns into a non-zero exit status
 (``--python-exit-code``); docs/blender.md, "Render farms".
@@ -16,6 +17,7 @@ import os
 
 import bpy
 
+from . import files
 from .fluid import cache_file, data_frame, domain_modifier, noise_file
 from .volumes import sequence_frame_path
 
@@ -68,8 +70,7 @@ def sequence_file_frame(frame: int, start: int, duration: int, offset: int, mode
 
 
 def _abspath(path: str, id_data) -> str:
-    library = getattr(id_data, "library", None)
-    return os.path.normpath(bpy.path.abspath(path, library=library))
+    return files.abspath(path, id_data)
 
 
 def _render_objects(scene):
@@ -132,13 +133,43 @@ def _check_fluid(ob, frames: range, out: Preflight) -> None:
                             f"'{missing[0]}'")
 
 
-def _check_images(out: Preflight) -> None:
+def _image_users() -> dict:
+    """Image name -> [(owner as the renderer's report names it, the node's image user or None)]:
+    the nodes of materials, worlds and node groups, and the lights' projected textures."""
+    users: dict = {}
+    trees = ([(f"Material '{m.name}'", m.node_tree) for m in bpy.data.materials]
+             + [(f"World '{w.name}'", w.node_tree) for w in bpy.data.worlds]
+             + [(f"Node group '{g.name}'", g) for g in bpy.data.node_groups])
+    for owner, tree in trees:
+        for node in getattr(tree, "nodes", ()):
+            image = getattr(node, "image", None)
+            if isinstance(image, bpy.types.Image):
+                users.setdefault(image.name_full, []).append(
+                    (f"{owner}: node '{node.name}'", getattr(node, "image_user", None)))
+    for light in bpy.data.lights:
+        gobo = getattr(getattr(light, "tfm", None), "gobo", None)
+        if gobo is not None:
+            users.setdefault(gobo.name_full, []).append((f"Light '{light.name}': its projected texture",
+                                                         None))
+    return users
+
+
+def _check_images(frames: range, out: Preflight) -> None:
+    """Every image a frame of the range reads (files.py: packed and generated images read no
+    file, a UDIM image each tile's, a sequence the frames'), in the renderer's message form."""
+    users = _image_users()
     for image in bpy.data.images:
-        if image.users == 0 or image.packed_file is not None or image.source not in ('FILE', 'SEQUENCE'):
+        if image.users == 0:
             continue
-        path = _abspath(image.filepath, image)
-        if image.filepath and not os.path.isfile(path):
-            out.problems.append(f"Image '{image.name}': '{path}' not found")
+        owner, image_user = (users.get(image.name_full) or [("", None)])[0]
+        if image.source == 'SEQUENCE' and image_user is not None:
+            wanted = sorted({p for f in frames for p in files.image_files(image, f, image_user)})
+            gone = tuple(p for p in wanted if not os.path.isfile(p))
+            missing = files.Missing(image.filepath, gone, len(wanted)) if gone else None
+        else:
+            missing = files.missing_image(image)
+        if missing is not None:
+            out.problems.append(files.image_message(owner, image, missing))
 
 
 def _check_libraries(out: Preflight) -> None:
@@ -173,7 +204,7 @@ def check(scene, gl: bool = True) -> Preflight:
             _check_volume(ob.data, ob.name, frames, out)
         elif ob.type == 'MESH':
             _check_fluid(ob, frames, out)
-    _check_images(out)
+    _check_images(frames, out)
     _check_libraries(out)
     if gl:
         _check_gl(out)

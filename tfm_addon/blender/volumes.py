@@ -19,6 +19,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from . import files
+
 FLOAT_GRID_TYPES = ("FLOAT", "DOUBLE")
 VECTOR_GRID_TYPES = ("VECTOR_FLOAT", "VECTOR_DOUBLE")
 
@@ -582,37 +584,20 @@ VOLUME_FRAME_NONE = 2**31 - 1     # Blender's VOLUME_FRAME_NONE: no file of the 
 
 
 def sequence_frame_path(filepath: str, frame: int) -> str:
-    """The file of a volume sequence for ``frame``, as Blender makes it (``BLI_path_frame``): the
-    digits just before the file's extension replaced by the frame, padded to their count."""
-    directory, name = os.path.split(filepath)
-    stem, dot, ext = name.rpartition(".")
-    if not dot:
-        stem, ext = name, ""
-    digits = len(stem) - len(stem.rstrip("0123456789"))
-    if digits == 0:
-        return filepath
-    sign = "-" if frame < 0 else ""
-    name = f"{stem[:len(stem) - digits]}{sign}{abs(int(frame)):0{digits}d}{dot}{ext}"
-    return os.path.join(directory, name)
+    """The file of a volume sequence for ``frame``, as Blender makes it (files.frame_path)."""
+    return files.frame_path(filepath, frame)
 
 
 def _sequence_frame_path(volume, frame: int) -> str:
     """The absolute path Blender tried for ``frame`` of an evaluated volume sequence."""
-    import bpy
-
-    library = volume.original.library if volume.original is not None else None
-    path = os.path.normpath(bpy.path.abspath(volume.filepath, library=library))
-    return sequence_frame_path(path, frame)
+    return files.frame_path(files.abspath(volume.filepath, volume.original), frame)
 
 
 def _file_path(volume) -> str:
-    import bpy
-
     path = volume.grids.frame_filepath or volume.filepath
     if not path:
         return ""
-    library = volume.original.library if volume.original is not None else None
-    return os.path.normpath(bpy.path.abspath(path, library=library))
+    return files.abspath(path, volume.original)
 
 
 grid_cache = GridCache()

@@ -6,6 +6,7 @@ import numpy as np
 
 from ..engine import shading
 from ..engine.scene import GridValue, Medium
+from . import files
 from .materials import Unreadable, _constant, _linked_node, _rgb
 from .sky_bake import sky_environment, sky_node
 
@@ -56,10 +57,24 @@ def environment(world, wait: bool = True) -> tuple[np.ndarray | None, str | None
         note = (f"World '{world.name}': the environment's mapping (its Vector input) is not read; it "
                 f"is placed as unmapped")
     image = tex.image
-    w, h = image.size
-    if w < 1 or h < 1:
-        return None, f"World '{world.name}': image '{image.name}' could not be loaded"
+    missing = files.image_problem(f"World '{world.name}': node '{tex.name}'", image, files.scene_frame(),
+                                  tex.image_user)
+    if missing is not None:      # Cycles renders a missing HDRI in its missing-texture pink
+        note = missing if note is None else f"{missing}; {note}"
+        return missing_environment(strength), note
     return _image_radiance(image) * np.float32(strength), note
+
+
+MISSING_SIZE = (8, 16)      # (rows, columns) of the environment of a missing image
+
+
+def missing_environment(strength: float) -> np.ndarray:
+    """The environment of a world whose HDRI is missing: Cycles' missing-texture pink times the
+    Background's Strength, in every direction."""
+    out = np.empty(MISSING_SIZE + (3,), np.float32)
+    out[...] = np.asarray(files.MISSING_PINK, np.float32) * np.float32(strength)
+    out.setflags(write=False)
+    return out
 
 
 GRAPH_SIZE = (32, 64)       # (rows, columns) of the image a world's node graph is evaluated into
