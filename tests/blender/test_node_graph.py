@@ -254,3 +254,23 @@ def test_render_report_says_what_auto_chose(blank, tmp_path):
     assert len(lines) == 1, final.last_messages
     assert all(f" {name} " in lines[0] for name in ("Steps", "Shadow Steps", "Coefficients",
                                                       "Volume Shadow Maps up to"))
+
+
+def test_a_node_not_read_in_a_volume_is_said_once_with_its_reason(blank, tmp_path):
+    from tfm_addon.bench import conformance
+
+    def build(tmpdir):
+        mat, nt, out = conformance.material()
+        pv = conformance.principled(nt, out)
+        image = bpy.data.images.new("Tex", 8, 8)
+        image.filepath_raw, image.file_format = os.path.join(tmpdir, "tex.png"), 'PNG'
+        image.save()
+        tex = nt.nodes.new('ShaderNodeTexImage')
+        tex.image = image
+        nt.links.new(tex.outputs["Color"], pv.inputs["Color"])
+        conformance.smoke_with(tmpdir, mat)
+
+    result = conformance.render_tfm(conformance.Row(id="volume_image", title="", build=build), str(tmp_path))
+    about = [m for m in result.messages if "'Image Texture'" in m]
+    assert about == ["Volume 'Smoke': node 'Image Texture' (Image Texture) in a volume is not read by the "
+                     "engine; what it feeds reads its own value"], result.messages

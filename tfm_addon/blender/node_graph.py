@@ -218,6 +218,7 @@ class _Compiler:
         self.nodes: list[Node] = []
         self.index: dict = {}        # Blender node -> its number in ``nodes``
         self.notes: dict[str, None] = {}
+        self.explained: set[int] = set()     # nodes whose note says why they are not read
 
     def source(self, socket):
         """(node, output socket) feeding ``socket``, through reroutes and muted nodes."""
@@ -245,8 +246,9 @@ class _Compiler:
             return Input(name, kind, 0.0 if kind == 'SHADER' else _constant(socket))
         index = self.node(node)
         if index is None:
-            self.notes.setdefault(f"node '{node.name}' ({node.bl_label}) is not read by the engine; "
-                                  f"'{socket.name}' of '{socket.node.name}' reads its own value", None)
+            if node.as_pointer() not in self.explained:      # one line a node, its reason when known
+                self.notes.setdefault(f"node '{node.name}' ({node.bl_label}) is not read by the engine; "
+                                      f"'{socket.name}' of '{socket.node.name}' reads its own value", None)
             return Input(name, kind, 0.0 if kind == 'SHADER' else _constant(socket))
         known = ("Object", "Generated", "UV") if self.surface else ("Object", "Generated")
         if node.bl_idname == 'ShaderNodeTexCoord' and out.identifier not in known:
@@ -267,7 +269,9 @@ class _Compiler:
             missing = image_note(node, self.owner)      # e.g. an Environment Texture in a graph
             if missing is not None:
                 self.notes.setdefault(missing, None)
+                self.explained.add(key)
             if why:
+                self.explained.add(key)
                 self.notes.setdefault(f"node '{node.name}' ({node.bl_label}) {why} is not read by the "
                                       f"engine; what it feeds reads its own value", None)
             self.index[key] = None
