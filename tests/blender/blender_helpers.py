@@ -236,3 +236,12 @@ def cycles_key(scene) -> str:
     if world is not None:
         parts.append([world.name, _walk(world, 0, []), _node_tree(world.node_tree, [], seen)])
     return hashlib.sha1(repr(parts).encode()).hexdigest()[:20]
+
+
+def default_sigint() -> None:
+    """A subprocess's ``preexec_fn``: SIGINT at its default, as a shell starts a program (a test run
+    by a pytest-xdist worker inherits the worker's ignored SIGINT, and Python then installs no
+    KeyboardInterrupt handler)."""
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_DFL)

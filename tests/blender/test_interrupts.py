@@ -14,7 +14,7 @@ import time
 import bpy
 import numpy as np
 import pytest
-from blender_helpers import MODULE, ROOT, SETTINGS, render_passes, smoke
+from blender_helpers import MODULE, ROOT, SETTINGS, default_sigint, render_passes, smoke
 
 from tfm_addon.blender import scene_builder
 
@@ -95,7 +95,7 @@ def _interrupt(blend, out, signum, delay_s=0.0, writes_after_first=0, **env_vars
     env = dict(os.environ, PYTHONPATH=ROOT, **env_vars)
     with open(log_path, "w") as log:
         proc = subprocess.Popen([sys.executable, "-c", WORKER, blend, str(out)], env=env,
-                                stdout=log, stderr=subprocess.STDOUT)
+                                stdout=log, stderr=subprocess.STDOUT, preexec_fn=default_sigint)
     try:
         deadline = time.monotonic() + HANG_S
         first = os.path.join(out, "frame_0001.exr")
@@ -258,7 +258,16 @@ def test_an_interrupted_wait_reports_an_error_and_the_next_render_works(blank, t
     _same(first, again)
 
 
-def test_the_stop_signals_are_taken_only_while_background_blender_renders(blank, tmp_path, monkeypatch):
+@pytest.fixture
+def python_sigint():
+    """SIGINT handled as in a plain Python process (a pytest-xdist worker ignores it)."""
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    yield
+    signal.signal(signal.SIGINT, previous)
+
+
+def test_the_stop_signals_are_taken_only_while_background_blender_renders(blank, tmp_path, monkeypatch,
+                                                                          python_sigint):
     final_render = _final_render()
     ours = final_render._on_stop_signal
     stops = (signal.SIGINT, signal.SIGTERM)
