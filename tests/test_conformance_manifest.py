@@ -48,3 +48,11 @@ def test_the_documents_count_every_row_and_agree():
     assert counts.get("wrong", 0) == statuses.count("wrong")
     assert readme.block("conformance counts") == (f"{len(conformance.ROWS)} rows: "
                                                   f"{conformance.counts_text(counts)}")
+
+
+def test_a_missing_reference_names_the_command_that_makes_it(tmp_path):
+    import pytest
+
+    with pytest.raises(FileNotFoundError, match="scripts/make_conformance_refs.py no_such_row"):
+        conformance.load_reference("no_such_row", tmp_path)
+    assert all((conformance.REF_DIR / f"{r.id}.npz").exists() for r in conformance.ROWS)

@@ -1909,8 +1909,13 @@ def render_control(r: Row, tmpdir: str) -> TfmResult:
 # References and comparison
 
 def load_reference(row_id: str, directory: Path = REF_DIR) -> tuple[np.ndarray, dict]:
-    """The stored Cycles reference: (h, w, 3) float32 and its metadata."""
-    with np.load(directory / f"{row_id}.npz") as z:
+    """The stored Cycles reference: (h, w, 3) float32 and its metadata; a missing one raises
+    FileNotFoundError naming the command that makes it."""
+    path = directory / f"{row_id}.npz"
+    if not path.exists():
+        raise FileNotFoundError(f"no stored Cycles reference {path}: make it with `.venv/bin/python "
+                                f"scripts/make_conformance_refs.py {row_id}` and commit it")
+    with np.load(path) as z:
         image = z["rgb"].astype(np.float32)
         meta = {k: z[k].item() for k in z.files if k != "rgb"}
     return image, meta
