@@ -4,6 +4,9 @@ times and the cost of multiple scattering measured in this run.
 
     .venv/bin/python scripts/multiple_scattering_docs.py [--samples 256] [--table-only]
 
+The README's sentence on the held-out media (between its ``multiple scattering`` marks) is written
+from the table.
+
 Table: every medium of ``tfm_addon.bench.bounces`` at every stored bounce count: TFM at 0 bounces
 (single scattering) and at N bounces (the octaves of ``engine/multiple_scattering.octaves``)
 against the stored Cycles reference at N (tests/data/bounces, scripts/make_bounce_refs.py).
@@ -16,6 +19,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import math
 import os
 import sys
 import tempfile
@@ -34,7 +38,9 @@ SIZE = (320, 180)
 REPEATS = 4
 
 
-def table(tmp: str) -> list[str]:
+def table(tmp: str, records: list | None = None) -> list[str]:
+    """The error table's lines; ``records`` gets (medium, bounces, single (SSIM, brightness),
+    multiple (SSIM, brightness)) per row."""
     from tfm_addon.bench import bounces as bn
     from tfm_addon.engine import metrics
 
@@ -53,7 +59,27 @@ def table(tmp: str) -> list[str]:
                     f"{m[0]:.4f} | {m[1]:.3f} |")
             print(line, flush=True)
             lines.append(line)
+            if records is not None:
+                records.append((medium, n, s, m))
     return lines
+
+
+def readme_sentence(records: list, counts=(16, 128), cloud: str = "cumulus") -> str:
+    """The README's figures of multiple scattering on the held-out media at ``counts`` bounces:
+    the lowest SSIM and the largest brightness error against Cycles, and ``cloud``'s."""
+    from tfm_addon.bench import bounces as bn
+
+    held = [r for r in records if r[0] in bn.HELD_OUT and r[1] in counts]
+    ssim = min(m[0] for _, _, _, m in held)
+    error = max(abs(m[1] - 1.0) for _, _, _, m in held)
+    text = (f"within SSIM {math.floor(ssim * 100) / 100:.2f} and {math.ceil(error * 100):.0f} % of "
+            f"Cycles' brightness at {' and '.join(map(str, counts))} bounces")
+    mine = sorted((r for r in held if r[0] == cloud), key=lambda r: r[1])
+    if mine:
+        text += (f" (the 40 m cloud: SSIM {' and '.join(f'{r[3][0]:.3f}' for r in mine)}, brightness "
+                 f"{' and '.join(f'{r[3][1]:.2f}' for r in mine)}, where single scattering has "
+                 f"{' and '.join(f'{r[2][1]:.2f}' for r in mine)} of it)")
+    return text
 
 
 def fields_time(size) -> tuple[float, float]:
@@ -152,11 +178,14 @@ def main(argv: list[str] | None = None) -> int:
     import bpy  # noqa: F401
 
     import tfm_addon
+    from tfm_addon.bench import readme
 
     tfm_addon.register()
     try:
         with tempfile.TemporaryDirectory(prefix="tfm_ms_docs_") as tmp:
-            lines = table(tmp)
+            records: list = []
+            lines = table(tmp, records)
+            readme.write_block("multiple scattering", readme_sentence(records))
             if not args.table_only:
                 lines += [""] + picture(tmp, args.samples, args.out)
     finally:
