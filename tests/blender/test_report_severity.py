@@ -13,6 +13,7 @@ from tfm_addon.blender import scene_builder
 
 
 def _log(blank, tmp_path, edit=None) -> list[str]:
+    tmp_path.mkdir(parents=True, exist_ok=True)
     scene_builder.build(smoke(width=32, height=24, n=16), str(tmp_path))
     scene = bpy.context.scene
     scene.tfm.samples = 1
@@ -57,3 +58,41 @@ def test_a_long_frame_prints_its_progress_as_farm_managers_read_it(blank, tmp_pa
     progress = [(int(m.group(1)), int(m.group(2))) for m in seen if m]
     assert progress and all(n == 16 and 0 <= k <= 16 for k, n in progress), lines
     assert [line for line in lines if line.startswith("Fra:1 ")], lines
+
+
+def _through_deadline(lines: list[str]):
+    """``lines`` fed through Deadline Cloud's Blender adaptor's own log callbacks, in its strict
+    mode: (the progress it reported, the error it would fail the task with, or None)."""
+    import logging
+
+    from deadline.blender_adaptor.BlenderAdaptor.adaptor import BlenderAdaptor
+    from openjd.adaptor_runtime.app_handlers import RegexHandler
+
+    adaptor = BlenderAdaptor({"strict_error_checking": True})
+    seen = []
+    adaptor.update_status = lambda progress=None, status_message=None: seen.append(progress)
+    logger = logging.getLogger("tfm.deadline_adaptor_test")
+    logger.propagate, logger.level = False, logging.INFO
+    handler = RegexHandler(adaptor._get_regex_callbacks())
+    logger.addHandler(handler)
+    try:
+        for line in lines:
+            logger.info(line)
+    finally:
+        logger.removeHandler(handler)
+    return seen, adaptor._exc_info
+
+
+def test_deadline_s_adaptor_reads_the_progress_and_a_clean_render_trips_no_strict_failure(
+        blank, tmp_path, monkeypatch):
+    monkeypatch.setenv("TFM_PROGRESS_AFTER_S", "0")
+    lines = _log(blank, tmp_path, lambda scene: setattr(scene.tfm, "samples", 16))
+    progress, error = _through_deadline(lines)
+    assert progress and all(0 <= p <= 100 for p in progress), progress
+    assert error is None, error
+    # a setting the engine does not read is a Warning: the adaptor's strict mode fails the task
+    monkeypatch.delenv("TFM_PROGRESS_AFTER_S")
+    bpy.ops.wm.read_homefile(use_empty=True)
+    panoramic = _log(blank, tmp_path / "pano", lambda scene: setattr(scene.camera.data, "type", 'PANO'))
+    _, error = _through_deadline(panoramic)
+    assert error is not None and "anoramic" in str(error), error
