@@ -5,7 +5,8 @@ times and the cost of multiple scattering measured in this run.
     .venv/bin/python scripts/multiple_scattering_docs.py [--samples 256] [--table-only]
 
 The README's sentence on the held-out media (between its ``multiple scattering`` marks) is written
-from the table.
+from the table, its cost of multiple scattering (``multiple scattering cost``) from the picture's
+frames.
 
 Table: every medium of ``tfm_addon.bench.bounces`` at every stored bounce count: TFM at 0 bounces
 (single scattering) and at N bounces (the octaves of ``engine/multiple_scattering.octaves``)
@@ -164,6 +165,11 @@ def picture(tmp: str, samples: int, out: Path) -> list[str]:
         f"{PICTURE_BOUNCES} bounces {engine_first:.2f} s, of which the lattice's fields {fields_s:.2f} s.",
     ]
     print("\n".join(lines), flush=True)
+    from tfm_addon.bench import readme
+
+    readme.write_block("multiple scattering cost",
+                       f"{min(warm[PICTURE_BOUNCES]) / min(warm[0]):.2f}× single scattering (the lattice's "
+                       f"fields built once, in {fields_s:.2f} s)")
     return lines
 
 
