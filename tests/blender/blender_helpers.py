@@ -245,3 +245,44 @@ def default_sigint() -> None:
     import signal
 
     signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
+class FakeEngine:
+    """What final_render uses of a RenderEngine, recorded; ``test_break`` (Esc in Blender) answers
+    ``on_break()`` from its ``break_at``-th check on (never without ``break_at``)."""
+
+    is_preview = False
+    camera_override = None
+
+    def __init__(self, width, height, break_at=None, on_break=lambda: True):
+        self.resolution_x, self.resolution_y = width, height
+        self.break_at, self.on_break, self.checks = break_at, on_break, 0
+        self.progress, self.reports, self.errors, self.results = [], [], [], 0
+
+    def test_break(self):
+        self.checks += 1
+        return self.break_at is not None and self.checks >= self.break_at and self.on_break()
+
+    def update_progress(self, fraction):
+        self.progress.append(fraction)
+
+    def update_stats(self, stats, info):
+        pass
+
+    def report(self, levels, message):
+        self.reports.append((set(levels), message))
+
+    def error_set(self, message):
+        self.errors.append(message)
+
+    def add_pass(self, *args, **kwargs):
+        pass
+
+    def begin_result(self, *args, **kwargs):
+        from types import SimpleNamespace
+
+        self.results += 1
+        return SimpleNamespace(layers=[SimpleNamespace(passes=[])])
+
+    def end_result(self, result, cancel=False):
+        pass

@@ -1,12 +1,11 @@
 """Bad input renders what it can and tells the user why the rest is missing."""
 
 import importlib
-from types import SimpleNamespace
 
 import bpy
 import numpy as np
 import pytest
-from blender_helpers import MODULE, SETTINGS, render_passes, smoke
+from blender_helpers import MODULE, SETTINGS, FakeEngine, render_passes, smoke
 
 from tfm_addon.blender import scene_builder
 
@@ -68,45 +67,6 @@ def test_no_light_renders_ambient_light_and_says_why(blank, tmp_path):
     assert not any("'Sun'" in m or "'Point'" in m for m in warnings), warnings
     assert not any("light" in m.lower() and "not rendered" in m for m in warnings), warnings
     assert lit["Surfaces"].mean() > image["Surfaces"].mean()
-
-
-class FakeEngine:
-    """What final_render uses of a RenderEngine, recorded; test_break turns true at the
-    ``break_at``-th check."""
-
-    is_preview = False
-    camera_override = None
-
-    def __init__(self, width, height, break_at=None):
-        self.resolution_x, self.resolution_y = width, height
-        self.break_at, self.checks = break_at, 0
-        self.progress, self.reports, self.errors, self.results = [], [], [], 0
-
-    def test_break(self):
-        self.checks += 1
-        return self.break_at is not None and self.checks >= self.break_at
-
-    def update_progress(self, fraction):
-        self.progress.append(fraction)
-
-    def update_stats(self, stats, info):
-        pass
-
-    def report(self, levels, message):
-        self.reports.append((set(levels), message))
-
-    def error_set(self, message):
-        self.errors.append(message)
-
-    def add_pass(self, *args, **kwargs):
-        pass
-
-    def begin_result(self, *args, **kwargs):
-        self.results += 1
-        return SimpleNamespace(layers=[SimpleNamespace(passes=[])])
-
-    def end_result(self, result, cancel=False):
-        pass
 
 
 @pytest.mark.parametrize("break_at", [1, 3])

@@ -14,7 +14,7 @@ import time
 import bpy
 import numpy as np
 import pytest
-from blender_helpers import MODULE, ROOT, SETTINGS, default_sigint, render_passes, smoke
+from blender_helpers import MODULE, ROOT, SETTINGS, FakeEngine, default_sigint, render_passes, smoke
 
 from tfm_addon.blender import scene_builder
 
@@ -171,47 +171,6 @@ def test_a_signal_in_a_tiled_frame_writes_no_part_of_it(blank, tmp_path, signum)
     assert _check_stopped(code, log, tmp_path / "out", signum, 320, 240, frames=3) == 1
 
 
-class Engine:
-    """What final_render uses of a RenderEngine; ``test_break`` (Esc in Blender) answers
-    ``on_break()`` from its ``break_at``-th check on."""
-
-    is_preview = False
-    camera_override = None
-
-    def __init__(self, width, height, break_at, on_break=lambda: True):
-        self.resolution_x, self.resolution_y = width, height
-        self.break_at, self.on_break, self.checks = break_at, on_break, 0
-        self.errors, self.results = [], 0
-
-    def test_break(self):
-        self.checks += 1
-        return self.checks >= self.break_at and self.on_break()
-
-    def update_progress(self, fraction):
-        pass
-
-    def update_stats(self, stats, info):
-        pass
-
-    def report(self, levels, message):
-        pass
-
-    def error_set(self, message):
-        self.errors.append(message)
-
-    def add_pass(self, *args, **kwargs):
-        pass
-
-    def begin_result(self, *args, **kwargs):
-        from types import SimpleNamespace
-
-        self.results += 1
-        return SimpleNamespace(layers=[SimpleNamespace(passes=[])])
-
-    def end_result(self, result, cancel=False):
-        pass
-
-
 def _interrupted_then_rendered(tmp_path, tiled, on_break):
     """The smoke scene rendered, then a render stopped at its second check (``on_break``), then
     rendered again: (first, engine of the stopped render, again)."""
@@ -223,7 +182,7 @@ def _interrupted_then_rendered(tmp_path, tiled, on_break):
                                       + final_render.ENGINE_BYTES_PER_PIXEL * 96 ** 2) / 1024 ** 3
         assert final_render.tiling(scene, 160, 120, 3) == (64, None)
     first = render_passes(tmp_path, "first")
-    engine = Engine(160, 120, break_at=2, on_break=on_break)
+    engine = FakeEngine(160, 120, break_at=2, on_break=on_break)
     final_render.render(engine, bpy.context.evaluated_depsgraph_get())
     assert engine.checks >= 2
     engine.messages = list(final_render.last_messages)
