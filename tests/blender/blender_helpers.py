@@ -286,3 +286,36 @@ class FakeEngine:
 
     def end_result(self, result, cancel=False):
         pass
+
+
+def read_exr(path) -> np.ndarray:
+    """The first part of an EXR file as an (h, w, c) array, channels in RGBA order."""
+    import OpenEXR
+
+    with OpenEXR.File(str(path), separate_channels=True) as f:
+        channels = f.parts[0].channels
+        names = sorted(channels, key=lambda k: "RGBA".index(k[-1]))
+        return np.stack([np.asarray(channels[k].pixels) for k in names], axis=-1)
+
+
+def moving_light_shot(tmp_path, width: int, height: int, samples: int, frames: int = 4, n: int = 24) -> str:
+    """The smoke scene as an animation of ``frames`` frames (the light moves: every frame builds
+    its light maps anew) written as EXR files, saved to ``tmp_path``/shot.blend; its path."""
+    import bpy
+
+    from tfm_addon.blender import scene_builder
+
+    made = scene_builder.build(smoke(width=width, height=height, n=n), str(tmp_path), settings=SETTINGS,
+                               samples=samples)
+    scene = bpy.context.scene
+    scene.frame_start, scene.frame_end = 1, frames
+    light = made["lights"][0]
+    for frame in range(1, frames + 1):
+        light.location.x += 0.3
+        light.keyframe_insert("location", frame=frame)
+    settings = scene.render.image_settings
+    settings.file_format = 'OPEN_EXR'
+    settings.color_depth = '32'
+    blend = str(tmp_path / "shot.blend")
+    bpy.ops.wm.save_as_mainfile(filepath=blend, copy=True)
+    return blend

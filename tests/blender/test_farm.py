@@ -7,7 +7,7 @@ import sys
 
 import bpy
 import numpy as np
-from blender_helpers import ROOT, SETTINGS, smoke
+from blender_helpers import ROOT, SETTINGS, read_exr, smoke
 
 from tfm_addon.blender import scene_builder
 
@@ -29,15 +29,6 @@ bpy.ops.render.render(animation=True)
 """
 
 
-def _read_exr(path):
-    import OpenEXR
-
-    with OpenEXR.File(path, separate_channels=True) as f:
-        channels = f.parts[0].channels
-        names = sorted(channels, key=lambda k: "RGBA".index(k[-1]))
-        return np.stack([np.asarray(channels[k].pixels) for k in names], axis=-1)
-
-
 def _worker(blend, first, last, out, **env_vars):
     """Run WORKER on ``blend`` (frames ``first``..``last`` into ``out``) with extra environment
     variables; the finished process."""
@@ -50,7 +41,7 @@ def _farm(blend, first, last, out):
     done = _worker(blend, first, last, out)
     assert done.returncode == 0, done.stdout[-2000:] + done.stderr[-2000:]
     assert "TFM samples 16 engine TFM" in done.stdout      # adaptive sampling from 16 on
-    return {name: _read_exr(os.path.join(out, name)) for name in sorted(os.listdir(out))}
+    return {name: read_exr(os.path.join(out, name)) for name in sorted(os.listdir(out))}
 
 
 def test_split_frame_ranges_give_the_frames_of_one_process(blank, tmp_path):

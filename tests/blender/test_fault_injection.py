@@ -15,7 +15,7 @@ import time
 import bpy
 import numpy as np
 import pytest
-from blender_helpers import ROOT, SETTINGS, default_sigint, smoke
+from blender_helpers import ROOT, SETTINGS, default_sigint, moving_light_shot, read_exr, smoke
 
 from tfm_addon.blender import scene_builder
 
@@ -23,33 +23,6 @@ WORKER = os.path.join(ROOT, "farm", "openjd", "render_chunk.py")
 HANG_S = 120
 FRAMES = 4
 WIDTH, HEIGHT = 320, 240
-
-
-def _read_exr(path):
-    import OpenEXR
-
-    with OpenEXR.File(str(path), separate_channels=True) as f:
-        channels = f.parts[0].channels
-        names = sorted(channels, key=lambda k: "RGBA".index(k[-1]))
-        return np.stack([np.asarray(channels[k].pixels) for k in names], axis=-1)
-
-
-def _shot(tmp_path):
-    """A 4-frame smoke animation (the light moves) written as EXR files, saved; its path."""
-    made = scene_builder.build(smoke(width=WIDTH, height=HEIGHT, n=16), str(tmp_path), settings=SETTINGS,
-                               samples=32)      # about 0.7 s a frame on llvmpipe
-    scene = bpy.context.scene
-    scene.frame_start, scene.frame_end = 1, FRAMES
-    light = made["lights"][0]
-    for frame in range(1, FRAMES + 1):
-        light.location.x += 0.3
-        light.keyframe_insert("location", frame=frame)
-    settings = scene.render.image_settings
-    settings.file_format = 'OPEN_EXR'
-    settings.color_depth = '32'
-    blend = str(tmp_path / "shot.blend")
-    bpy.ops.wm.save_as_mainfile(filepath=blend, copy=True)
-    return blend
 
 
 def _text(path):
@@ -108,7 +81,7 @@ def _check(code, log, out, signum):
     assert written == [f"frame_{n:04d}.exr" for n in said], (written, said, log[-3000:])
     assert said == list(range(1, len(said) + 1)), said         # the frames before the stop, in order
     for name in written:
-        image = _read_exr(os.path.join(out, name))
+        image = read_exr(os.path.join(out, name))
         assert image.shape == (HEIGHT, WIDTH, 4) and np.isfinite(image).all(), name
         assert float(image[..., 3].max()) > 0.5, name
     if code == 0:
@@ -120,7 +93,7 @@ def _check(code, log, out, signum):
 
 
 def test_a_signal_at_a_random_moment_leaves_whole_frames_and_a_stop_status(blank, tmp_path):
-    blend = _shot(tmp_path)
+    blend = moving_light_shot(tmp_path, WIDTH, HEIGHT, samples=32, frames=FRAMES, n=16)  # ~0.7 s a frame
     code, log, whole = _render(blend, str(tmp_path / "whole"))
     assert code == 0 and _check(code, log, str(tmp_path / "whole"), None) == FRAMES, log[-3000:]
     rng = random.Random(20240607)

@@ -14,7 +14,17 @@ import time
 import bpy
 import numpy as np
 import pytest
-from blender_helpers import MODULE, ROOT, SETTINGS, FakeEngine, default_sigint, render_passes, smoke
+from blender_helpers import (
+    MODULE,
+    ROOT,
+    SETTINGS,
+    FakeEngine,
+    default_sigint,
+    moving_light_shot,
+    read_exr,
+    render_passes,
+    smoke,
+)
 
 from tfm_addon.blender import scene_builder
 
@@ -57,34 +67,6 @@ WRITTEN = "TFM test: result written"
 
 def _final_render():
     return importlib.import_module(f"{MODULE}.tfm_addon.blender.final_render")
-
-
-def _read_exr(path):
-    import OpenEXR
-
-    with OpenEXR.File(str(path), separate_channels=True) as f:
-        channels = f.parts[0].channels
-        names = sorted(channels, key=lambda k: "RGBA".index(k[-1]))
-        return np.stack([np.asarray(channels[k].pixels) for k in names], axis=-1)
-
-
-def _shot(tmp_path, width, height, samples, frames=4):
-    """The smoke scene as an animation of ``frames`` frames (the light moves: every frame builds
-    its light maps anew) written as EXR files, saved to a .blend; its path."""
-    made = scene_builder.build(smoke(width=width, height=height, n=24), str(tmp_path), settings=SETTINGS,
-                               samples=samples)
-    scene = bpy.context.scene
-    scene.frame_start, scene.frame_end = 1, frames
-    light = made["lights"][0]
-    for frame in range(1, frames + 1):
-        light.location.x += 0.3
-        light.keyframe_insert("location", frame=frame)
-    settings = scene.render.image_settings
-    settings.file_format = 'OPEN_EXR'
-    settings.color_depth = '32'
-    blend = str(tmp_path / "shot.blend")
-    bpy.ops.wm.save_as_mainfile(filepath=blend, copy=True)
-    return blend
 
 
 def _interrupt(blend, out, signum, delay_s=0.0, writes_after_first=0, **env_vars):
@@ -139,7 +121,7 @@ def _check_stopped(code, log, out, signum, width, height, frames):
     done = len(written)
     assert 1 <= done < frames and written == [f"frame_{i:04d}.exr" for i in range(1, done + 1)], written
     for file in written:
-        image = _read_exr(os.path.join(out, file))
+        image = read_exr(os.path.join(out, file))
         assert image.shape == (height, width, 4) and np.isfinite(image).all(), file
         assert float(image[..., 3].max()) > 0.5, file
     line = next((x for x in log.splitlines() if x.startswith(f"TFM frame {done + 1} (ViewLayer) ")), "")
@@ -151,7 +133,7 @@ def _check_stopped(code, log, out, signum, width, height, frames):
 
 @pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM])
 def test_a_signal_stops_an_animation_between_frames_written_whole(blank, tmp_path, signum):
-    blend = _shot(tmp_path, 512, 384, samples=16)                # about 1 s a frame on llvmpipe
+    blend = moving_light_shot(tmp_path, 512, 384, samples=16)                # about 1 s a frame on llvmpipe
     code, log, stopped = _interrupt(blend, tmp_path / "out", signum, delay_s=0.3)   # in frame 2
     print(f"{signal.Signals(signum).name}: stopped {stopped:.2f} s after the signal")
     _check_stopped(code, log, tmp_path / "out", signum, 512, 384, frames=4)
@@ -160,7 +142,7 @@ def test_a_signal_stops_an_animation_between_frames_written_whole(blank, tmp_pat
 @pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM])
 def test_a_signal_in_a_tiled_frame_writes_no_part_of_it(blank, tmp_path, signum):
     final_render = _final_render()
-    blend = _shot(tmp_path, 320, 240, samples=8, frames=3)
+    blend = moving_light_shot(tmp_path, 320, 240, samples=8, frames=3)
     # Room for the render result and 64-pixel tiles with their aprons: 5 x 4 tiles a frame.
     budget = final_render.result_bytes(320, 240, 3) + final_render.ENGINE_BYTES_PER_PIXEL * 96 ** 2
     code, log, stopped = _interrupt(blend, tmp_path / "out", signum, writes_after_first=3,

@@ -14,7 +14,7 @@ import time
 import bpy
 import numpy as np
 import pytest
-from blender_helpers import ROOT, SETTINGS, smoke
+from blender_helpers import ROOT, SETTINGS, read_exr, smoke
 
 from tfm_addon.blender import scene_builder
 
@@ -38,15 +38,6 @@ def _openjd():
 def _env():
     # The worker finds the add-on on PYTHONPATH (a farm worker has the extension installed).
     return dict(os.environ, PYTHONPATH=ROOT)
-
-
-def _read_exr(path):
-    import OpenEXR
-
-    with OpenEXR.File(str(path), separate_channels=True) as f:
-        channels = f.parts[0].channels
-        names = sorted(channels, key=lambda k: "RGBA".index(k[-1]))
-        return np.stack([np.asarray(channels[k].pixels) for k in names], axis=-1)
 
 
 def _exr_output(scene):
@@ -103,10 +94,10 @@ def test_the_chunks_give_the_frames_of_one_process(blank, tmp_path):
     names = [f"frame_{i:04d}.exr" for i in range(1, 5)]
     assert sorted(os.listdir(tmp_path / "chunks")) == sorted(os.listdir(tmp_path / "one")) == names
     for name in names:
-        a, b = _read_exr(tmp_path / "chunks" / name), _read_exr(tmp_path / "one" / name)
+        a, b = read_exr(tmp_path / "chunks" / name), read_exr(tmp_path / "one" / name)
         assert a.dtype == np.float32 and a.shape == (24, 32, 4)
         assert np.array_equal(a, b), name
-    first, last = _read_exr(tmp_path / "one" / names[0]), _read_exr(tmp_path / "one" / names[-1])
+    first, last = read_exr(tmp_path / "one" / names[0]), read_exr(tmp_path / "one" / names[-1])
     assert float(np.abs(first - last).max()) > 0.05
 
 
@@ -133,7 +124,7 @@ def test_a_chunk_cancelled_in_a_frame_leaves_no_part_of_it_and_fails(blank, tmp_
     assert "TIMEOUT - Runtime limit reached" in log and 'Sending signal "term"' in log, log[-4000:]
     assert "exited with code: 143" in log and 'Sending signal "kill"' not in log, log[-4000:]
     assert os.listdir(tmp_path / "out") == ["frame_0001.exr"], log[-4000:]
-    image = _read_exr(tmp_path / "out" / "frame_0001.exr")
+    image = read_exr(tmp_path / "out" / "frame_0001.exr")
     assert image.shape == (192, 256, 4) and np.isfinite(image).all()
     lines = log.splitlines()
     assert any("\tTFM frame 1 (ViewLayer) written in " in line for line in lines), log[-4000:]
