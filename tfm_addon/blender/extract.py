@@ -350,6 +350,7 @@ def clear_simplified() -> None:
     _simplified.clear()
     _simplified_extras.clear()
     _glow_blocks.clear()
+    _clipped.clear()
 
 
 def simplify_grid(density: np.ndarray, index_to_object: np.ndarray, level: int):
@@ -799,11 +800,15 @@ def _grid_medium(matrix_world, grid, read: dict, label: str, notes: list[str], s
     sparse = getattr(grid, "sparse", None)
     if sparse is not None:
         simplify = 0         # bricks: the whole resolution, whatever Simplify asks
-    density, index_to_object = simplify_grid(grid.density, grid.index_to_object, simplify)
+    density, voxel_clipping = grid.density, clipping
+    if clipping > 0.0 and sparse is None and grid.bounds is None:     # Cycles' bounds, not per voxel
+        read_extras = tuple(n for n in extras if n in grid.extras)
+        density, voxel_clipping = within_bounds(grid, read_extras, clipping), 0.0
+    density, index_to_object = simplify_grid(density, grid.index_to_object, simplify)
     if simplify > 0:
         extras = _simplify_extras(extras, simplify)
     medium = Medium(density=density, index_to_world=matrix_world @ index_to_object, grids=extras,
-                    clipping=clipping, sparse=sparse,
+                    clipping=voxel_clipping, sparse=sparse,
                     source_key=digest(grid.key, sorted(extras), simplify) if grid.key else None, **fields)
     if constant_emits(medium):     # it glows where there is no density: over Cycles' volume mesh
         if grid.bounds is not None:         # drawn by its object's mesh (a fluid domain's cube)
@@ -886,6 +891,33 @@ def _supersample_budget(graph: shading.ShaderGraph) -> int:
 
 LEAF = 8        # OpenVDB's leaf nodes: 8³ voxels, at indices that are multiples of 8
 _glow_blocks: dict = {}
+_clipped: dict = {}
+
+
+def within_bounds(grid, extras: tuple[str, ...], clipping: float) -> np.ndarray:
+    """The density as Cycles renders it under Volume ▸ Render ▸ Clipping: Cycles uses the clipping
+    only to leave out of its volume mesh the 8³ leaf blocks where no voxel (grown by one) reaches it
+    (``glow_blocks``), and renders every value inside the others, those below the clipping
+    included. Zero outside those blocks (everywhere when no voxel reaches it). The last result is
+    kept, like glow_blocks'."""
+    key = (id(grid.density), grid.key, tuple(extras), float(clipping))
+    hit = _clipped.get(key)
+    if hit is not None and hit[0] is grid.density:
+        return hit[1]
+    d = np.asarray(grid.density)
+    blocks = glow_blocks(grid, extras, clipping)
+    if blocks is None:
+        out = np.zeros_like(d)
+    else:
+        inside = blocks.mask
+        for axis in range(3):
+            inside = np.repeat(inside, LEAF, axis=axis)
+        s = (-np.asarray(blocks.origin)).astype(np.int64)      # array index 0 in the blocks' voxels
+        inside = inside[s[0]:s[0] + d.shape[0], s[1]:s[1] + d.shape[1], s[2]:s[2] + d.shape[2]]
+        out = np.where(inside, d, np.zeros((), d.dtype))
+    _clipped.clear()
+    _clipped[key] = (grid.density, out)
+    return out
 
 
 def glow_blocks(grid, extras: tuple[str, ...] = (), clipping: float = 0.0):
