@@ -222,6 +222,7 @@ def test_preview_matches_cycles(blank, tmp_path, kind, shape):
     settings = _mod("blender.final_render").preview_settings(_mod("blender.extract").render_settings(scene),
                                                              SIZE, SIZE)
     scene_builder.apply_settings(scene.tfm, settings)
+    scene.tfm.samples = 1                    # a preview renders one sample (final_render)
     same = _as_preview(scene, tmp_path, "tfm")
     route = np.abs(same - tfm).mean()
     scene_builder.cycles_single_scattering(scene, samples=CYCLES_SAMPLES)

@@ -42,7 +42,7 @@ def test_smoke_lit_by_a_white_world_matches_cycles(blank, tmp_path, density):
     scene = dataclasses.replace(scene, lights=(), media=(dataclasses.replace(
         m, sigma_a=tuple(density * 0.1 * c / c for c in m.sigma_a),
         sigma_s=tuple(density * 0.9 * c / c for c in m.sigma_s)),))
-    scene_builder.build(scene, str(tmp_path), settings=SETTINGS, samples=16)
+    scene_builder.build(scene, str(tmp_path), settings=SETTINGS, samples=4)
     ((ssim, ratio), (ssim_u, ratio_u)), n = _against_cycles(tmp_path, 512)
     print(f"white world, density x{density:g}, {n} directions: SSIM {ssim:.4f}, brightness {ratio:.4f} "
           f"(unshadowed: SSIM {ssim_u:.4f}, {ratio_u:.4f})")
@@ -72,7 +72,7 @@ def _hdri(width=64, height=32):
 def test_smoke_lit_by_an_hdri_matches_cycles(blank, tmp_path):
     scene = smoke(width=64, height=48, n=24, ambient=(1.0, 1.0, 1.0))
     scene = dataclasses.replace(scene, lights=())
-    scene_builder.build(scene, str(tmp_path), settings=SETTINGS, samples=16)
+    scene_builder.build(scene, str(tmp_path), settings=SETTINGS, samples=4)
     world = bpy.context.scene.world
     nt = world.node_tree
     bg = next(n for n in nt.nodes if n.bl_idname == 'ShaderNodeBackground')

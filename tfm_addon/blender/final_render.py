@@ -50,9 +50,11 @@ STRICT_EXIT_CODE = 1           # command-line Blender's exit status when strict 
 MISSING_MARKERS = ("rendering without it",)
 NOT_MISSING = ("has no active voxels",)
 # Report lines that name a documented approximation (docs/multiple_scattering.md, docs/blender.md:
-# what it does and how far it is from Cycles): Info. Every other line the engine says is a setting,
-# node or file not read or read in part: Warning (a farm's strict mode fails the task on it).
-APPROXIMATION_MARKERS = ("multiple scattering approximated by",)
+# what it does and how far it is from Cycles) or say how the scene is lit as Cycles lights it: Info.
+# Every other line the engine says is a setting, node or file not read or read in part: Warning (a
+# farm's strict mode fails the task on it).
+APPROXIMATION_MARKERS = ("multiple scattering approximated by",
+                         "The scene has no light of its own: the world lights it alone")
 
 
 # A command-line frame running longer than this many seconds prints its progress on stdout, at most
