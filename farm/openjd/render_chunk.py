@@ -9,8 +9,9 @@ user preferences (the installed extension) or, failing that, from a ``tfm_addon`
 PYTHONPATH (a checkout of the repository). Exit status: 0 when every frame was written; 143 / 130
 when SIGTERM / SIGINT stopped the render (the frame under way is not written; a signal before
 the first frame or after the last writes nothing and exits with the same status); 1 when a frame
-failed (strict mode: missing data); 2 when the add-on is not there or the .blend does not render
-with TFM (Blender would render it with EEVEE).
+failed (no OpenGL, a frame over the memory budget, missing data in strict mode: the frame writes
+nothing and the chunk stops); 2 when the add-on is not there or the .blend does not render with
+TFM (Blender would render it with EEVEE).
 """
 
 import argparse
@@ -104,7 +105,11 @@ def main(argv: list[str]) -> int:
     scene.render.filepath = os.path.abspath(args.output)
     print(f"render_chunk: frames {first}-{last} of {args.blend} into {scene.render.filepath} "
           f"(add-on from {source}, Blender {bpy.app.version_string})", flush=True)
-    bpy.ops.render.render(animation=True)
+    try:
+        bpy.ops.render.render(animation=True)
+    except RuntimeError as ex:          # a frame failed (its error was said): stop the chunk
+        print(f"render_chunk: the render stopped: {ex}", file=sys.stderr, flush=True)
+        return 1
     return 0
 
 

@@ -138,3 +138,20 @@ def test_a_truncated_vdb_renders_the_rest_and_fails_in_strict_mode(blank, tmp_pa
     assert code == 1, (code, log[-3000:])
     assert f"Strict mode: {said}" in log, log[-3000:]
     assert not os.path.exists(tmp_path / "strict") or os.listdir(tmp_path / "strict") == []
+
+
+@pytest.mark.parametrize(("fault", "env", "said"), [
+    ("no OpenGL", {"__EGL_VENDOR_LIBRARY_FILENAMES": "/nonexistent/egl_vendor.json"},
+     "no OpenGL context could be created"),
+    ("memory budget", {"TFM_MEMORY_BUDGET_GB": "0.000001"}, "above the memory budget")],
+    ids=["gl", "budget"])
+def test_a_frame_that_cannot_render_stops_the_chunk_with_status_1(blank, tmp_path, fault, env, said):
+    # The GL context failing (an EGL without a driver) and a frame above the memory budget: the
+    # frame fails with its reason, nothing is written, the worker exits 1 without a traceback.
+    blend = moving_light_shot(tmp_path, 64, 48, samples=4, frames=2, n=16)
+    out = str(tmp_path / "out")
+    code, log, _ = _render(blend, out, frames="1-2", **env)
+    assert code == 1, (fault, code, log[-3000:])
+    assert not os.path.exists(out) or os.listdir(out) == [], os.listdir(out)
+    assert re.search(r"TFM frame 1 \(ViewLayer\) failed in .*" + re.escape(said), log), log[-3000:]
+    assert "Traceback" not in log, log[-3000:]
