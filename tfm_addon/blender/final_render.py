@@ -144,6 +144,11 @@ def strict_mode(scene) -> bool:
     return bool(getattr(getattr(scene, "tfm", None), "strict", False))
 
 
+def _cancelled(engine) -> bool:
+    """Whether the frame's GL work should stop: a stop signal, or Blender's break (Esc)."""
+    return bool(stop_requested()) or bool(engine.test_break())
+
+
 def severity(message: str) -> str:
     """'INFO' for a documented approximation, else 'WARNING' (see APPROXIMATION_MARKERS)."""
     return 'INFO' if any(m in message for m in APPROXIMATION_MARKERS) else 'WARNING'
@@ -500,8 +505,7 @@ def _render(engine, depsgraph, strict: bool) -> str:
         if stop_requested():
             raise RenderCancelled("stopped by a signal before the frame's GL work")
         if tile is None:
-            output = get_worker().render(scene_to_render, settings,
-                                         cancel=lambda: stop_requested() or engine.test_break(),
+            output = get_worker().render(scene_to_render, settings, cancel=lambda: _cancelled(engine),
                                          progress=progress, samples=samples,
                                          client="preview" if preview else "final")
         else:
@@ -538,7 +542,7 @@ def _render_tiles(engine, scene, settings, samples: int, side: int, view_layer, 
     worker = get_worker()
 
     def cancel():
-        return bool(stop_requested()) or engine.test_break()
+        return _cancelled(engine)
 
     def render_tile(tile_scene, tile_settings, until, whites, with_passes):
         if cancel():     # before the next tile's GL work; its tiles written so far are not saved

@@ -26,11 +26,8 @@ def light_power_w(light) -> float:
 
 
 def image_pixels(image) -> np.ndarray:
-    """An image's pixels as an (h, w, 3) float32 array, top row first, scene-linear; an image
-    without pixels (its file missing: files.image_problem) raises ValueError."""
-    problem = files.image_problem("", image, files.scene_frame())
-    if problem is not None:
-        raise ValueError(problem)
+    """An image's pixels as an (h, w, 3) float32 array, top row first, scene-linear (an image
+    ``files.image_problem`` finds fault with has none: the caller asks it first)."""
     w, h = image.size
     flat = np.empty(w * h * image.channels, dtype=np.float32)
     image.pixels.foreach_get(flat)

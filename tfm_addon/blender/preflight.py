@@ -19,7 +19,6 @@ import bpy
 
 from . import files
 from .fluid import cache_file, data_frame, domain_modifier, noise_file
-from .volumes import sequence_frame_path
 
 ENGINE_ID = 'TFM'
 GL_TIMEOUT_S = 60.0
@@ -103,7 +102,7 @@ def _check_volume(volume, label: str, frames: range, out: Preflight) -> None:
     wanted = {sequence_file_frame(f, volume.frame_start, volume.frame_duration, volume.frame_offset,
                                   volume.sequence_mode) for f in frames} - {VOLUME_FRAME_NONE}
     for n in sorted(wanted):
-        tried = sequence_frame_path(path, n)
+        tried = files.frame_path(path, n)
         if not os.path.isfile(tried):
             missing.append(tried)
     if missing:

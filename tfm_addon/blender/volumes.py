@@ -583,11 +583,6 @@ def _grid_from_file(path: str) -> DensityGrid:
 VOLUME_FRAME_NONE = 2**31 - 1     # Blender's VOLUME_FRAME_NONE: no file of the sequence this frame
 
 
-def sequence_frame_path(filepath: str, frame: int) -> str:
-    """The file of a volume sequence for ``frame``, as Blender makes it (files.frame_path)."""
-    return files.frame_path(filepath, frame)
-
-
 def _sequence_frame_path(volume, frame: int) -> str:
     """The absolute path Blender tried for ``frame`` of an evaluated volume sequence."""
     return files.frame_path(files.abspath(volume.filepath, volume.original), frame)
