@@ -319,3 +319,32 @@ def moving_light_shot(tmp_path, width: int, height: int, samples: int, frames: i
     blend = str(tmp_path / "shot.blend")
     bpy.ops.wm.save_as_mainfile(filepath=blend, copy=True)
     return blend
+
+
+def farm_shot(tmp_path) -> str:
+    """The farm tests' 4-frame animation (the camera moves and the light's power is animated:
+    every frame differs; 16 samples, adaptive) written as EXR files, saved to ``tmp_path``/
+    shot.blend; its path."""
+    import bpy
+
+    from tfm_addon.blender import scene_builder
+
+    made = scene_builder.build(smoke(width=32, height=24, n=16), str(tmp_path), settings=SETTINGS,
+                               samples=16)
+    scene = bpy.context.scene
+    scene.frame_start, scene.frame_end = 1, 4
+    camera = scene.camera
+    for frame, dx in ((1, 0.0), (4, 0.6)):
+        camera.location.x += dx
+        camera.keyframe_insert("location", frame=frame)
+    light = made["lights"][0].data
+    for frame, power in ((1, light.energy), (4, 2.0 * light.energy)):
+        light.energy = power
+        light.keyframe_insert("energy", frame=frame)
+    settings = scene.render.image_settings
+    settings.file_format = 'OPEN_EXR'
+    settings.color_depth = '32'
+    settings.exr_codec = 'ZIP'
+    blend = str(tmp_path / "shot.blend")
+    bpy.ops.wm.save_as_mainfile(filepath=blend, copy=True)
+    return blend

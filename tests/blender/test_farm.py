@@ -7,7 +7,7 @@ import sys
 
 import bpy
 import numpy as np
-from blender_helpers import ROOT, SETTINGS, read_exr, smoke
+from blender_helpers import ROOT, SETTINGS, farm_shot, read_exr, smoke
 
 from tfm_addon.blender import scene_builder
 
@@ -45,24 +45,7 @@ def _farm(blend, first, last, out):
 
 
 def test_split_frame_ranges_give_the_frames_of_one_process(blank, tmp_path):
-    made = scene_builder.build(smoke(width=32, height=24, n=16), str(tmp_path), settings=SETTINGS,
-                               samples=16)
-    scene = bpy.context.scene
-    scene.frame_start, scene.frame_end = 1, 4
-    camera = scene.camera
-    for frame, dx in ((1, 0.0), (4, 0.6)):          # the camera moves: every frame differs
-        camera.location.x += dx
-        camera.keyframe_insert("location", frame=frame)
-    light = made["lights"][0].data
-    for frame, power in ((1, light.energy), (4, 2.0 * light.energy)):
-        light.energy = power
-        light.keyframe_insert("energy", frame=frame)
-    settings = scene.render.image_settings
-    settings.file_format = 'OPEN_EXR'
-    settings.color_depth = '32'
-    settings.exr_codec = 'ZIP'
-    blend = str(tmp_path / "shot.blend")
-    bpy.ops.wm.save_as_mainfile(filepath=blend, copy=True)
+    blend = farm_shot(tmp_path)
 
     one = _farm(blend, 1, 4, tmp_path / "one")
     split = {**_farm(blend, 1, 2, tmp_path / "a"), **_farm(blend, 3, 4, tmp_path / "b")}

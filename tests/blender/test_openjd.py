@@ -14,7 +14,7 @@ import time
 import bpy
 import numpy as np
 import pytest
-from blender_helpers import ROOT, SETTINGS, read_exr, smoke
+from blender_helpers import ROOT, SETTINGS, farm_shot, read_exr, smoke
 
 from tfm_addon.blender import scene_builder
 
@@ -59,21 +59,7 @@ def _run(blend, out, frames, chunk_size, *more):
 
 
 def test_the_chunks_give_the_frames_of_one_process(blank, tmp_path):
-    made = scene_builder.build(smoke(width=32, height=24, n=16), str(tmp_path), settings=SETTINGS,
-                               samples=16)
-    scene = bpy.context.scene
-    scene.frame_start, scene.frame_end = 1, 4
-    camera = scene.camera
-    for frame, dx in ((1, 0.0), (4, 0.6)):          # the camera moves: every frame differs
-        camera.location.x += dx
-        camera.keyframe_insert("location", frame=frame)
-    light = made["lights"][0].data
-    for frame, power in ((1, light.energy), (4, 2.0 * light.energy)):
-        light.energy = power
-        light.keyframe_insert("energy", frame=frame)
-    _exr_output(scene)
-    blend = str(tmp_path / "shot.blend")
-    bpy.ops.wm.save_as_mainfile(filepath=blend, copy=True)
+    blend = farm_shot(tmp_path)
 
     started = time.monotonic()
     code, log = _run(blend, tmp_path / "chunks", "1-4", 2)
