@@ -1129,7 +1129,7 @@ def _frame_notes(scene: Scene, lights, warnings: list[str]) -> list[str]:
     elif not [light for light in lights if not light.from_world]:
         dark = [light for light in scene.lights if not light.from_world]
         warnings.append("No light lights the scene (" + "; ".join(
-            f"'{light.name or light.kind.title()}' has {why_dark(light) or 'no reach'}" for light in dark)
+            f"'{light.name or light.kind.title()}' has {why_dark(light)}" for light in dark)
             + "): no light beam.")
     warnings = list(dict.fromkeys(warnings))       # once each, however many faces said it
     return warnings + [w for w in map(cone_warning, lights) if w]
