@@ -10,8 +10,8 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from tfm_addon.engine import Light, Medium, RenderSettings, Scene, gl_context
-from tfm_addon.engine.frame_plan import plan_faces, plan_frame, plan_passes
+from tfm_addon.engine import Light, Medium, RenderSettings, Scene, gl_context, world_light
+from tfm_addon.engine.frame_plan import WORLD_TFM_SIDE, plan_faces, plan_frame, plan_passes
 from tfm_addon.engine.passes.bindings import MEDIUM_BOX, MEDIUM_GRID, MediaGPU, MediumSlot
 from tfm_addon.engine.passes.scattering import (
     LIGHT_T_ANALYTIC,
@@ -156,8 +156,44 @@ def test_the_tfm_side_follows_the_finest_grid_a_face_reaches():
     (3, True, False, False, False),
 ])
 def test_how_the_light_passes_end(faces, accumulate, active, lone, clear):
-    got = plan_passes([None] * faces, lights=2, accumulate=accumulate, active=active)
-    assert got == dict(lone=lone, clear_targets=clear, steps=2 + 2 + max(faces, 1))
+    planned = [SimpleNamespace(field=False)] * faces
+    got = plan_passes(planned, lights=2, accumulate=accumulate, active=active)
+    assert got == dict(passes=tuple(planned), lone=lone, clear_targets=clear, steps=2 + 2 + max(faces, 1))
+
+
+def _world(n=8):
+    """A grey world's suns (engine/world_light.py)."""
+    return tuple(world_light.world_suns((0.05, 0.05, 0.05), n))
+
+
+def test_the_world_field_carries_the_world_s_light_to_bounded_media():
+    scene = _scene(SPOT, *_world())
+    media = _marched(_grid())
+    plan = _plan(scene, media, world_field=True, seen_bounds=(np.full(3, -1.0), np.full(3, 1.0)))
+    world = [f for f in plan.faces if f.light.from_world]
+    assert len(world) == 8 and all(f.field for f in world) and not plan.faces[0].field
+    assert all(f.light_t == LIGHT_T_TFM and f.tfm_side <= WORLD_TFM_SIDE for f in world)
+    # the spot's pass marches the media first; the world's passes light the surfaces after it
+    assert plan.passes[0].light is SPOT and not plan.lightless_first
+    assert [f.field for f in plan.passes] == [False] + [True] * 8
+    assert plan.steps == 2 + 9 + 9
+    # with no solid in view the world's faces draw no pass (their maps still feed the field)
+    unseen = _plan(scene, media, world_field=True)
+    assert len(unseen.world_field) == 8 and [f.light for f in unseen.passes] == [SPOT]
+    # the world alone: the first pass lights with no face
+    alone = _plan(_scene(*_world()), media, world_field=True, seen_bounds=(np.full(3, -1.0), np.full(3, 1.0)))
+    assert alone.lightless_first and len(alone.passes) == 8 and alone.steps == 2 + 8 + 9
+
+
+def test_the_world_field_waits_for_a_lattice_over_every_medium():
+    scene = _scene(*_world())
+    media = _marched(_grid())
+    assert not any(f.field for f in _plan(scene, media).faces)          # the GL has no unit for it
+    fogged = _marched(_grid())
+    fogged.fog = Medium(sigma_a=(0.01,) * 3, sigma_s=(0.05,) * 3)
+    assert not any(f.field for f in _plan(scene, fogged, world_field=True).faces)
+    unlit = tuple(dataclasses.replace(s, lights_medium=False) for s in _world())
+    assert not any(f.field for f in _plan(_scene(*unlit), media, world_field=True).faces)
 
 
 def test_a_scene_plans_its_lights_in_order_with_their_steps():

@@ -38,3 +38,26 @@ def test_an_environment_s_sun_is_as_wide_as_its_light():
     # (pixels of 5.6 degrees)
     assert np.degrees(np.arccos(np.clip(-sharp.matrix_world[:3, 2] @ -towards, -1, 1))) < 3.0
     assert 15.0 < math.degrees(sharp.angle_rad) < 25.0
+
+
+def test_the_world_s_directions_follow_its_share_of_the_light():
+    """The grey default world beside a sun: the world's fluence 4 pi 0.05 = 0.63 W/m² against the
+    sun's 3 W/m², a share of 0.17, takes the fewest directions; the world alone, the user's count."""
+    import dataclasses
+
+    from tfm_addon import scenes
+    from tfm_addon.engine import Light
+
+    base = scenes.homogeneous_box_scene(width=32, height=18)
+    grey = dataclasses.replace(base, lights=(), ambient=(0.05,) * 3)
+    assert world_light.world_share(grey) == 1.0 and world_light.directions_for(grey, 16) == 16
+    sun = Light(matrix_world=scenes.look_at((1.0, -1.0, 5.0), (0.0, 0.0, 0.0)), kind="SUN", power_w=3.0)
+    lit = dataclasses.replace(grey, lights=(sun,))
+    share = 4.0 * math.pi * 0.05 / (4.0 * math.pi * 0.05 + 3.0)
+    assert math.isclose(world_light.world_share(lit), share, rel_tol=1e-9)
+    assert world_light.directions_for(lit, 16) == world_light.MIN_DIRECTIONS
+    assert world_light.directions_for(lit, 4) == 4                 # never more than asked
+    # a dim sun: the world is most of the light, most of the directions
+    dim = dataclasses.replace(grey, lights=(dataclasses.replace(sun, power_w=0.1),))
+    assert 12 <= world_light.directions_for(dim, 16) < 16
+    assert len(world_light.with_world_light(lit, 16).lights) == 1 + world_light.MIN_DIRECTIONS

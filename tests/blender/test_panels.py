@@ -111,9 +111,8 @@ def test_light_settings_sit_under_the_light_panel(context):
 def test_world_light_has_one_place_the_world_tab(context):
     assert "default_value" in _draw("TFM_PT_world", context)
     assert _draw("TFM_PT_world_lighting", context, "draw_header") == ["ambient"]
-    assert _draw("TFM_PT_world_lighting", context) == ["world_light", "world_light_viewport",
-                                                      "world_directions"]
-    world = {"ambient", "world_light", "world_light_viewport", "world_directions"}
+    assert _draw("TFM_PT_world_lighting", context) == ["world_light", "world_directions"]
+    world = {"ambient", "world_light", "world_directions"}
     assert not world & set(_render_tab(context))
 
 

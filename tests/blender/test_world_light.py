@@ -85,15 +85,15 @@ def test_smoke_lit_by_an_hdri_matches_cycles(blank, tmp_path):
     assert ssim >= 0.95 and abs(ratio - 1.0) <= 0.10
 
 
-def test_viewport_keeps_the_world_light_unshadowed_by_default(blank):
-    """A shadowed world costs a light pass per direction (the demo at 960x540 with Blender's grey
-    world: 0.95 s a frame against 0.13 s): the viewport adds it as is unless asked, the final
-    render shadows it."""
+def test_viewport_shadows_the_world_as_the_final_render_does(blank):
+    """One model of the world's light: the viewport reads the final render's setting (the world
+    field carries it to the media, so a shadowed world no longer costs a march per direction)."""
     extract = importlib.import_module(MODULE + ".tfm_addon.blender.extract")
     assert extract.render_settings(blank).world_light == 'SHADOWED'
-    assert extract.render_settings(blank, viewport=True).world_light == 'UNSHADOWED'
-    blank.tfm.world_light_viewport = 'SHADOWED'
     assert extract.render_settings(blank, viewport=True).world_light == 'SHADOWED'
+    blank.tfm.world_light = 'UNSHADOWED'
+    assert extract.render_settings(blank, viewport=True).world_light == 'UNSHADOWED'
+    assert not hasattr(blank.tfm, "world_light_viewport")
 
 
 def test_world_ray_visibility_as_cycles_reads_it(blank, tmp_path):

@@ -195,7 +195,7 @@ def render_settings(scene, viewport: bool = False) -> RenderSettings:
         ambient=tfm.ambient,
         quality=tfm.quality,
         film_transparent=bool(scene.render.film_transparent),
-        world_light=getattr(tfm, "world_light_viewport" if viewport else "world_light", 'UNSHADOWED'),
+        world_light=getattr(tfm, "world_light", 'UNSHADOWED'),
         world_directions=int(getattr(tfm, "world_directions", 16)),
         volume_bounces=volume_bounces(scene),
     )

@@ -28,6 +28,10 @@ direction) that the media scatter isotropically: sigma_s * fluence / (4 pi) per 
   the source): a glowing core lighting the smoke around it.
 - Light linking: a light that lights some media only is a source of the diffused light through
   their own scattering (``Lattice.media_sigma_s``).
+- The world, ``world``: the world's light at each cell (the world faces' light past the solids
+  and media, summed over the faces; engine/frame_plan.py) with the octaves of its multiple
+  scattering (multiple_scattering.py; the phase function's mean for each: the world lights from
+  every side), scattered by the camera pass at every bounce count, 0 included.
 
 The lattice is world-aligned, cubic cells, at most ``MAX_SIDE`` a side, over the finite media's
 bounds (fog that fills the scene is left out). Nothing here depends on the bounce count: the
@@ -112,13 +116,17 @@ class Lattice:
 class Fluence:
     """The fields on ``lattice``: (nx, ny, nz, 3) float32, W/m²; ``emission`` the media's own
     emission arriving unscattered, ``emission_diffused`` its diffused light (zeros where none
-    emits: the bounce count weighs it apart from the lights')."""
+    emits: the bounce count weighs it apart from the lights'), ``world`` the world's light
+    arriving unscattered. ``scattered`` False: the surfaces' and diffused light were not solved
+    for (zeros; a frame of single scattering, or the viewport's coarse image)."""
 
     lattice: Lattice
     surface: np.ndarray
     diffused: np.ndarray
     emission: np.ndarray
     emission_diffused: np.ndarray
+    world: np.ndarray
+    scattered: bool = True
 
 
 def _finite_media(media) -> list:
@@ -401,7 +409,9 @@ def surface_fluence(lat: Lattice, samples: SurfaceSamples, irradiance: np.ndarra
 
 def fluence(lat: Lattice, meshes, arriving: Callable[[np.ndarray, np.ndarray | None], np.ndarray],
             emitted: Callable[[np.ndarray, np.ndarray | None, float], np.ndarray] | None = None,
-            linked: Sequence[tuple[Callable[[np.ndarray], np.ndarray], Collection[str]]] = ()) -> Fluence:
+            linked: Sequence[tuple[Callable[[np.ndarray], np.ndarray], Collection[str]]] = (),
+            world: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None,
+            scattered: bool = True) -> Fluence:
     """The fields. ``arriving(points, normals)``: the lights' radiance arriving at world points
     past the solids and media, summed over the lights (n, 3), W/m²; with ``normals``, the
     irradiance of surfaces facing them there. ``emitted(points, normals, softening)``: the same
@@ -411,17 +421,30 @@ def fluence(lat: Lattice, meshes, arriving: Callable[[np.ndarray, np.ndarray | N
     light of its own, and the surfaces reflect it as the lights' light. ``linked``: the lights that
     light some media only (light linking), each as (its light arriving at points, the names of the
     media it lights), left out of ``arriving``'s light at the cells: only those media scatter it
-    first (the light they scatter then reaches the others)."""
+    first (the light they scatter then reaches the others). ``world(points, albedo)``: the world's
+    light scattered at world points by media of that albedo (n, 3), in units of fluence (the
+    ``world`` field; None: zeros). ``scattered`` False: only the
+    world field and the emission's unscattered light are made, the rest left zero."""
     n_cells = int(np.prod(lat.shape))
     scattering = lat.sigma_s.reshape(-1, 3).any(axis=1)
     lights = np.zeros((n_cells, 3))
     emission = np.zeros((n_cells, 3))
+    sky = np.zeros((n_cells, 3))
     if scattering.any():
-        lights[scattering] = arriving(lat.points()[scattering], None)
+        points = lat.points()[scattering]
+        if scattered:
+            lights[scattering] = arriving(points, None)
         if emitted is not None:
-            emission[scattering] = emitted(lat.points()[scattering], None, (0.5 * lat.h) ** 2)
+            emission[scattering] = emitted(points, None, (0.5 * lat.h) ** 2)
+        if world is not None:
+            albedo = (lat.sigma_s / np.maximum(lat.sigma_t, 1e-30)).reshape(-1, 3)[scattering]
+            sky[scattering] = world(points, albedo)
     lights = lights.reshape(*lat.shape, 3)
     emission = emission.reshape(*lat.shape, 3)
+    sky = sky.reshape(*lat.shape, 3).astype(np.float32)
+    if not scattered:
+        zeros = np.zeros_like(sky)
+        return Fluence(lat, zeros, zeros, emission.astype(np.float32), zeros, sky, scattered=False)
     lo = lat.origin - 0.5 * lat.h
     hi = lat.origin + lat.h * (np.array(lat.shape) - 0.5)
     centre = 0.5 * (lo + hi)
@@ -444,4 +467,5 @@ def fluence(lat: Lattice, meshes, arriving: Callable[[np.ndarray, np.ndarray | N
     diffused = diffuse_rgb(lat, source)
     emission_diffused = (diffuse_rgb(lat, lat.sigma_s * emission) if emission.any()
                          else np.zeros_like(emission))
-    return Fluence(lat, *(f.astype(np.float32) for f in (surface, diffused, emission, emission_diffused)))
+    fields = (f.astype(np.float32) for f in (surface, diffused, emission, emission_diffused))
+    return Fluence(lat, *fields, sky)

@@ -1,7 +1,15 @@
 """What a frame builds and draws, decided without GL: the light faces that add something (each
-with the maps it needs and how its light pass finds the transmittance) and how the light passes
-end (a lone pass that composes its own image, or the composite pass). ``Renderer`` plans a frame
-with ``plan_frame`` once its media are on the GPU, then builds and draws what the plan says."""
+with the maps it needs, how its light pass finds the transmittance, and whether the media take
+its light from the world field) and the passes that draw them, how they end (a lone pass that
+composes its own image, or the composite pass). ``Renderer`` plans a frame with ``plan_frame``
+once its media are on the GPU, then builds and draws what the plan says.
+
+The world's light (engine/world_light.py: suns over the sphere) reaches bounded media through a
+field: each world face's light arriving at the cells of the lattice over the media
+(engine/diffusion.py), summed, and read by the camera's one march as light scattered evenly (the
+phase function averaged over a world that lights from every side). Those faces' passes light the
+surfaces alone and march no medium: the world costs its maps, the lattice's lookups and a
+surface pass per face, not a march per face."""
 
 from __future__ import annotations
 
@@ -17,6 +25,11 @@ from .passes.tfm import MIN_FOOTPRINT_RESOLUTION, tfm_resolution
 from .quality import footprint_texels_per_voxel
 from .scene import Light, RenderSettings, Scene
 
+# A world face's TFM side where the world field carries its light: the field resolves no finer
+# than the lattice's cells (diffusion.MAX_SIDE = 48 a side over the media, about as wide as a
+# world face's extent), and the surfaces read the map over the face's wide cone (world_soft.glsl).
+WORLD_TFM_SIDE = 64
+
 
 @dataclass(frozen=True)
 class FacePlan:
@@ -24,7 +37,8 @@ class FacePlan:
     ``light_t``: how the pass finds the transmittance from the light (passes/scattering
     LIGHT_T_*; a TFM whose rays meet no density turns into LIGHT_T_NONE when built);
     ``tfm_side``: the TFM's side, texels, where ``light_t`` is LIGHT_T_TFM; ``shadow_map``: the
-    face has a shadow map (some solid casts shadows and so does the light)."""
+    face has a shadow map (some solid casts shadows and so does the light); ``field``: the media
+    take the face's light from the world field (its pass lights the surfaces alone)."""
 
     light: Light
     frame: LightFrame
@@ -32,23 +46,37 @@ class FacePlan:
     shadow_map: bool
     light_t: int
     tfm_side: int | None = None
+    field: bool = False
 
 
 @dataclass(frozen=True)
 class FramePlan:
     """What one frame builds and draws. ``faces``: a light pass each, in order (none: one pass
     of ambient light, emission and surfaces alone); ``culled``: faces of point and area lights
-    that reach neither a medium nor a solid the camera sees (no maps, no pass); ``lone``: one
-    light pass writes the combined image itself, or adds its sample into the frame's sums (no
-    composite pass); ``clear_targets``: zero the light passes' targets first (a frame of the
-    active pixels alone); ``steps``: progress steps (scene, maps per light, G-buffer, a pass per
-    face)."""
+    that reach neither a medium nor a solid the camera sees (no maps, no pass); ``passes``: the faces
+    that draw a light pass, in order, a face whose light the camera's march carries first;
+    ``lone``: one light pass writes the combined image itself, or adds its sample into the
+    frame's sums (no composite pass); ``clear_targets``: zero the light passes' targets first (a
+    frame of the active pixels alone); ``steps``: progress steps (scene, maps per light, G-buffer,
+    a pass each)."""
 
     faces: tuple[FacePlan, ...]
     culled: int
+    passes: tuple[FacePlan, ...]
     lone: bool
     clear_targets: bool
     steps: int
+
+    @property
+    def world_field(self) -> tuple[FacePlan, ...]:
+        """The faces whose light the media take from the world field."""
+        return tuple(f for f in self.faces if f.field)
+
+    @property
+    def lightless_first(self) -> bool:
+        """Whether the first pass (the one that marches the media for the view's transmittance,
+        the world field, emission) lights with no face: no face's light is carried by the march."""
+        return not self.passes or self.passes[0].field
 
     @property
     def tfm_side(self) -> int:
@@ -58,12 +86,13 @@ class FramePlan:
 
 def plan_faces(scene: Scene, settings: RenderSettings, light: Light, media: MediaGPU, *,
                casts_shadows: bool, casters_bounds, seen_bounds, map_res: int,
-               image_side: int | None = None) -> tuple[list[FacePlan], int]:
+               image_side: int | None = None, world_field: bool = False) -> tuple[list[FacePlan], int]:
     """The faces of ``light`` that add something to a frame of ``media`` (the media as uploaded:
     kind, boxes, slots), and how many were culled. ``casts_shadows``: some solid casts shadows;
     ``casters_bounds``, ``seen_bounds``: the boxes of the shadow casters and of the solids the
     camera sees (None: no culling by them); ``map_res``: the shadow maps' side, which caps the
-    TFMs'; ``image_side``: the image side a FOOTPRINT TFM is capped by (default: the camera's)."""
+    TFMs'; ``image_side``: the image side a FOOTPRINT TFM is capped by (default: the camera's);
+    ``world_field``: the media take the world's light from the world field."""
     boxes = media.boxes
     fog = media.fog is not None                 # fog without bounds, alone or beside other media
     everywhere = media.kind == MEDIUM_EVERYWHERE or fog
@@ -93,40 +122,50 @@ def plan_faces(scene: Scene, settings: RenderSettings, light: Light, media: Medi
                 else:
                     light_t = LIGHT_T_TFM
                     side = _face_side(settings, frame, media.slots, reached, map_res, side_cap)
+                    if light.from_world and world_field:
+                        side = min(side, WORLD_TFM_SIDE)
             elif fog:
                 light_t = LIGHT_T_UNIT          # the fog alone: its closed form (shaders/world_fog.glsl)
         elif media.kind in (MEDIUM_BOX, MEDIUM_EVERYWHERE):
             if everywhere or reached:
                 light_t = LIGHT_T_UNIT if unit else LIGHT_T_ANALYTIC
         shadow_map = bool(casts_shadows and light.cast_shadow and blocked)
-        faces.append(FacePlan(light, frame, reached, shadow_map, light_t, side))
+        field = bool(world_field and light.from_world and light.lights_medium and reached)
+        faces.append(FacePlan(light, frame, reached, shadow_map, light_t, side, field))
     return faces, culled
 
 
-def plan_passes(faces, *, lights: int, accumulate: bool, active: bool, maps: bool = True) -> dict:
-    """How a frame of ``faces`` ends and what its progress counts: ``lone`` (see FramePlan),
-    ``clear_targets``, ``steps``. ``accumulate``: the frame adds a sample into sums; ``active``:
-    only the active pixels are shaded; ``maps``: the lights' maps are a step each (``lights``
-    of them; False where a later sample reuses the first one's)."""
-    return dict(lone=len(faces) <= 1 and (accumulate or not active),
+def plan_passes(faces, *, lights: int, accumulate: bool, active: bool, maps: bool = True,
+                solids_seen: bool = True) -> dict:
+    """The passes of a frame of ``faces``, how it ends and what its progress counts: ``passes``,
+    ``lone`` (see FramePlan), ``clear_targets``, ``steps``. ``accumulate``: the frame adds a
+    sample into sums; ``active``: only the active pixels are shaded; ``maps``: the lights' maps
+    are a step each (``lights`` of them; False where a later sample reuses the first one's);
+    ``solids_seen``: the camera sees a solid (else a field face draws no pass)."""
+    passes = [f for f in faces if not f.field or (solids_seen and f.light.lights_surfaces)]
+    passes.sort(key=lambda f: f.field)          # stable: the first face the march carries leads
+    drawn = len(passes) + int(not passes or passes[0].field)
+    return dict(passes=tuple(passes), lone=drawn <= 1 and (accumulate or not active),
                 clear_targets=not accumulate and active,
-                steps=2 + (lights if maps else 0) + max(len(faces), 1))
+                steps=2 + (lights if maps else 0) + drawn)
 
 
 def plan_frame(scene: Scene, settings: RenderSettings, lights, media: MediaGPU, *, casts_shadows: bool,
                casters_bounds, seen_bounds, map_res: int, image_side: int | None = None,
-               accumulate: bool = False, active: bool = False) -> FramePlan:
+               accumulate: bool = False, active: bool = False, world_field: bool = False) -> FramePlan:
     """The frame's plan: ``plan_faces`` for each of ``lights`` (those not dark), in order, and
-    ``plan_passes``."""
+    ``plan_passes``. ``world_field``: the GL can read a lattice's field (the media then take the
+    world's light from it where a lattice covers them all: bounded media, no fog)."""
     faces, culled = [], 0
+    field = world_field and media.fog is None and media.kind in (MEDIUM_GRID, MEDIUM_BOX)
     for light in lights:
         mine, dropped = plan_faces(scene, settings, light, media, casts_shadows=casts_shadows,
                                    casters_bounds=casters_bounds, seen_bounds=seen_bounds,
-                                   map_res=map_res, image_side=image_side)
+                                   map_res=map_res, image_side=image_side, world_field=field)
         faces += mine
         culled += dropped
     return FramePlan(tuple(faces), culled, **plan_passes(faces, lights=len(lights), accumulate=accumulate,
-                                                         active=active))
+                                                         active=active, solids_seen=seen_bounds is not None))
 
 
 def _face_side(settings, frame: LightFrame, slots, reached, map_res: int, image_side: int) -> int:

@@ -49,7 +49,7 @@ from .passes.emission import AttributesGPU
 from .passes.fire import FireGPU, has_fire_unit
 from .passes.fluence import FluenceGPU, has_fluence_units
 from .passes.gbuffer import GBuffer
-from .passes.probe import ARRIVING, IRRADIANCE, TRANSMITTANCE, probe_light
+from .passes.probe import ARRIVING, IRRADIANCE, SCATTERED, TRANSMITTANCE, probe_light
 from .passes.scattering import (
     LIGHT_T_MARCH,
     LIGHT_T_NONE,
@@ -193,6 +193,7 @@ class _LightPlan:
     gobo: object | None
     tfm_sigma_t: np.ndarray | None = None
     medium_shadow: bool = True      # a solid may shadow the media (light.solids_may_shadow)
+    field: bool = False             # the media take its light from the world field (FacePlan.field)
 
 
 class Renderer:
@@ -347,7 +348,7 @@ class Renderer:
                 cache.used.update(keys)
             self.counters["faces_culled"] += memo.state.plan.culled
             self.counters["samples_reusing_plans"] += 1
-            steps.total = 2 + max(len(memo.state.plan.faces), 1)     # no map step
+            steps.total = memo.state.plan.steps - len(lights)     # no map step
             steps.step("scene", t0)
             return memo.state
         self._frame_memos.pop(client, None)
@@ -367,7 +368,8 @@ class Renderer:
         plan = plan_frame(scene, settings, lights, medium_gpu, casts_shadows=bool(casters.vertex_count),
                           casters_bounds=casters.bounds, seen_bounds=seen.bounds,
                           map_res=self._map_resolution(settings), image_side=map_image_side,
-                          accumulate=accumulate is not None, active=active is not None)
+                          accumulate=accumulate is not None, active=active is not None,
+                          world_field=has_fluence_units(self.gl))
         self.counters["faces_culled"] += plan.culled
         steps.total = plan.steps
         steps.step("scene", t0)
@@ -433,16 +435,20 @@ class Renderer:
                       fluence=frame.fluence)
         self.counters["pixels_shaded"] += (size[0] * size[1] if active is None
                                            else int(np.count_nonzero(active.mask)))
-        if not frame.lights:
+        if frame.plan.lightless_first:
             t0 = time.perf_counter()
             run_light_pass(gl, first=True, **common)
             self.counters["light_passes"] += 1
             steps.step("scattering", t0)
-        for i, plan in enumerate(frame.lights):
+        index = {id(face): i for i, face in enumerate(frame.plan.faces)}
+        for i, face in enumerate(frame.plan.passes):
             t0 = time.perf_counter()
-            run_light_pass(gl, first=(i == 0), light_t=plan.light_t, tfm=plan.tfm,
+            plan = frame.lights[index[id(face)]]
+            lights_medium = plan.light.lights_medium and not face.field     # the field carries it
+            run_light_pass(gl, first=(i == 0 and not frame.plan.lightless_first), light_t=plan.light_t,
+                           tfm=plan.tfm, march=not face.field,
                            light=(plan.frame, plan.light.intensity_w_per_sr, plan.shadow, plan.gobo,
-                                  (float(plan.light.lights_medium), float(plan.light.lights_surfaces),
+                                  (float(lights_medium), float(plan.light.lights_surfaces),
                                    float(plan.light.media_shadow_surfaces))),
                            tfm_sigma_t=plan.tfm_sigma_t, medium_shadow=plan.medium_shadow,
                            soft=soft_extent(plan.light, plan.frame), unlit=self._unlit(plan.light, frame),
@@ -504,9 +510,13 @@ class Renderer:
         return out
 
     def _fluence(self, scene, settings, medium_gpu, medium, plans, warnings) -> FluenceGPU | None:
-        """The frame's diffused light and surfaces' light (engine/diffusion.py) where its bounce
-        count asks for them and it marches media, built from the faces' maps or cached by what they
-        depend on (not the bounce count); counter 'fluences'."""
+        """The frame's lattice fields (engine/diffusion.py) where it marches media and needs them:
+        the world field where world faces light the media through it (frame_plan), the diffused
+        light and surfaces' light where its bounce count asks for them, the media's emission.
+        Built from the faces' maps or cached by what they depend on (the bounce count only with a
+        world field: its octaves); counter 'fluences'. The viewport's coarse image
+        (``settings.lattice`` False) reads the fields where built, and builds the world field
+        alone where none is."""
         if medium_gpu.kind == MEDIUM_GRID:
             media = [s.medium for s in medium_gpu.slots]
             media_key = ("lattice",) + tuple(_slot_key(s) + (s.medium.key,) for s in medium_gpu.slots)
@@ -519,20 +529,26 @@ class Renderer:
         # Cycles renders it at every bounce count, 0 included.
         emits = (medium_gpu.kind == MEDIUM_GRID and medium.has_emission and medium.lights_medium
                  and any(max(m.sigma_s) > 0.0 for m in media))
+        world = [p for p in plans if p.field]
         if not plans and not emits:
             return None
-        key = (media_key, tuple((p.light.key, p.frame.key, p.light_t, p.light.lit_media) for p in plans),
+        key = (media_key,
+               tuple((p.light.key, p.frame.key, p.light_t, p.light.lit_media, p.field) for p in plans),
                scene.solids_key,
                tuple(m.key for m in scene.meshes if not m.holdout), self._map_resolution(settings),
                settings.light_steps, settings.coefficients, settings.density_weight, settings.tfm_filter,
-               emits)
-        wanted = multiple_scattering.for_settings(settings).fields or emits
-        if not wanted or not settings.lattice:
+               emits, multiple_scattering.for_settings(settings) if world else None)
+        scattered = bool(multiple_scattering.for_settings(settings).fields or emits)
+        if not (scattered or world) or not settings.lattice:
             # a frame without them keeps them for the next with; one that builds none (the
             # viewport's coarse image) reads them where they are built
-            item = self._fluences.keep(key)
+            item = self._fluences.keep(key + (True,))
             self._fluences.keep(media_key)
-            return self._fluence_read(item, medium, warnings) if wanted else None
+            if not (scattered or world):
+                return None
+            if item is not None or not world:
+                return self._fluence_read(item, medium, warnings)
+            scattered = False       # the coarse image: the world field alone, cheap
         if not has_fluence_units(self.gl):
             warnings.append("This OpenGL has too few texture units for the light scattered many times, "
                             "the light the surfaces reflect into the media and the media's own emission "
@@ -546,13 +562,26 @@ class Renderer:
                 light=(plan.frame, plan.light.intensity_w_per_sr, plan.shadow, plan.gobo),
                 light_t=plan.light_t, tfm=plan.tfm, tfm_sigma_t=plan.tfm_sigma_t)
 
-        def arriving(points, normals):
+        def arriving(points, normals, plans=plans):
             total = np.zeros((len(points), 3))
             for plan in plans:
                 if normals is not None and plan.light.lights_surfaces:
                     total += probe(plan, points, normals)
                 elif normals is None and plan.light.lights_medium and plan.light.lit_media is None:
                     total += probe(plan, points)
+            return total
+
+        octaves = multiple_scattering.for_settings(settings)
+
+        def scattered_by(points, albedo, plans):
+            """The light of ``plans`` scattered at ``points`` by media of ``albedo`` (the octaves)."""
+            total = np.zeros((len(points), 3))
+            for plan in plans:
+                total += probe_light(
+                    self.gl, points, SCATTERED, albedo, medium=medium, medium_gpu=medium_gpu,
+                    settings=settings,
+                    light=(plan.frame, plan.light.intensity_w_per_sr, plan.shadow, plan.gobo),
+                    light_t=plan.light_t, tfm=plan.tfm, tfm_sigma_t=plan.tfm_sigma_t, octaves=octaves)
             return total
 
         # light linking: a light that lights some media only is scattered first by those alone
@@ -564,12 +593,15 @@ class Renderer:
             lat = self._fluences.get(media_key, lambda: _Value(diffusion.lattice(media)))[0].value
             if lat is None:
                 return _Value(None)
-            emitted, points = _emission_light(medium) if emits else (None, 0)
-            gpu = FluenceGPU(self.gl, diffusion.fluence(lat, scene.meshes, arriving, emitted, linked))
+            emitted, points = _emission_light(medium) if emits and scattered else (None, 0)
+            sky = (lambda points, albedo: scattered_by(points, albedo, world)) if world else None
+            fields = diffusion.fluence(lat, scene.meshes, arriving, emitted, linked, world=sky,
+                                       scattered=scattered)
+            gpu = FluenceGPU(self.gl, fields)
             gpu.emission_points = points
             return gpu
 
-        item = self._fluences.get(key, build)[0]
+        item = self._fluences.get(key + (scattered,), build)[0]
         self._fluences.keep(media_key)      # the lattice: for the fields of the next lights
         return self._fluence_read(item, medium, warnings)
 
@@ -809,7 +841,7 @@ class Renderer:
             tfm, tfm_sigma = self._tfm(scene, settings, light, frame, medium_gpu, shadow, face.tfm_side,
                                        list(face.reached), warnings)
             light_t = LIGHT_T_TFM if tfm is not None else LIGHT_T_NONE
-        return _LightPlan(light, frame, light_t, shadow, tfm, gobo, tfm_sigma, medium_shadow)
+        return _LightPlan(light, frame, light_t, shadow, tfm, gobo, tfm_sigma, medium_shadow, face.field)
 
     def _medium_shadow(self, light, frame, scene, shadow, solids, res, boxes, everywhere) -> bool:
         """Whether the face's shadow map may shadow a point of the media ``boxes``

@@ -29,6 +29,7 @@ import numpy as np
 from .scene import Light, Scene
 
 DEFAULT_DIRECTIONS = 16
+MIN_DIRECTIONS = 6          # an octahedron's worth: each sun stands for at most 2/3 pi sr
 
 
 def directions(n: int) -> np.ndarray:
@@ -110,11 +111,62 @@ def mean_radiance(env: np.ndarray) -> tuple[float, float, float]:
     return tuple(float(c) for c in rgb)
 
 
+def world_share(scene: Scene) -> float:
+    """The world's share of the light arriving at the middle of the scene's media (of its solids
+    where it has none), unshadowed: the world's fluence there, 4 pi times its mean radiance,
+    against the lights' (a sun's irradiance, another light's on-axis intensity over the squared
+    distance). 1 where no light shines."""
+    world = 4.0 * math.pi * max(scene.ambient)
+    if world <= 0.0:
+        return 0.0
+    boxes = [b for b in (_medium_bounds(m) for m in scene.media) if b is not None]
+    if not boxes:
+        boxes = [(v.min(axis=0), v.max(axis=0)) for v in (m.world_vertices() for m in scene.meshes) if len(v)]
+    centre = (0.5 * (np.min([b[0] for b in boxes], axis=0) + np.max([b[1] for b in boxes], axis=0))
+              if boxes else np.zeros(3))
+    lights = 0.0
+    for light in scene.lights:
+        if light.from_world or not (light.lights_medium or light.lights_surfaces):
+            continue
+        intensity = float(np.max(light.intensity_w_per_sr))
+        if light.kind == "SUN":
+            lights += intensity
+        else:
+            r2 = float(np.sum((np.asarray(light.matrix_world, np.float64)[:3, 3] - centre) ** 2))
+            lights += intensity / max(r2, 1e-6)
+    return world / (world + lights)
+
+
+def directions_for(scene: Scene, n: int = DEFAULT_DIRECTIONS) -> int:
+    """How many directions the world's light comes from: ``n`` (the most, the user's setting)
+    where the world is all the light, fewer as its share falls (``world_share``): the error of
+    the directions' quadrature is about proportional to the world's share over the count's square
+    root, held at ``n``'s; at least MIN_DIRECTIONS (or ``n`` where smaller)."""
+    share = world_share(scene)
+    return int(min(n, max(MIN_DIRECTIONS, math.ceil(n * share * share))))
+
+
+def _medium_bounds(m) -> tuple[np.ndarray, np.ndarray] | None:
+    """A bounded medium's world bounds (None: fog without bounds)."""
+    if m.density is not None:
+        lo, hi, mat = -0.5 * np.ones(3), np.asarray(m.density.shape, np.float64) - 0.5, m.index_to_world
+    elif m.box_to_world is not None:
+        lo, hi, mat = -np.ones(3), np.ones(3), m.box_to_world
+    else:
+        return None
+    corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
+    mat = np.asarray(mat, np.float64)
+    w = corners @ mat[:3, :3].T + mat[:3, 3]
+    return w.min(axis=0), w.max(axis=0)
+
+
 def with_world_light(scene: Scene, n: int = DEFAULT_DIRECTIONS) -> Scene:
-    """``scene`` with its ambient light replaced by ``n`` shadowed world suns (what a frame renders
-    when RenderSettings.world_light is 'SHADOWED'); the world seen behind everything is unchanged."""
+    """``scene`` with its ambient light replaced by shadowed world suns (what a frame renders
+    when RenderSettings.world_light is 'SHADOWED'), ``directions_for(scene, n)`` of them; the world
+    seen behind everything is unchanged."""
     if not any(c > 0.0 for c in scene.ambient):
         return scene
+    n = directions_for(scene, n)
     env = scene.environment
     suns = ()
     if scene.world_lights_medium or scene.world_lights_surfaces:

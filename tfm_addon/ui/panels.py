@@ -238,8 +238,7 @@ class TFM_PT_world_lighting(_TFMPanel, bpy.types.Panel):
         layout.active = tfm.ambient
         col = layout.column()
         col.prop(tfm, "world_light")
-        col.prop(tfm, "world_light_viewport")
-        if 'SHADOWED' in (tfm.world_light, tfm.world_light_viewport):
+        if tfm.world_light == 'SHADOWED':
             col.prop(tfm, "world_directions")
 
 

@@ -111,25 +111,16 @@ class TFM_SceneSettings(bpy.types.PropertyGroup):
                     "do (the world still shows behind them)",
     )
     world_light: EnumProperty(
-        name="Render Shadows",
+        name="Shadows",
         items=(
             ('SHADOWED', "Shadowed", "The world's light reaches the volumes and the surfaces through "
-             "what lies in its way, as in Cycles (it comes as shadowed suns from the world's directions)"),
+             "what lies in its way, as in Cycles (it comes as shadowed suns from the world's directions, "
+             "carried to the volumes by a field over them)"),
             ('UNSHADOWED', "Unshadowed", "The world's light is added as is: faster, brighter inside dense "
              "smoke and under objects"),
         ),
         default='SHADOWED',
-        description="Whether the world's light casts shadows in final renders",
-    )
-    world_light_viewport: EnumProperty(
-        name="Viewport Shadows",
-        items=(
-            ('SHADOWED', "Shadowed", "As in final renders: the world's light through what lies in its way"),
-            ('UNSHADOWED', "Unshadowed", "The world's light added as is: the viewport stays fast (a shadowed "
-             "world costs a shadow pass per direction)"),
-        ),
-        default='UNSHADOWED',
-        description="Whether the world's light casts shadows in the viewport",
+        description="Whether the world's light casts shadows, in the viewport and in final renders alike",
     )
     world_directions: IntProperty(
         name="Directions", default=16, min=4, max=128,

@@ -1,7 +1,8 @@
-"""The fields of engine/diffusion.py on the GPU: their sum, weighed by the frame's bounce count,
-as one RGB 3D texture over the lattice, read by the first light pass (the shader's MS_GRID,
-shaders/scatter.frag). A new bounce count writes the texture again from the fields kept here; it
-solves nothing."""
+"""The fields of engine/diffusion.py on the GPU: their sum, weighed by the frame's bounce count
+(the world's light and the media's emission whole at every count), as one RGB 3D texture over
+the lattice, read by the first light pass (the shader's MS_GRID, shaders/scatter.frag). A new
+bounce count writes the texture again from the fields kept here; it solves nothing (but where
+the world field holds the world's light through the octaves of that count: Renderer._fluence)."""
 
 from __future__ import annotations
 
@@ -18,16 +19,19 @@ def has_fluence_units(gl: GLContext) -> bool:
 
 
 class FluenceGPU:
-    """surface * the surfaces' light + grid * the diffused light + the media's own emission (whole
-    at every bounce count: Cycles scatters it with none) + emission * its diffused light, linear
-    between cell centres and 0 outside the lattice (the shader tests the bounds)."""
+    """surface * the surfaces' light + grid * the diffused light + the media's own emission and
+    the world's light (whole at every bounce count: Cycles scatters them with none) + emission *
+    its diffused light, linear between cell centres and 0 outside the lattice (the shader tests
+    the bounds). ``scattered``: the diffused light was solved for (it then stands for the octaves'
+    slab term)."""
 
     def __init__(self, gl: GLContext, fluence: Fluence):
         lat = fluence.lattice
         # x fastest: each (nx, ny, nz, 3) field transposed to (nz, ny, nx, 3)
         self._fields = [np.ascontiguousarray(np.transpose(f, (2, 1, 0, 3)), np.float32)
                         for f in (fluence.surface, fluence.diffused, fluence.emission_diffused,
-                                  fluence.emission)]
+                                  fluence.emission + fluence.world)]
+        self.scattered = fluence.scattered
         self.texture = gl.ctx.texture3d(lat.shape, 3, dtype="f2")
         self.texture.repeat_x = self.texture.repeat_y = self.texture.repeat_z = False
         self.weights = None

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .. import multiple_scattering
 from ..gl_context import GLContext, set_uniforms
 from ..scene import Medium, RenderSettings
 from .bindings import MEDIUM_GRID, UNIT, MediaGPU, bind_light, bind_units, pass_state
@@ -13,7 +14,7 @@ from .bindings import MEDIUM_GRID, UNIT, MediaGPU, bind_light, bind_units, pass_
 POINTS_UNIT = UNIT["u_points"]
 NORMALS_UNIT = UNIT["u_normals"]
 ROW = 4096                          # points per row of the probe's image
-TRANSMITTANCE, ARRIVING, IRRADIANCE = 0, 1, 2
+TRANSMITTANCE, ARRIVING, IRRADIANCE, SCATTERED = 0, 1, 2, 3
 
 
 def probe_light(
@@ -29,10 +30,13 @@ def probe_light(
     light_t: int,
     tfm,
     tfm_sigma_t=None,
+    octaves=None,
 ) -> np.ndarray:
     """(n, 3) float32 per channel at world ``points`` (n, 3): ``what`` is TRANSMITTANCE from the
     light, the light ARRIVING (past the solids and media), or the IRRADIANCE of surfaces of unit
-    ``normals`` (n, 3) there; ``light`` is (frame, intensity, ShadowMap or None, gobo or None)."""
+    ``normals`` (n, 3) there; ``light`` is (frame, intensity, ShadowMap or None, gobo or None).
+    SCATTERED: the light that media of albedo ``normals`` (n, 3) scatter there, times 4 pi, by
+    ``octaves`` (multiple_scattering.Octaves, None: single scattering; their slab term left out)."""
     n = len(points)
     w = max(1, min(n, ROW))
     h = -(-n // w)
@@ -51,6 +55,8 @@ def probe_light(
     fbo.use()
     pass_state(gl.ctx)
     defines = {"MEDIUM": medium_gpu.kind, "LIGHT_T": light_t, "PROBE": what}
+    if what == SCATTERED and octaves is not None and octaves.count > 1:
+        defines["OCTAVES"] = octaves.count
     if medium_gpu.kind == MEDIUM_GRID:
         defines.update(medium_gpu.defines())
     if tfm is not None:
@@ -66,6 +72,8 @@ def probe_light(
         )
     if tfm is not None:
         tfm.bind(prog, medium.sigma_t if tfm_sigma_t is None else tfm_sigma_t)
+    if "OCTAVES" in defines:
+        multiple_scattering.bind(prog, octaves)
     src.use(POINTS_UNIT)
     set_uniforms(prog, u_points=POINTS_UNIT)
     if nrm is not None:

@@ -133,7 +133,7 @@ def run_light_pass(gl: GLContext, *, camera: Camera, plane: ViewPlane, medium: M
                    light=None, light_t: int = LIGHT_T_NONE, tfm=None, tfm_sigma_t=None,
                    attributes=None, active=None, compose=None, sums=None,
                    medium_shadow: bool = True, ambient_surface=None, soft=None, fire=None,
-                   unlit=((0, 0, 0, 0), ()), fluence=None) -> None:
+                   unlit=((0, 0, 0, 0), ()), fluence=None, march: bool = True) -> None:
     """Add one pass into the bound ScatteringTargets. ``light`` is (face, intensity, ShadowMap
     or None, gobo texture or None[, (weight on the media, weight on the surfaces)]) or None for the
     ambient-only first pass (``ambient``: the world radiance the media scatter on the first pass,
@@ -152,10 +152,12 @@ def run_light_pass(gl: GLContext, *, camera: Camera, plane: ViewPlane, medium: M
     ``unlit`` (light linking): the material table entries the light does not light (solids.
     unlit_entries' bits) and the media slots it does not light (their indices). ``fluence``
     (passes/fluence.FluenceGPU or None): the diffused light and the surfaces' light, scattered by
-    the first pass's media samples; the octaves' slab diffusion term is then left out."""
+    the first pass's media samples; the octaves' slab diffusion term is then left out where it
+    holds the diffused light. ``march`` False: a later pass lights the surfaces alone (the world
+    field carries the face's light to the media: frame_plan.FacePlan.field)."""
     medium_kind = medium_gpu.kind
-    if light is not None and light_t == LIGHT_T_NONE and not first:
-        medium_kind = MEDIUM_NONE          # this light never reaches the medium
+    if light is not None and (light_t == LIGHT_T_NONE or not march) and not first:
+        medium_kind = MEDIUM_NONE          # this pass's light never reaches the medium
     emits = attributes is not None and first and medium_kind != MEDIUM_NONE and medium.has_emission
     colored = attributes is not None and attributes.color is not None and medium_kind == MEDIUM_GRID
     defines = {"MEDIUM": medium_kind, "LIGHT_T": light_t, "FIRST_PASS": int(first),
@@ -175,7 +177,7 @@ def run_light_pass(gl: GLContext, *, camera: Camera, plane: ViewPlane, medium: M
     octaves = multiple_scattering.for_settings(settings)
     if fluence is not None and first and medium_kind in (MEDIUM_GRID, MEDIUM_BOX):
         defines["MS_GRID"] = 1
-    if fluence is not None:
+    if fluence is not None and fluence.scattered:
         octaves = dataclasses.replace(octaves, k=0.0)       # the diffused field stands for it
     if light is not None:
         defines.update(face_defines(light[0], light[2], light[3]))
