@@ -1292,6 +1292,62 @@ def _(tmpdir):
     volume_object(tmpdir, mat=mat)
 
 
+def _black_world():
+    """The World colour black: the default grey world's light and background taken out"""
+    _world((0.0, 0.0, 0.0))
+
+
+@row("world_default_sun", "Blender's default grey World (0.05) lighting the smoke and the ground beside a "
+     "sun (its light shadowed by the smoke, from the world's directions)", control=_black_world)
+def _(tmpdir):
+    mat, nt, out = material()
+    principled(nt, out)
+    base(lights='SUN', world=(0.05, 0.05, 0.05))
+    volume_object(tmpdir, mat=mat)
+
+
+def _room() -> None:
+    """A closed room around the camera, 5 x 10 x 3.5 m inside, of 20 cm walls (Diffuse 0.8), with
+    a 1.5 x 1.2 m window in its +x wall: the world's light comes in through the window alone."""
+    import bpy
+
+    wall = _diffuse("Wall", (0.8, 0.8, 0.8))
+    x0, x1, y0, y1, z0, z1, t = -2.5, 2.5, -8.0, 2.0, -1.25, 2.25, 0.2
+    wy0, wy1, wz0, wz1 = -1.0, 0.5, 0.5, 1.7
+
+    def slab(lo, hi):
+        bpy.ops.mesh.primitive_cube_add(size=1.0, location=[(a + b) / 2 for a, b in zip(lo, hi, strict=True)],
+                                        scale=[b - a for a, b in zip(lo, hi, strict=True)])
+        bpy.context.object.data.materials.append(wall)
+
+    slab((x0 - t, y0 - t, z0 - t), (x1 + t, y1 + t, z0))       # floor
+    slab((x0 - t, y0 - t, z1), (x1 + t, y1 + t, z1 + t))       # ceiling
+    slab((x0 - t, y0 - t, z0), (x0, y1 + t, z1))               # the walls
+    slab((x0, y0 - t, z0), (x1, y0, z1))
+    slab((x0, y1, z0), (x1, y1 + t, z1))
+    slab((x1, y0 - t, z0), (x1 + t, y1 + t, wz0))              # the window's wall, around it
+    slab((x1, y0 - t, wz1), (x1 + t, y1 + t, z1))
+    slab((x1, y0 - t, wz0), (x1 + t, wy0, wz1))
+    slab((x1, wy1, wz0), (x1 + t, y1 + t, wz1))
+
+
+@row("world_room_window", "A closed room lit by a sun through its one window, a fog box (Volume Scatter, "
+     "density 0.15) inside, Blender's default grey World: the world's light comes in through the window "
+     "alone", control=_black_world)
+def _(tmpdir):
+    import bpy
+
+    mat, nt, out = material("Fog")
+    node = nt.nodes.new('ShaderNodeVolumeScatter')
+    node.inputs["Density"].default_value = 0.15
+    nt.links.new(node.outputs[0], out.inputs["Volume"])
+    base(lights=None, world=(0.05, 0.05, 0.05), ground=False)
+    _room()
+    light('SUN', (3.0, -0.25, 3.0))
+    bpy.ops.mesh.primitive_cube_add(size=1.0, location=(0.0, -1.75, 0.5), scale=(4.6, 6.5, 3.4))
+    bpy.context.object.data.materials.append(mat)
+
+
 @row("world_gradient", "World ▸ Background Color from nodes: Texture Coordinate Generated → Separate XYZ Z → "
      "Map Range (−0.2–1 → 0–1) → Mix (Color) ground → sky, Strength 1.5", coloured=True,
      control=at_default("Mix", "Factor_Float", doc="The Mix's Factor at the default (0.5, unlinked): the "

@@ -13,9 +13,25 @@ const int WORLD_TAPS = 12;
 // is the cone's mean direction, shorter than its axis: the axis's cosine alone overstates a wide
 // cone's light). A ray leaving P at an angle a off the axis crosses what shadows, at depth
 // u_occluder_depth, (r - u_occluder_depth) tan(a) beside the axis ray: it is read from the maps
-// at the point of P's plane under that crossing (no shadow-map acne on P's own surface).
+// at the point of P's plane under that crossing (no shadow-map acne on P's own surface). The
+// solids' shadow along the axis at P itself gates them all: a solid's shadow in the world's light
+// is soft only across the directions, the media's across each cone too.
 vec3 world_sun_arriving(vec3 P, vec3 qP, vec3 nq, float jitter) {
     float r0 = light_distance(qP);
+    // A solid between P and the sun along the axis shadows every tap: the taps' parallel rays
+    // stand for the cone's rays where what shadows lies at the media's depth, not for a solid
+    // just above P (a ceiling, a wall), which the cone's rays from P meet too (the world's light
+    // would leak into a closed room through the taps read beyond its walls).
+    // (Where the axis is behind P's surface, P's own solid is what it meets: the cone's taps
+    // above the surface decide alone.)
+    float axis_visible = 1.0;
+    if (nq.z > 0.0) {
+        float bias = g_bias_texels;
+        g_bias_texels = surface_bias_texels(nq.z);      // slope-scaled: no acne at grazing axes
+        axis_visible = solid_visibility(qP, r0);
+        g_bias_texels = bias;
+        if (axis_visible <= 0.0) return vec3(0.0);
+    }
     float depth = max(r0 - u_occluder_depth, 0.0);
     float cos_h = inversesqrt(1.0 + u_world_spread * u_world_spread);
     float spin = 6.2831853 * fract(jitter + fract(52.9829189 * fract(dot(gl_FragCoord.xy,
@@ -35,5 +51,5 @@ vec3 world_sun_arriving(vec3 P, vec3 qP, vec3 nq, float jitter) {
         float r;
         sum += cosine * light_arriving(P + to_world * vec3(off, dz), q, r);
     }
-    return sum / float(WORLD_TAPS);
+    return sum * (axis_visible / float(WORLD_TAPS));
 }
