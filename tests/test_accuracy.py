@@ -197,5 +197,5 @@ def test_auto_summarises_a_grid_once_whatever_its_placement():
         placed[0, 3] += dx
         medium = dataclasses.replace(scene.media[0], index_to_world=placed.copy())
         quality.auto_settings(dataclasses.replace(scene, media=(medium,)))
-    assert sum(k[0] == "grid" for k in quality._cache) == 1
-    assert sum(k[0] == "light" for k in quality._cache) == 3      # the light part per placement
+    assert sum(k[0] == "grid" for k in quality._cache.keys()) == 1
+    assert sum(k[0] == "light" for k in quality._cache.keys()) == 3      # the light part per placement

@@ -83,6 +83,24 @@ def test_adaptive_sampling_keeps_the_error_for_a_fraction_of_the_pixels(fresh):
     assert float(np.abs(acc.output.combined[acc.pixel_samples == ADAPTIVE_FIRST_SAMPLES, :3]).max()) < 1e-3
 
 
+def test_a_frame_whose_pixels_have_all_converged_ends_there(fresh):
+    """A frame decides its sample count from its samples: where the first decision stops every
+    pixel (a flat world, nothing else), the frame ends after its first samples."""
+    scene = dataclasses.replace(smoke_scene(width=48, height=32, n=16), media=(), meshes=(), lights=(),
+                                ambient=(0.2, 0.2, 0.2))
+    acc = Accumulator()
+    opaque = dataclasses.replace(SETTINGS, film_transparent=False)      # the world seen: 0.2 grey
+    for _ in iter_samples(fresh, scene, opaque, 32, accumulator=acc):
+        pass
+    assert acc.count == ADAPTIVE_FIRST_SAMPLES and not acc.active.mask.any()
+    assert np.allclose(acc.output.combined, (0.2, 0.2, 0.2, 1.0), atol=1e-6)
+    # the smoke goes on to every sample where it has not converged
+    acc = Accumulator()
+    for _ in iter_samples(fresh, smoke_scene(width=48, height=32, n=16), SETTINGS, 16, accumulator=acc):
+        pass
+    assert acc.count == 16
+
+
 def test_the_converged_viewport_equals_the_adaptive_final_render():
     worker = RenderWorker()
     try:

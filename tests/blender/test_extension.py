@@ -251,5 +251,37 @@ def test_enable_disable_twenty_times_leaves_nothing(addon, tmp_path):
     assert set(_tfm_classes()) >= {"TFM_PT_volumes", "TFM_SceneSettings", "TFMRenderEngine"}
 
 
+def test_a_second_register_starts_from_nothing(addon, tmp_path):
+    """Register, render (a smoke under a Sky Texture world, baked by Cycles), start a bake in the
+    background as the viewport does, unregister: every memo of the registry is empty and no
+    background work (thread, timer, child process) runs on. Registered again, the same render
+    gives the same image."""
+    import addon_utils
+
+    bpy.ops.wm.read_homefile(use_empty=True)
+    scene_builder.build(smoke(width=32, height=24, n=16), str(tmp_path), settings=SETTINGS)
+    sky_world = bpy.data.worlds.new("Sky")
+    bpy.context.scene.world = sky_world
+    background_node = next(n for n in sky_world.node_tree.nodes if n.bl_idname == 'ShaderNodeBackground')
+    sky = sky_world.node_tree.nodes.new('ShaderNodeTexSky')
+    sky_world.node_tree.links.new(sky.outputs["Color"], background_node.inputs["Color"])
+    first = render_passes(tmp_path, "first")["Combined"]
+    caches = importlib.import_module(MODULE + ".tfm_addon.engine.caches")
+    background = importlib.import_module(MODULE + ".tfm_addon.blender.background")
+    world = importlib.import_module(MODULE + ".tfm_addon.blender.world")
+    kept = caches.REGISTRY.sizes()
+    assert kept["sky_bake.bakes"] == 1 and kept["volumes.density grids"] >= 1, kept
+    sky.sun_elevation += 0.2
+    assert "is being baked" in world.environment(sky_world, wait=False)[1]
+    assert background.running() >= 2                 # its thread, its process, its timer
+    addon_utils.disable(MODULE, default_set=True)
+    assert set(caches.REGISTRY.sizes().values()) == {0}, caches.REGISTRY.sizes()
+    assert background.running() == 0
+    addon_utils.enable(MODULE, default_set=True, handle_error=_raise)
+    sky.sun_elevation -= 0.2
+    second = render_passes(tmp_path, "second")["Combined"]
+    assert np.abs(second - first).max() <= 1e-6 * max(float(first.max()), 1.0)
+
+
 def _raise(ex):
     raise ex

@@ -204,7 +204,7 @@ def test_view_layer_passes_reach_the_compositor_from_the_command_line(blank, tmp
 @pytest.fixture(autouse=True)
 def _reset_simplify_state(addon):
     yield
-    _module("blender.extract").clear_simplified()
+    _module("engine.caches").REGISTRY.clear()
 
 
 def test_visibility_flags_reach_the_meshes(blank, tmp_path):

@@ -15,7 +15,7 @@ from tfm_addon.engine import metrics
 
 def test_a_grid_above_the_read_limit_is_read_as_block_means(blank, tmp_path, monkeypatch):
     volumes = importlib.import_module(f"{MODULE}.tfm_addon.blender.volumes")
-    extract = importlib.import_module(f"{MODULE}.tfm_addon.blender.extract")
+    caches = importlib.import_module(f"{MODULE}.tfm_addon.engine.caches")
     final_render = importlib.import_module(f"{MODULE}.tfm_addon.blender.final_render")
     made = scene_builder.build(smoke(width=64, height=48, n=40), str(tmp_path), settings=SETTINGS)
     full = render_passes(tmp_path, "full")["Combined"]
@@ -41,8 +41,7 @@ def test_a_grid_above_the_read_limit_is_read_as_block_means(blank, tmp_path, mon
     assert any(f"the grids' active box is {shape} voxels" in w and "read at 1/2 resolution" in w
                for w in warnings), warnings
 
-    volumes.grid_cache.clear()
-    extract.clear_simplified()
+    caches.REGISTRY.clear()       # the grids read again
     halved = render_passes(tmp_path, "halved")["Combined"]
     said = [m for _, m in final_render.last_messages]
     assert any("read at 1/2 resolution" in m for m in said), said

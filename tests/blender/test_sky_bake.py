@@ -13,8 +13,9 @@ from tfm_addon.engine.world_light import environment_directions
 
 @pytest.fixture
 def sky(blank, monkeypatch):
-    monkeypatch.setattr(sky_bake, "_baked", {})
-    monkeypatch.setattr(sky_bake, "_running", {})
+    sky_bake._baked.clear()
+    sky_bake._latest.clear()
+    sky_bake._running.clear()
     w = bpy.data.worlds.new("Sky")
     bpy.context.scene.world = w
     bg = next(n for n in w.node_tree.nodes if n.bl_idname == 'ShaderNodeBackground')
@@ -53,7 +54,6 @@ def test_a_bake_is_kept_by_the_world_and_the_viewport_does_not_wait(sky, monkeyp
     w, _, node = sky
     bakes = _Bakes()
     monkeypatch.setattr(sky_bake, "_run", bakes)
-    monkeypatch.setattr(sky_bake, "_latest", {})
     env, note = world.environment(w, wait=False)
     assert env is None and "is being baked with Cycles" in note
     assert world.ambient_radiance(w, wait=False)[0] == tuple(w.color)

@@ -10,6 +10,9 @@ render and of its error. A progress bar runs on stderr; the summary is printed a
 --only conformance (run only when named): the conformance suite against Cycles, every row of
 tfm_addon/bench/conformance.py rendered by TFM and compared with its stored Cycles reference, written
 to docs/conformance.md and docs/conformance/ (a Blender subprocess; about 10 s).
+--only peers (run only when named): time to quality against Cycles with OpenImageDenoise and EEVEE
+(tfm_addon/bench/peers.py), SSIM against seconds per scene at 320x180 and 1920x1080, written to
+<out>/peers/ and, with the README's chart, docs/peers/; --quick: 320x180 only, fewer samples.
 --gpu (alias --paper): the renderer part only, at the paper's 1280x720 with 1024^2 maps, no
 Blender and no numpy reference (the ground truth is the GPU brute force at one step per voxel).
 """
@@ -25,7 +28,7 @@ from pathlib import Path
 SECTIONS = ("methods", "table1", "sweeps", "blender", "renderer", "emission", "viewport", "lights")
 # Run only when named with --only: the conformance suite against Cycles writes docs/conformance.md
 # and docs/conformance/ (tfm_addon/bench/conformance.py, in a Blender subprocess).
-OPT_IN = ("conformance",)
+OPT_IN = ("conformance", "peers")
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -86,6 +89,13 @@ def main(argv: list[str] | None = None) -> int:
     out = args.out
     out.mkdir(parents=True, exist_ok=True)
     cache = None if args.no_cache else args.cache or out / "cache"
+    if "peers" in sections:
+        sections.discard("peers")
+        from . import peers
+
+        peers.publish(peers.run(out, args.quick, cache), quick=args.quick)
+        if not sections:
+            return 0
     t_start = time.perf_counter()
 
     renderer = Renderer()

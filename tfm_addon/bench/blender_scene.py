@@ -89,12 +89,17 @@ def build(scene: Scene, directory: str, name: str = "bench") -> dict:
     for i, light in enumerate(scene.lights):
         if light.gobo is not None:
             raise ValueError("projected textures are not built for Cycles/EEVEE by the benchmark")
-        ld = bpy.data.lights.new(f"{name} spot {i}", "SPOT")
+        if light.kind not in ("SPOT", "SUN"):
+            raise ValueError("the benchmark builds spots and suns only")
+        ld = bpy.data.lights.new(f"{name} {light.kind.lower()} {i}", light.kind)
         ld.energy = light.power_w
         ld.color = light.color
-        ld.spot_size = light.spot_size_rad
-        ld.spot_blend = light.spot_blend
-        ld.shadow_soft_size = 0.0
+        if light.kind == "SUN":
+            ld.angle = light.angle_rad
+        else:
+            ld.spot_size = light.spot_size_rad
+            ld.spot_blend = light.spot_blend
+            ld.shadow_soft_size = 0.0
         lo = bpy.data.objects.new(ld.name, ld)
         col.objects.link(lo)
         lo.matrix_world = to_blender_matrix(light.matrix_world)

@@ -62,6 +62,21 @@ def main(job_path: str) -> int:
                                        file=f"{_file(name)}.exr"))
         step(f"{name}: {seconds:.1f} s")
 
+    for samples in job.get("cycles_denoised_samples", []):   # what a user renders: OIDN at its defaults
+        name = f"Cycles {samples} spp + OIDN"
+        blender_scene.cycles(samples, seed=1)
+        if not any(r["engine"] == "CYCLES" for r in results["renders"]):
+            _render(folder / "warmup_cycles.exr")
+        c = bpy.context.scene.cycles
+        c.use_denoising = True
+        c.denoiser = "OPENIMAGEDENOISE"
+        seconds = _render(folder / f"{_file(name)}.exr")
+        results["renders"].append(dict(name=name, engine="CYCLES", samples=samples, seconds=seconds,
+                                       file=f"{_file(name)}.exr", denoiser=c.denoiser,
+                                       denoising_input_passes=c.denoising_input_passes,
+                                       denoising_prefilter=c.denoising_prefilter))
+        step(f"{name}: {seconds:.1f} s")
+
     for samples in job.get("cycles_adaptive_samples", []):    # Cycles' own adaptive sampling, its defaults
         name = f"Cycles {samples} spp adaptive"
         blender_scene.cycles(samples, seed=1)

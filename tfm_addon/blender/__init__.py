@@ -6,9 +6,9 @@ Imports ``bpy`` (through ``render_engine``); only ``tfm_addon.register`` imports
 
 import bpy
 
-from . import extract, final_render, preflight, render_engine, viewport
+from ..engine import caches
+from . import final_render, preflight, render_engine, viewport
 from .render_worker import close_worker
-from .volumes import grid_cache
 
 _register_classes, _unregister_classes = bpy.utils.register_classes_factory(
     render_engine.classes + preflight.classes)
@@ -38,5 +38,6 @@ def unregister():
     if _file_loaded in bpy.app.handlers.load_post:
         bpy.app.handlers.load_post.remove(_file_loaded)
     _unregister_classes()
-    grid_cache.clear()
-    extract.clear_simplified()
+    # Every memo, and the background work (bakes, grid reads) that ends with them: an add-on
+    # registered again starts from nothing.
+    caches.REGISTRY.clear()

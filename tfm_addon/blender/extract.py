@@ -12,7 +12,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from ..engine import mesh_volume, shading
+from ..engine import caches, mesh_volume, shading
 from ..engine.medium_attributes import constant_emits
 from ..engine.medium_grid import downsample
 from ..engine.scene import Camera, GlowBlocks, GridValue, Light, Medium, Mesh, RenderSettings, Scene
@@ -341,16 +341,10 @@ def volume_simplify_level(depsgraph) -> int:
     return 16 if factor <= 0.0 else max(0, math.ceil(-math.log2(min(factor, 1.0))))
 
 
-_simplified: dict = {}  # (id of the full grid, level) -> (the full grid, simplified grid, matrix)
-_simplified_extras: dict = {}  # (id of a full attribute grid, level) -> (that grid, simplified)
-
-
-def clear_simplified() -> None:
-    """Drop the kept simplified grids (on unregister)."""
-    _simplified.clear()
-    _simplified_extras.clear()
-    _glow_blocks.clear()
-    _clipped.clear()
+# (id of the full grid, level) -> (the full grid, simplified grid, matrix): the last one
+_simplified = caches.memo("extract.simplified grid", 1)
+# (id of a full attribute grid, level) -> (that grid, simplified): the last frame's
+_simplified_extras = caches.memo("extract.simplified attributes", 8)
 
 
 def simplify_grid(density: np.ndarray, index_to_object: np.ndarray, level: int):
@@ -366,8 +360,7 @@ def simplify_grid(density: np.ndarray, index_to_object: np.ndarray, level: int):
         scale[:3, 3] = (f - 1) / 2.0   # block i's centre sits at index i f + (f - 1) / 2
         small = downsample(density, f)
         small.setflags(write=False)
-        _simplified.clear()
-        hit = _simplified[key] = (density, small, scale)
+        hit = _simplified.put(key, (density, small, scale))
     return hit[1], np.asarray(index_to_object) @ hit[2]
 
 
@@ -890,8 +883,8 @@ def _supersample_budget(graph: shading.ShaderGraph) -> int:
 
 
 LEAF = 8        # OpenVDB's leaf nodes: 8³ voxels, at indices that are multiples of 8
-_glow_blocks: dict = {}
-_clipped: dict = {}
+_glow_blocks = caches.memo("extract.glow blocks", 1)      # the last grid's (GlowBlocks)
+_clipped = caches.memo("extract.clipped density", 1)      # the last grid's density within its blocks
 
 
 def within_bounds(grid, extras: tuple[str, ...], clipping: float) -> np.ndarray:
@@ -915,8 +908,7 @@ def within_bounds(grid, extras: tuple[str, ...], clipping: float) -> np.ndarray:
         s = (-np.asarray(blocks.origin)).astype(np.int64)      # array index 0 in the blocks' voxels
         inside = inside[s[0]:s[0] + d.shape[0], s[1]:s[1] + d.shape[1], s[2]:s[2] + d.shape[2]]
         out = np.where(inside, d, np.zeros((), d.dtype))
-    _clipped.clear()
-    _clipped[key] = (grid.density, out)
+    _clipped.put(key, (grid.density, out))
     return out
 
 
@@ -957,26 +949,22 @@ def glow_blocks(grid, extras: tuple[str, ...] = (), clipping: float = 0.0):
         blocks = aligned.reshape(n[0], LEAF, n[1], LEAF, n[2], LEAF).any(axis=(1, 3, 5))
         start = origin - before - np.asarray(grid.first_index)    # block (0, 0, 0) in array indices
         result = GlowBlocks(tuple(float(x) for x in start), float(LEAF), blocks)
-    _glow_blocks.clear()
-    _glow_blocks[key] = (grid.density, result)
+    _glow_blocks.put(key, (grid.density, result))
     return result
 
 
 def _simplify_extras(extras: dict, level: int) -> dict:
     """The attribute grids at the simplified density's resolution; the last ones are kept, like
     ``simplify_grid``'s, so that a viewport edit that keeps the grids does not redo them."""
-    out, kept = {}, {}
+    out = {}
     for name, a in extras.items():
         key = (id(a), level)
         hit = _simplified_extras.get(key)
         if hit is None or hit[0] is not a:
             small = _downsample_channels(a, 2 ** level)
             small.setflags(write=False)
-            hit = (a, small)
-        kept[key] = hit
+            hit = _simplified_extras.put(key, (a, small))
         out[name] = hit[1]
-    _simplified_extras.clear()
-    _simplified_extras.update(kept)
     return out
 
 

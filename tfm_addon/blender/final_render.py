@@ -18,6 +18,7 @@ import traceback
 
 import numpy as np
 
+from ..engine import caches
 from ..engine.errors import RenderCancelled, RendererError
 from ..engine.sampling import auto_samples
 from .camera import border_window
@@ -39,6 +40,18 @@ last_samples = [0]   # the antialiasing samples of the last frame (the log line)
 # Warnings already given in a material preview: each is reported once per session, since Blender
 # renders the same preview scene again for every material and shape.
 _preview_reported: set[str] = set()
+
+
+def _forget_renders() -> None:
+    """What the last renders left for the interface goes with the add-on's memos (unregister)."""
+    last_messages.clear()
+    last_timings.clear()
+    auto_choices.clear()
+    _preview_reported.clear()
+    last_samples[0] = 0
+
+
+caches.REGISTRY.on_clear(_forget_renders)
 
 # Voxels along a mesh medium's longest side in a preview (its shapes span ~100 px of 128).
 PREVIEW_VOLUME_RESOLUTION = 64
@@ -270,40 +283,42 @@ def exit_stopped() -> None:
     exit_process(code)
 
 
-_addon_version: list[str] = []
+_addon_version = caches.memo("final_render.version", 1)
 
 
 def addon_version() -> str:
-    """The extension's version from its blender_manifest.toml ('unknown' without one)."""
-    if not _addon_version:
-        version = "unknown"
-        manifest = os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(
-            os.path.abspath(__file__)))), "blender_manifest.toml")
-        try:
-            import tomllib
-
-            with open(manifest, "rb") as f:
-                version = str(tomllib.load(f).get("version", version))
-        except (OSError, ValueError, ImportError):
-            pass
-        _addon_version.append(version)
-    return _addon_version[0]
+    """The extension's version from its blender_manifest.toml ('unknown' without one), read once."""
+    return _addon_version.made("version", _read_version)
 
 
-_gl_description: dict = {}
+def _read_version() -> str:
+    version = "unknown"
+    manifest = os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(
+        os.path.abspath(__file__)))), "blender_manifest.toml")
+    try:
+        import tomllib
+
+        with open(manifest, "rb") as f:
+            version = str(tomllib.load(f).get("version", version))
+    except (OSError, ValueError, ImportError):
+        pass
+    return version
+
+
+_gl_description = caches.memo("final_render.gl description", 1)    # the worker's GL, by its id
 
 
 def gl_description(worker) -> str:
     """'vendor / renderer (version)' of the worker's GL context, asked once per worker."""
     key = id(worker)
-    if key not in _gl_description:
+    text = _gl_description.get(key)
+    if text is None:
         try:
             text = worker.call(lambda r: r.gl.describe(), timeout_s=60.0)
         except Exception as ex:  # no OpenGL: the log says why (and asks again next frame)
             return f"unavailable ({type(ex).__name__}: {ex})"
-        _gl_description.clear()
-        _gl_description[key] = text
-    return _gl_description[key]
+        _gl_description.put(key, text)
+    return text
 
 
 def log_frame(scene, layer: str, width: int, height: int, samples: int, seconds: float,

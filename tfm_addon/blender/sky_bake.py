@@ -15,6 +15,9 @@ import threading
 
 import numpy as np
 
+from ..engine import caches
+from . import background
+
 BAKE_SIZE = (32, 64)        # (rows, columns) of the baked equirectangular image
 BAKE_SAMPLES = 8            # the world alone converges in a few samples (no surfaces, no media)
 BAKE_TIMEOUT = 60.0         # seconds before a bake is given up
@@ -139,16 +142,23 @@ def _run(tmp, cmd: list[str], exr: str, timeout: float) -> np.ndarray:
     """Run a prepared bake (touches no Blender data: any thread)."""
     with tmp:
         try:
-            done = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout,
-                                  env={**os.environ, "PYTHONPATH": ""})
-        except subprocess.TimeoutExpired:
-            raise BakeFailed(f"it took longer than {timeout:.0f} s") from None
+            process = background.child(subprocess.Popen(
+                cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                env={**os.environ, "PYTHONPATH": ""}))
         except OSError as ex:
             raise BakeFailed(f"Blender could not be started ({ex})") from None
-        if done.returncode != 0 or not os.path.exists(exr + ".npy"):
-            tail = (done.stderr or done.stdout or "").strip().splitlines()[-1:] or ["no output"]
+        try:
+            stdout, stderr = process.communicate(timeout=timeout)
+        except subprocess.TimeoutExpired:
+            process.kill()
+            process.communicate()
+            raise BakeFailed(f"it took longer than {timeout:.0f} s") from None
+        finally:
+            background.finished(process)
+        if process.returncode != 0 or not os.path.exists(exr + ".npy"):
+            tail = (stderr or stdout or "").strip().splitlines()[-1:] or ["no output"]
             raise BakeFailed(f"Cycles failed ({tail[0]})")
-        return _with_suns(np.load(exr + ".npy").astype(np.float32), done.stdout)
+        return _with_suns(np.load(exr + ".npy").astype(np.float32), stdout)
 
 
 def sky_node(world):
@@ -187,9 +197,10 @@ def content_key(world) -> tuple:
     return nodes, links
 
 
-_baked: dict = {}       # content key -> (image or None, report line): the last bakes
-_running: dict = {}     # content key -> the thread baking it
-_latest: dict = {}      # world name -> its last bake's (image or None, report line)
+_baked = caches.memo("sky_bake.bakes", 8)      # content key -> (image or None, report line)
+_latest = caches.memo("sky_bake.latest", 16)    # world name -> its last bake's (image or None, report line)
+_running: dict = {}     # content key -> the thread baking it (ended with the memos: background.end)
+caches.REGISTRY.on_clear(_running.clear)
 
 
 def sky_environment(world, wait: bool) -> tuple[np.ndarray | None, str]:
@@ -201,7 +212,7 @@ def sky_environment(world, wait: bool) -> tuple[np.ndarray | None, str]:
     key = content_key(world)
     hit = _baked.get(key)
     if hit is not None:
-        _latest[world.name] = hit
+        _latest.put(world.name, hit)
         return hit
     thread = _running.get(key)
     if thread is None and (wait or not _running):
@@ -220,20 +231,20 @@ def sky_environment(world, wait: bool) -> tuple[np.ndarray | None, str]:
             except BakeFailed as ex:
                 result = None, f"{label}: its Sky Texture could not be baked with Cycles ({ex}); using " \
                                f"the world's viewport colour"
-            if len(_baked) >= 8:
-                _baked.pop(next(iter(_baked)))
-            _baked[key] = result
+            _baked.put(key, result)
             _running.pop(key, None)
 
-        thread = threading.Thread(target=work, daemon=True)
+        thread = threading.Thread(target=work, name="TFM sky bake", daemon=True)
         _running[key] = thread
-        thread.start()
+        background.start(thread)
         if not wait:
             _tag_when_done(thread, world.name)
     if wait:
         thread.join()
-        _latest[world.name] = _baked[key]
-        return _baked[key]
+        result = _baked.get(key, (None, f"{label}: its Sky Texture bake was stopped; using the world's "
+                                        f"viewport colour"))
+        _latest.put(world.name, result)
+        return result
     previous = _latest.get(world.name, (None, None))[0]
     if previous is not None:
         return previous, f"{label}: its Sky Texture is being baked again with Cycles; its previous bake " \
@@ -254,7 +265,7 @@ def _tag_when_done(thread: threading.Thread, name: str) -> None:
             world.update_tag()
         return None
 
-    bpy.app.timers.register(poll, first_interval=0.25)
+    background.timer(poll, first_interval=0.25)
 
 
 def _with_suns(env: np.ndarray, stdout: str) -> np.ndarray:

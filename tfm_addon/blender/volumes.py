@@ -14,12 +14,12 @@ import json
 import os
 import tempfile
 import threading
-from collections import OrderedDict
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import files
+from ..engine import caches
+from . import background, files
 
 FLOAT_GRID_TYPES = ("FLOAT", "DOUBLE")
 VECTOR_GRID_TYPES = ("VECTOR_FLOAT", "VECTOR_DOUBLE")
@@ -278,9 +278,10 @@ def read_grid_set(openvdb, path: str, density_name: str, extras, label: str, war
 class GridCache:
     """Dense density grids by (source, grid name), least recently used first out."""
 
-    def __init__(self, max_entries: int = 4):
+    def __init__(self, max_entries: int = 4, name: str | None = None):
         self.max_entries = max_entries
-        self._entries: OrderedDict[tuple, DensityGrid] = OrderedDict()
+        # the registry's memo ``name`` (engine/caches.py), or one of its own
+        self._entries = caches.memo(name, max_entries) if name else caches.Memo("grids", max_entries)
         self.reads = 0  # grids read from openvdb, for tests
         self.hits = 0
         self.saves = 0   # generated volumes written with grids.save (then hashed), for tests
@@ -405,7 +406,7 @@ class GridCache:
 
             thread = threading.Thread(target=work, name="TFM grid read", daemon=True)
             self.reading[key] = thread
-            thread.start()
+            background.start(thread)
         self._tag_on_news(key, volume_name)
 
     def _tag_on_news(self, key, volume_name: str) -> None:
@@ -426,24 +427,19 @@ class GridCache:
                     volume.update_tag()
             return None if "done" in told else 0.1
 
-        bpy.app.timers.register(poll, first_interval=0.1)
+        background.timer(poll, first_interval=0.1)
 
     def _lookup(self, key):
         with self._lock:
             grid = self._entries.get(key)
             if grid is not None:
-                self._entries.move_to_end(key)
                 self.hits += 1
         if isinstance(grid, VolumeReadError):        # what a background read ran into
             raise grid
         return grid
 
     def _store(self, key, grid):
-        with self._lock:
-            self._entries[key] = grid
-            while len(self._entries) > self.max_entries:
-                self._entries.popitem(last=False)
-        return grid
+        return self._entries.put(key, grid)
 
     def _read_file(self, openvdb, path, name, label, extras=(), key="", max_voxels=None,
                    sparse=False) -> DensityGrid:
@@ -482,15 +478,19 @@ def read_in_process(path, name, label, extras, key, max_voxels, sparse, on_previ
     root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
     with tempfile.TemporaryDirectory(prefix="tfm_read_") as tmp:
         out = os.path.join(tmp, "grids.npz")
-        process = subprocess.Popen([sys.executable, "-c", READ_PROCESS, openvdb_dir, root, out, path, name,
-                                    label, "\n".join(extras), key, str(max_voxels or 0), str(int(sparse))],
-                                   stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+        process = background.child(subprocess.Popen(
+            [sys.executable, "-c", READ_PROCESS, openvdb_dir, root, out, path, name, label, "\n".join(extras),
+             key, str(max_voxels or 0), str(int(sparse))],
+            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True))
         preview = out + ".preview.npz"
         while on_preview is not None and process.poll() is None and not os.path.exists(preview):
             time.sleep(0.05)
         if on_preview is not None and os.path.exists(preview):
             on_preview(_grid_from_file(preview))
-        error = process.communicate()[1].strip()
+        try:
+            error = process.communicate()[1].strip()
+        finally:
+            background.finished(process)
         if process.returncode == 3:
             raise VolumeReadError(error.splitlines()[-1])
         if process.returncode != 0:
@@ -595,4 +595,4 @@ def _file_path(volume) -> str:
     return files.abspath(path, volume.original)
 
 
-grid_cache = GridCache()
+grid_cache = GridCache(name="volumes.density grids")

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..engine import shading
+from ..engine import caches, shading
 from ..engine.scene import GridValue, Medium
 from . import files
 from .materials import Unreadable, _constant, _linked_node, _rgb
@@ -100,7 +100,7 @@ def graph_environment(world) -> tuple[np.ndarray | None, str | None]:
     return rgb.reshape(h, w, 3), note
 
 
-_images: dict = {}      # image signature -> its radiance averaged down (the last ones read)
+_images = caches.memo("world.images", 4)      # image signature -> its radiance averaged down
 
 
 def _image_radiance(image) -> np.ndarray:
@@ -121,10 +121,7 @@ def _image_radiance(image) -> np.ndarray:
         rgb = rgb[:hh, :ww].reshape(hh // f, f, ww // f, f, 3).mean(axis=(1, 3))
     out = np.ascontiguousarray(rgb, np.float32)
     out.setflags(write=False)
-    if len(_images) >= 4:
-        _images.pop(next(iter(_images)))
-    _images[key] = out
-    return out
+    return _images.put(key, out)
 
 
 def ambient_radiance(world, wait: bool = True) -> tuple[RGB, str | None]:

@@ -7,6 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from . import caches
 from .scene import Camera
 
 
@@ -57,23 +58,22 @@ def view_plane(camera: Camera) -> ViewPlane:
 
 def camera_to_world(camera: Camera) -> np.ndarray:
     """The camera's matrix with its rotation made orthonormal (Blender ignores camera scale)."""
-    global _last_camera
-    last = _last_camera
     m = np.array(camera.matrix_world, dtype=np.float64)
     # A sample's passes, and the jittered cameras of a frame's samples (the same matrix, another
     # lens shift), ask for the same matrix again: one SVD per placement.
-    if last[0] is not None and np.array_equal(last[0], m):
-        return last[1].copy()
+    last = _LAST.get(m.tobytes())
+    if last is not None:
+        return last.copy()
     u, _, vt = np.linalg.svd(m[:3, :3])
     r = u @ vt
     out = np.eye(4)
     out[:3, :3] = r
     out[:3, 3] = m[:3, 3]
-    _last_camera = (m, out.copy())
+    _LAST.put(m.tobytes(), out.copy())
     return out
 
 
-_last_camera: tuple = (None, None)   # the last camera matrix camera_to_world was asked for, and its result
+_LAST = caches.memo("camera.placement", 1)   # the last camera matrix camera_to_world was asked for
 
 
 def rigid_inverse(m: np.ndarray) -> np.ndarray:

@@ -24,13 +24,12 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
-from collections import OrderedDict
 from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
 
-from . import blackbody, boxes
+from . import blackbody, boxes, caches
 from .camera_effects import orthonormal
 from .quality import trilinear
 from .scene import GridValue, Medium
@@ -237,8 +236,8 @@ def fire_light(medium: Medium, max_points: int = MAX_POINTS) -> FireLight | None
     return FireLight(centre, intensity, spread, t, b, np.linalg.inv(local), tuple(int(n) for n in shape))
 
 
-_HALF_MAPS: OrderedDict = OrderedDict()   # what _half_maps made, by what they depend on (4 kept)
 HALF_MAPS_KEPT = 4
+_HALF_MAPS = caches.memo("fire_light.half maps", HALF_MAPS_KEPT)   # what _half_maps made
 
 
 def _half_maps(medium: Medium, world: np.ndarray, emits: np.ndarray, b: int) -> np.ndarray:
@@ -251,7 +250,6 @@ def _half_maps(medium: Medium, world: np.ndarray, emits: np.ndarray, b: int) -> 
            hashlib.blake2b(np.packbits(emits).tobytes(), digest_size=16).hexdigest(), emits.shape)
     found = _HALF_MAPS.get(key)
     if found is not None:
-        _HALF_MAPS.move_to_end(key)
         return found
     count, centres = _split(emits.astype(np.float64), world, b // 2)
     keep = count.sum(axis=-1) > 0.0
@@ -259,10 +257,7 @@ def _half_maps(medium: Medium, world: np.ndarray, emits: np.ndarray, b: int) -> 
     lit = count > 0.0
     maps = np.ones(count.shape + (DIRECTIONS, DIRECTIONS, 3), np.float32)
     maps[lit] = _outward_transmittance(medium, centres[lit])
-    _HALF_MAPS[key] = maps
-    while len(_HALF_MAPS) > HALF_MAPS_KEPT:
-        _HALF_MAPS.popitem(last=False)
-    return maps
+    return _HALF_MAPS.put(key, maps)
 
 
 def _split(weight: np.ndarray, world: np.ndarray, h: int) -> tuple[np.ndarray, np.ndarray]:

@@ -21,12 +21,12 @@ by its transform: instances share it, a camera move or an object move rebuilds n
 
 from __future__ import annotations
 
-import threading
-from collections import Counter, OrderedDict
+from collections import Counter
 from dataclasses import dataclass
 
 import numpy as np
 
+from . import caches
 from .scene import RGB, GridValue, Medium, _digest
 
 # Voxels along the longest side of the mesh's bounding box.
@@ -213,38 +213,30 @@ def shape_key(vertices: np.ndarray, triangles: np.ndarray, resolution: int) -> s
 
 
 class OccupancyCache:
-    """Coverage grids by shape key, the ``capacity`` most recent kept. ``counters``:
-    'voxelisations' (grids built), 'hits' (grids reused)."""
+    """Coverage grids by shape key, the ``capacity`` most recent kept (the registry's memo
+    ``name``: engine/caches.py). ``counters``: 'voxelisations' (grids built), 'hits' (grids reused)."""
 
-    def __init__(self, capacity: int = 8):
+    def __init__(self, capacity: int = 8, name: str | None = None):
         self.capacity = capacity
         self.counters: Counter = Counter()
-        self._items: OrderedDict[str, Occupancy] = OrderedDict()
-        self._lock = threading.Lock()
+        self._items = caches.memo(name, capacity) if name else caches.Memo("mesh volume", capacity)
 
     def get(self, vertices: np.ndarray, triangles: np.ndarray,
             resolution: int = DEFAULT_RESOLUTION) -> Occupancy:
         key = shape_key(vertices, triangles, resolution)
-        with self._lock:
-            hit = self._items.get(key)
-            if hit is not None:
-                self._items.move_to_end(key)
-                self.counters["hits"] += 1
-                return hit
+        hit = self._items.get(key)
+        if hit is not None:
+            self.counters["hits"] += 1
+            return hit
         built = voxelize(vertices, triangles, resolution)
-        with self._lock:
-            self.counters["voxelisations"] += 1
-            self._items[key] = built
-            while len(self._items) > self.capacity:
-                self._items.popitem(last=False)
-        return built
+        self.counters["voxelisations"] += 1
+        return self._items.put(key, built)
 
     def clear(self) -> None:
-        with self._lock:
-            self._items.clear()
+        self._items.clear()
 
 
-occupancy_cache = OccupancyCache()
+occupancy_cache = OccupancyCache(name="mesh_volume.coverage grids")
 
 
 def mesh_medium(vertices: np.ndarray, triangles: np.ndarray, matrix_world: np.ndarray, *,

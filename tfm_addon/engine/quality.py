@@ -34,11 +34,11 @@ from __future__ import annotations
 import dataclasses
 import itertools
 import math
-from collections import OrderedDict
 from dataclasses import dataclass
 
 import numpy as np
 
+from . import caches
 from .boxes import nonzero_bounds, slab
 from .light import LightFrame, is_dark, light_faces
 from .medium_grid import clean_density, downsample
@@ -71,7 +71,7 @@ _COARSE_SIDE = 64                   # the optical depth is marched on a grid thi
 _LIGHT_RAYS = 24                    # per side of the light's map (48: the same choices, 2-4x the time)
 _VIEW_RAYS = 24                     # along the longer image side
 _SHARPNESS_SAMPLES = 200_000        # voxels looked at for the sharpness
-_cache: OrderedDict = OrderedDict()
+_cache = caches.memo("quality.medium parts", 16)   # medium_stats' parts by content
 
 
 @dataclass(frozen=True)
@@ -269,14 +269,7 @@ def light_density_integral(m, light) -> float:
 
 
 def _cached(key, build):
-    if key in _cache:
-        _cache.move_to_end(key)
-        return _cache[key]
-    value = build()
-    _cache[key] = value
-    while len(_cache) > 16:
-        _cache.popitem(last=False)
-    return value
+    return _cache.made(key, build)
 
 
 def _summary(m):

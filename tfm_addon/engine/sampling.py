@@ -373,8 +373,10 @@ def iter_samples(renderer: Renderer, scene: Scene, settings: RenderSettings | No
     samples still vary take more; this is the second decision's threshold); None: every pixel takes
     every sample. ``until``: stop before that sample (a tile's first samples, tiles.py);
     ``whites``: the frame's white at each decision where ``scene`` is a tile of it (None: the
-    image's own). The frame's GPU sums are released once the last sample is yielded: a frame
-    continued later (``first``) with the same ``accumulator`` is refused."""
+    image's own). A frame whose every pixel has stopped at a decision ends there: its sample count
+    is decided by its samples (never by time, so that frames rendered apart stay equal). The
+    frame's GPU sums are released once the last sample is yielded: a frame continued later
+    (``first``) with the same ``accumulator`` is refused."""
     n = max(int(samples), 1)
     scene = prepare_scene(scene, settings)     # node graphs evaluated once, here on the render thread
     settings = frame_settings(scene, settings, n)
@@ -397,6 +399,8 @@ def iter_samples(renderer: Renderer, scene: Scene, settings: RenderSettings | No
                 acc.active = active_pixels(going & acc.active.mask)
                 acc.decisions = 2
         active = acc.active
+        if active is not None and not active.mask.any():
+            break       # every pixel has converged: the frame ends with the samples it took
         sub = None if progress is None else (lambda f, k=k: progress((k + f) / n))
         s_scene, s_settings = sample_scene(scene, settings, k)
         acc.add(renderer.render(s_scene, s_settings, cancel, sub, passes, client=client, active=active,

@@ -27,14 +27,14 @@ from __future__ import annotations
 
 import math
 import threading
-from collections import Counter, OrderedDict
+from collections import Counter
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
 from functools import cached_property
 
 import numpy as np
 
-from . import blackbody
+from . import blackbody, caches
 from .scene import GlowBlocks, Medium, Scene, _digest
 
 LUMINANCE = np.array([0.2126729, 0.7151522, 0.0721750])   # Cycles' Rec.709 colour -> float
@@ -598,15 +598,12 @@ def _uv_map(node, ins, ev):
 # bottom row first; whether they are sRGB-encoded bytes, decoded after interpolation as Cycles
 # does). Registered once per content by the Blender side (blender/node_graph.py), the last
 # IMAGES_KEPT kept.
-IMAGES: OrderedDict[str, tuple[np.ndarray, bool]] = OrderedDict()
 IMAGES_KEPT = 32
+IMAGES = caches.memo("shading.images", IMAGES_KEPT)
 
 
 def register_image(key: str, pixels: np.ndarray, srgb: bool) -> None:
-    IMAGES[key] = (pixels, srgb)
-    IMAGES.move_to_end(key)
-    while len(IMAGES) > IMAGES_KEPT:
-        IMAGES.popitem(last=False)
+    IMAGES.put(key, (pixels, srgb))
 
 
 def _srgb_to_linear(c):
@@ -1006,9 +1003,8 @@ def pending_medium(source: ShaderSource, matrix_world: np.ndarray, name: str = "
                   source_key=source.key)
 
 
-_RESOLVED: OrderedDict = OrderedDict()      # ShaderSource.key -> (Resolved, lattice scale)
-_LOCK = threading.Lock()
 RESOLVED_KEPT = 8
+_RESOLVED = caches.memo("shading.evaluated graphs", RESOLVED_KEPT)   # ShaderSource.key -> Resolved
 EVALUATIONS: Counter = Counter()             # "count" and the threads that evaluated (tests)
 
 
@@ -1042,18 +1038,12 @@ def resolve_medium(medium: Medium) -> Medium:
     src = getattr(medium, "shader", None)
     if src is None:
         return medium
-    with _LOCK:
-        r = _RESOLVED.get(src.key)
-        if r is not None:
-            _RESOLVED.move_to_end(src.key)
+    r = _RESOLVED.get(src.key)
     if r is None:
         r = _evaluate_source(src)
         EVALUATIONS["count"] += 1
         EVALUATIONS[threading.current_thread().name] += 1
-        with _LOCK:
-            _RESOLVED[src.key] = r
-            while len(_RESOLVED) > RESOLVED_KEPT:
-                _RESOLVED.popitem(last=False)
+        _RESOLVED.put(src.key, r)
     f = max(1, int(src.supersample))
     to_world = medium.index_to_world @ (fine_to_coarse(f) if f > 1 else np.eye(4))
     grids, fields = {}, {}
@@ -1081,10 +1071,9 @@ def resolve_scene(scene: Scene) -> Scene:
 def notes(scene: Scene) -> list[str]:
     """What the evaluations of the scene's media approximated, one line each (for the report)."""
     out = []
-    with _LOCK:
-        for m in scene.media:
-            r = _RESOLVED.get(m.source_key) if m.source_key is not None else None
-            if r is not None:
-                out.extend(r.notes)
+    for m in scene.media:
+        r = _RESOLVED.get(m.source_key) if m.source_key is not None else None
+        if r is not None:
+            out.extend(r.notes)
     return out
 

@@ -24,11 +24,12 @@ package (``data/ggx_tables.npz``, by scripts/make_ggx_tables.py, 22 s here).
 
 from __future__ import annotations
 
-import functools
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+
+from . import caches
 
 RGB = tuple[float, float, float]
 
@@ -242,11 +243,16 @@ def compute_ggx_tables(k: int = 256) -> dict[str, np.ndarray]:
 TABLES = Path(__file__).resolve().parent / "data" / "ggx_tables.npz"
 
 
-@functools.lru_cache(maxsize=1)
 def ggx_tables() -> dict[str, np.ndarray]:
-    """The tables of ``compute_ggx_tables``, as scripts/make_ggx_tables.py stored them."""
-    with np.load(TABLES) as f:
-        return {k: f[k] for k in f.files}
+    """The tables of ``compute_ggx_tables``, as scripts/make_ggx_tables.py stored them (read once)."""
+    def read():
+        with np.load(TABLES) as f:
+            return {k: f[k] for k in f.files}
+
+    return _TABLES.made(str(TABLES), read)
+
+
+_TABLES = caches.memo("surface.ggx tables", 1)
 
 
 def table_blocks() -> tuple[bytes, bytes]:
