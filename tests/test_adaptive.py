@@ -151,7 +151,9 @@ def test_auto_takes_more_coefficients_for_many_samples():
     many = frame_settings(scene, auto, MANY_SAMPLES)
     assert few.coefficients < MANY_SAMPLES_COEFFICIENTS       # AUTO's own choice on this thin smoke
     assert many.coefficients == MANY_SAMPLES_COEFFICIENTS
-    assert dataclasses.replace(many, coefficients=few.coefficients, view_steps=few.view_steps) == few
+    assert dataclasses.replace(many, coefficients=few.coefficients, view_steps=few.view_steps,
+                               frame_samples=few.frame_samples) == few
+    assert (few.frame_samples, many.frame_samples) == (MANY_SAMPLES - 1, MANY_SAMPLES)
     custom = frame_settings(scene, SETTINGS, MANY_SAMPLES)     # CUSTOM keeps the user's choice
     assert custom.coefficients == SETTINGS.coefficients
 

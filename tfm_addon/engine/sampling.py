@@ -354,7 +354,7 @@ def frame_settings(scene: Scene, settings: RenderSettings | None, samples: int) 
         chosen = dataclasses.replace(chosen, view_steps=steps)
         if samples >= MANY_SAMPLES and chosen.coefficients < MANY_SAMPLES_COEFFICIENTS:
             chosen = dataclasses.replace(chosen, coefficients=MANY_SAMPLES_COEFFICIENTS)
-    return dataclasses.replace(chosen, quality="CUSTOM")
+    return dataclasses.replace(chosen, quality="CUSTOM", frame_samples=max(int(samples), 1))
 
 
 def iter_samples(renderer: Renderer, scene: Scene, settings: RenderSettings | None, samples: int,

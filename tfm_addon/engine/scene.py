@@ -558,6 +558,9 @@ class RenderSettings:
     engine/diffusion.py are read where already built and none is built (the viewport's coarse
     image: after a light move or a medium edit the light's slab term stands in for them from 16
     bounces on, and the media's emission is not scattered for that image).
+    ``frame_samples``: the antialiasing samples of the frame this render is one of
+    (sampling.frame_settings): a world sun's cone of directions on surfaces is read over them, a
+    few directions a sample (passes/scattering.world_taps); no map depends on it.
     """
 
     view_steps: int = 100
@@ -580,6 +583,7 @@ class RenderSettings:
     volume_bounces: int = 0
     octaves: Octaves | None = None
     lattice: bool = True
+    frame_samples: int = 1
 
 
 @dataclass(frozen=True, eq=False)

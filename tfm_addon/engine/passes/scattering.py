@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import math
 
 import numpy as np
 
@@ -38,6 +39,16 @@ def grey_extinction(medium: Medium | None, medium_gpu: MediaGPU, tfm_sigma_t=Non
     if tfm_sigma_t is not None:
         coefficients.append(tfm_sigma_t)
     return all(float(np.ptp(np.asarray(c, np.float64))) == 0.0 for c in coefficients)
+
+
+WORLD_TAPS = 12            # a world sun's directions read per pixel on a surface in a frame of one sample ...
+WORLD_TAPS_PER_FRAME = 48  # ... and at least this many over a frame's samples (3 a sample from 16 on)
+
+
+def world_taps(frame_samples: int) -> int:
+    """The directions a world sun's cone is read in per pixel and sample on a surface
+    (shaders/world_soft.glsl): WORLD_TAPS_PER_FRAME over the frame's samples, 3 to WORLD_TAPS."""
+    return int(min(WORLD_TAPS, max(3, math.ceil(WORLD_TAPS_PER_FRAME / max(int(frame_samples), 1)))))
 
 
 def face_defines(frame, shadow, gobo) -> dict:
@@ -220,6 +231,8 @@ def run_light_pass(gl: GLContext, *, camera: Camera, plane: ViewPlane, medium: M
     if light is not None:
         frame, intensity, shadow, gobo = light[:4]
         bind_light(prog, frame, intensity, settings.map_resolution, shadow, gobo)
+        if defines.get("FACE_WORLD_SOFT"):
+            set_uniforms(prog, u_world_taps=world_taps(settings.frame_samples))
         set_uniforms(prog, u_light_targets=tuple(light[4]) if len(light) > 4 else (1.0, 1.0, 1.0),
                      u_unlit_entries=tuple(unlit[0]))
         slots = prog.get("u_med_unlit", None)

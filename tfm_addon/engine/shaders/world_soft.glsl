@@ -4,12 +4,12 @@
 // light_arriving (FACE_WORLD_SOFT faces).
 uniform float u_world_spread;     // tangent of the half angle of the sun's cone of directions
 uniform float u_occluder_depth;   // depth of what shadows (the media's centre) below the near plane, m
-
-const int WORLD_TAPS = 12;
+uniform int u_world_taps;         // directions read per pixel and sample (the frame's samples share the cone)
 
 // The irradiance at the surface point P (qP in face space, nq its normal in face space) from
-// the sun's cone: WORLD_TAPS directions spread evenly over the cone's solid angle, turned per
-// pixel and per sample by ``jitter``, each weighted by its own cosine on the surface (their mean
+// the sun's cone: u_world_taps directions spread evenly over the cone's solid angle, turned and
+// shifted per pixel and per sample by ``jitter`` (the frame's samples sample the cone between
+// them, as they do the lens and the shutter), each weighted by its own cosine on the surface (their mean
 // is the cone's mean direction, shorter than its axis: the axis's cosine alone overstates a wide
 // cone's light). A ray leaving P at an angle a off the axis crosses what shadows, at depth
 // u_occluder_depth, (r - u_occluder_depth) tan(a) beside the axis ray: it is read from the maps
@@ -38,9 +38,9 @@ vec3 world_sun_arriving(vec3 P, vec3 qP, vec3 nq, float jitter) {
                                                                         vec2(0.06711056, 0.00583715)))));
     mat3 to_world = transpose(mat3(u_world_to_light));
     vec3 sum = vec3(0.0);
-    for (int k = 0; k < WORLD_TAPS; ++k) {
+    for (int k = 0; k < u_world_taps; ++k) {
         float a = spin + 2.39996323 * float(k);
-        float c = 1.0 - (float(k) + 0.5) / float(WORLD_TAPS) * (1.0 - cos_h);   // uniform over the cap
+        float c = 1.0 - (float(k) + jitter) / float(u_world_taps) * (1.0 - cos_h);   // uniform over the cap
         float s = sqrt(max(1.0 - c * c, 0.0));
         vec3 w = vec3(s * cos(a), s * sin(a), c);          // toward the sky, face space
         float cosine = dot(nq, w);
@@ -51,5 +51,5 @@ vec3 world_sun_arriving(vec3 P, vec3 qP, vec3 nq, float jitter) {
         float r;
         sum += cosine * light_arriving(P + to_world * vec3(off, dz), q, r);
     }
-    return sum * (axis_visible / float(WORLD_TAPS));
+    return sum * (axis_visible / float(u_world_taps));
 }
