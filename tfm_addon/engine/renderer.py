@@ -562,7 +562,7 @@ class Renderer:
                 light=(plan.frame, plan.light.intensity_w_per_sr, plan.shadow, plan.gobo),
                 light_t=plan.light_t, tfm=plan.tfm, tfm_sigma_t=plan.tfm_sigma_t)
 
-        def arriving(points, normals, plans=plans):
+        def arriving(points, normals):
             total = np.zeros((len(points), 3))
             for plan in plans:
                 if normals is not None and plan.light.lights_surfaces:
