@@ -179,7 +179,7 @@ def test_the_world_field_carries_the_world_s_light_to_bounded_media():
     assert plan.steps == 2 + 9 + 9
     # with no solid in view the world's faces draw no pass (their maps still feed the field)
     unseen = _plan(scene, media, world_field=True)
-    assert len(unseen.world_field) == 8 and [f.light for f in unseen.passes] == [SPOT]
+    assert sum(f.field for f in unseen.faces) == 8 and [f.light for f in unseen.passes] == [SPOT]
     # the world alone: the first pass lights with no face
     alone = _plan(_scene(*_world()), media, world_field=True, seen_bounds=(np.full(3, -1.0), np.full(3, 1.0)))
     assert alone.lightless_first and len(alone.passes) == 8 and alone.steps == 2 + 8 + 9

@@ -36,7 +36,7 @@ from ..engine import Camera, Light, Medium, Renderer, RenderSettings, Scene
 from ..engine.exr import read_exr, write_exr
 from ..engine.sampling import render_samples
 from . import charts
-from .common import compare, markdown_table, nudged, scene_digest
+from .common import compare, machine_line, markdown_table, nudged, safe_name, scene_digest
 
 BASE_SIZE = (320, 180)
 FULL_SIZE = (1920, 1080)
@@ -173,7 +173,7 @@ def run(out: Path, quick: bool, cache: Path | None, only: list[str] | None = Non
             reference = np.stack([ch[c] for c in "RGB"], axis=-1)
         for size, cycles_samples, repeats in config.sizes:
             scene = make(*size)
-            sub = folder / f"{_slug(key)}_{size[0]}x{size[1]}"
+            sub = folder / f"{safe_name(key)}_{size[0]}x{size[1]}"
             gt = reference is None and size == BASE_SIZE
             blender = _blender_runs(scene, sub, config, cycles_samples, gt=gt)
             if reference is None:
@@ -193,7 +193,7 @@ def run(out: Path, quick: bool, cache: Path | None, only: list[str] | None = Non
                 rows.append(dict(r, **_judged(image, reference, size)))
             per_size[f"{size[0]}x{size[1]}"] = rows
         results["scenes"][key] = per_size
-    results["machine"] = _machine(renderer)
+    results["machine"] = machine_line(renderer)
     (folder / "results.json").write_text(json.dumps(results, indent=1))
     summary = summarise(results)
     (folder / "peers.md").write_text(summary)
@@ -206,16 +206,6 @@ def _judged(image: np.ndarray, reference: np.ndarray, size) -> dict:
     small = image if tuple(size) == BASE_SIZE else _downsampled(image, BASE_SIZE)
     m = compare(small[..., :3], reference)
     return dict(ssim=m["ssim"], brightness=m["brightness"])
-
-
-def _slug(text: str) -> str:
-    return "".join(c if c.isalnum() else "_" for c in text).strip("_")
-
-
-def _machine(renderer: Renderer) -> str:
-    from .common import machine_line
-
-    return machine_line(renderer)
 
 
 def _family(row: dict) -> str:

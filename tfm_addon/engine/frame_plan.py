@@ -68,11 +68,6 @@ class FramePlan:
     steps: int
 
     @property
-    def world_field(self) -> tuple[FacePlan, ...]:
-        """The faces whose light the media take from the world field."""
-        return tuple(f for f in self.faces if f.field)
-
-    @property
     def lightless_first(self) -> bool:
         """Whether the first pass (the one that marches the media for the view's transmittance,
         the world field, emission) lights with no face: no face's light is carried by the march."""

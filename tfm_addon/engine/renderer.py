@@ -384,6 +384,11 @@ class Renderer:
             built += [self._build_face(scene, settings, face, medium_gpu, casters, gobo, warnings)
                       for face in plan.faces if face.light is light]
             steps.step("light_maps", t0)
+        world = [p for p in built if p.field]
+        if world and all(p.shadow is not None and p.medium_shadow for p in world):
+            warnings.append(f"The world's light reaches the media from {len(world)} directions with solids "
+                            "in the way of each: light through an opening (a window) lights them as one "
+                            "band per direction, where Cycles spreads the opening's sky over them")
         t0 = time.perf_counter()
         fluence = self._fluence(scene, settings, medium_gpu, medium, built, warnings)
         if fluence is not None:
@@ -444,11 +449,11 @@ class Renderer:
         for i, face in enumerate(frame.plan.passes):
             t0 = time.perf_counter()
             plan = frame.lights[index[id(face)]]
-            lights_medium = plan.light.lights_medium and not face.field     # the field carries it
+            # a field face is never first (plan_passes): its pass marches nothing
             run_light_pass(gl, first=(i == 0 and not frame.plan.lightless_first), light_t=plan.light_t,
                            tfm=plan.tfm, march=not face.field,
                            light=(plan.frame, plan.light.intensity_w_per_sr, plan.shadow, plan.gobo,
-                                  (float(lights_medium), float(plan.light.lights_surfaces),
+                                  (float(plan.light.lights_medium), float(plan.light.lights_surfaces),
                                    float(plan.light.media_shadow_surfaces))),
                            tfm_sigma_t=plan.tfm_sigma_t, medium_shadow=plan.medium_shadow,
                            soft=soft_extent(plan.light, plan.frame), unlit=self._unlit(plan.light, frame),
