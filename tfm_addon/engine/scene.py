@@ -509,6 +509,14 @@ class Mesh:
         v = np.c_[self.vertices.astype(np.float64), np.ones(len(self.vertices))]
         return (v @ self.matrix_world.T)[:, :3]
 
+    @cached_property
+    def world_bounds(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """(lo, hi) of the world vertices (None: no vertex), found once per Mesh."""
+        if not len(self.vertices):
+            return None
+        v = self.world_vertices()
+        return v.min(axis=0), v.max(axis=0)
+
 
 @dataclass(frozen=True)
 class RenderSettings:

@@ -119,21 +119,18 @@ def world_share(scene: Scene) -> float:
     world = 4.0 * math.pi * max(scene.ambient)
     if world <= 0.0:
         return 0.0
-    boxes = [b for b in (_medium_bounds(m) for m in scene.media) if b is not None]
-    if not boxes:
-        boxes = [(v.min(axis=0), v.max(axis=0)) for v in (m.world_vertices() for m in scene.meshes) if len(v)]
-    centre = (0.5 * (np.min([b[0] for b in boxes], axis=0) + np.max([b[1] for b in boxes], axis=0))
-              if boxes else np.zeros(3))
-    lights = 0.0
-    for light in scene.lights:
-        if light.from_world or not (light.lights_medium or light.lights_surfaces):
-            continue
-        intensity = float(np.max(light.intensity_w_per_sr))
-        if light.kind == "SUN":
-            lights += intensity
-        else:
+    own = [light for light in scene.lights
+           if not light.from_world and (light.lights_medium or light.lights_surfaces)]
+    lights = sum(float(np.max(light.intensity_w_per_sr)) for light in own if light.kind == "SUN")
+    near = [light for light in own if light.kind != "SUN"]
+    if near:            # their light falls with the distance to the scene's middle
+        boxes = [b for b in (_medium_bounds(m) for m in scene.media) if b is not None]
+        boxes = boxes or [b for b in (m.world_bounds for m in scene.meshes) if b is not None]
+        centre = (0.5 * (np.min([b[0] for b in boxes], axis=0) + np.max([b[1] for b in boxes], axis=0))
+                  if boxes else np.zeros(3))
+        for light in near:
             r2 = float(np.sum((np.asarray(light.matrix_world, np.float64)[:3, 3] - centre) ** 2))
-            lights += intensity / max(r2, 1e-6)
+            lights += float(np.max(light.intensity_w_per_sr)) / max(r2, 1e-6)
     return world / (world + lights)
 
 
