@@ -33,7 +33,7 @@ def case(request):
     with np.load(DATA / f"world_reference_{request.param}.npz") as z:
         cycles = z["rgb"].astype(np.float32)
     ref = render_reference(scene, RenderSettings(world_light="SHADOWED"), view_steps=16, light_steps=4,
-                           world_directions=128)
+                           world_directions=256)
     return scene, cycles, _box_filtered(ref.rgb)
 
 

@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 
-from tfm_addon.engine import world_light
+from tfm_addon.engine import environment, world_light
 
 
 def _cap(angle_rad: float) -> float:
@@ -22,7 +22,7 @@ def test_a_constant_world_s_suns_share_the_sphere():
 
 def test_an_environment_s_sun_is_as_wide_as_its_light():
     h, w = 32, 64
-    dirs, _ = world_light.environment_directions(np.zeros((h, w, 3)))
+    dirs, _ = environment.directions((h, w))
     even = np.ones((h, w, 3))
     # a patch of 10 degrees' radius, 1000 times as bright as the even sky
     towards = np.array([0.3, -0.5, 0.8]) / np.linalg.norm([0.3, -0.5, 0.8])

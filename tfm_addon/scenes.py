@@ -531,12 +531,13 @@ def sky_environment(width: int = 64, height: int = 32) -> np.ndarray:
 def world_lit_box_scene(width: int = 40, height: int = 30, environment: np.ndarray | None = None) -> Scene:
     """A box of smoke (homogeneous, 1.2 m) over a ground, lit only by the world: white, or
     ``environment`` (an equirectangular image, Scene's convention)."""
-    from .engine.world_light import mean_radiance
+    from .engine.environment import from_image
 
     medium = Medium(sigma_a=(0.2, 0.2, 0.2), sigma_s=(2.4, 2.4, 2.4), name="Box",
                     box_to_world=translate_scale((0.0, 0.0, 1.0), 0.6))
     camera = Camera(matrix_world=look_at((0.0, -4.5, 1.8), (0.0, 0.0, 0.6)), width_px=width, height_px=height,
                     lens_mm=35.0)
-    ambient = (1.0, 1.0, 1.0) if environment is None else mean_radiance(environment)
+    env = None if environment is None else from_image(environment)
+    ambient = (1.0, 1.0, 1.0) if env is None else env.mean
     return Scene(camera=camera, media=(medium,), meshes=(plane_mesh((0, 0, 0), 8.0),), ambient=ambient,
-                 environment=environment)
+                 environment=env)

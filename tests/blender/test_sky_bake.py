@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from tfm_addon.blender import sky_bake, world
-from tfm_addon.engine.world_light import environment_directions
+from tfm_addon.engine.environment import directions
 
 
 @pytest.fixture
@@ -31,7 +31,7 @@ def test_the_bake_places_each_direction_as_the_engine_reads_it(sky):
     coords = w.node_tree.nodes.new('ShaderNodeTexCoord')
     w.node_tree.links.new(coords.outputs["Generated"], bg.inputs["Color"])
     image = sky_bake.bake(w)
-    dirs, _ = environment_directions(image)
+    dirs, _ = directions(image.shape[:2])
     assert image.shape == (*sky_bake.BAKE_SIZE, 3)
     assert np.abs(image - dirs.reshape(image.shape)).max() < 0.03
 

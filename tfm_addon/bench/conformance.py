@@ -87,6 +87,7 @@ class Row:
     emissive: bool = False          # both renders: the medium lights nothing (``build``)
     bounces: int = 0                # Cycles reference at these volume bounces (the row sets them)
     transparent_bounces: int = 0    # Cycles reference at these transparent bounces (Blender's default 8)
+    background: bool = False        # the world seen behind everything: Film ▸ Transparent off, both renders
     note: str = ""
     # The row's negative control, run after ``build``: the row's subject (the setting or node the
     # row is about) set back to Blender's default, or where it is the default already, the nearest
@@ -1227,27 +1228,34 @@ for _id, _kind, _title, _size, _bar_at in (
                                    **_DEFAULT_SIZE[_kind][1])))
 
 
-@row("world_hdri", "World ▸ Environment Texture (an equirectangular image made by code) lighting the "
-     "smoke, no lamp", coloured=True,
-     control=at_default("Background", "Color", doc="World Background Color at the default (a new "
-                        "Background node's grey 0.8): the Environment Texture taken out"))
-def _(tmpdir):
+def _world_lit_smoke():
+    """The smoke's Principled Volume material, the base scene without a lamp, and the World's node
+    tree with its Background node: (material, world nodes, Background)."""
     import bpy
 
     mat, nt, out = material()
     principled(nt, out)
     base(lights=None)
-    world = bpy.context.scene.world
-    bg = next(n for n in world.node_tree.nodes if n.bl_idname == 'ShaderNodeBackground')
-    env = world.node_tree.nodes.new('ShaderNodeTexEnvironment')
+    wt = bpy.context.scene.world.node_tree
+    return mat, wt, next(n for n in wt.nodes if n.bl_idname == 'ShaderNodeBackground')
+
+
+@row("world_hdri", "World ▸ Environment Texture (an equirectangular image made by code) lighting the "
+     "smoke, no lamp", coloured=True,
+     control=at_default("Background", "Color", doc="World Background Color at the default (a new "
+                        "Background node's grey 0.8): the Environment Texture taken out"))
+def _(tmpdir):
+    mat, wt, bg = _world_lit_smoke()
+    env = wt.nodes.new('ShaderNodeTexEnvironment')
     env.image = _sky_image()
-    world.node_tree.links.new(env.outputs["Color"], bg.inputs["Color"])
+    wt.links.new(env.outputs["Color"], bg.inputs["Color"])
     volume_object(tmpdir, mat=mat)
 
 
-def _sky_image(width: int = 64, height: int = 32):
+def _sky_image(width: int = 64, height: int = 32, bands: bool = False):
     """A blue sky over a dark ground with a small warm patch of high radiance 30 degrees up (an
-    equirectangular float image, Blender's rows bottom first)."""
+    equirectangular float image, Blender's rows bottom first); ``bands``: the sky and the ground
+    brighter and darker in three bands around the horizon (what turns with the image)."""
     import bpy
 
     v = (np.arange(height) + 0.5) / height
@@ -1256,6 +1264,8 @@ def _sky_image(width: int = 64, height: int = 32):
     theta, phi = np.pi * (1.0 - vv), np.pi - 2.0 * np.pi * uu
     d = np.stack([np.sin(theta) * np.cos(phi), np.sin(theta) * np.sin(phi), np.cos(theta)], -1)
     rgb = np.where((d[..., 2] > 0)[..., None], [0.25, 0.45, 0.9], [0.05, 0.04, 0.03]).astype(np.float32)
+    if bands:
+        rgb *= (1.0 + 0.6 * np.sin(3.0 * phi))[..., None].astype(np.float32)
     sun = np.array([0.6, -0.6, 0.5]) / np.linalg.norm([0.6, -0.6, 0.5])
     rgb[(d @ sun) > 0.96] = (40.0, 30.0, 20.0)
     image = bpy.data.images.new("Sky", width, height, float_buffer=True)
@@ -1353,13 +1363,7 @@ def _(tmpdir):
      control=at_default("Mix", "Factor_Float", doc="The Mix's Factor at the default (0.5, unlinked): the "
                         "gradient taken out, one colour halfway between ground and sky"))
 def _(tmpdir):
-    import bpy
-
-    mat, nt, out = material()
-    principled(nt, out)
-    base(lights=None)
-    wt = bpy.context.scene.world.node_tree
-    bg = next(n for n in wt.nodes if n.bl_idname == 'ShaderNodeBackground')
+    mat, wt, bg = _world_lit_smoke()
     bg.inputs["Strength"].default_value = 1.5
     coords, xyz = wt.nodes.new('ShaderNodeTexCoord'), wt.nodes.new('ShaderNodeSeparateXYZ')
     ramp, mix = wt.nodes.new('ShaderNodeMapRange'), wt.nodes.new('ShaderNodeMix')
@@ -1378,17 +1382,44 @@ def _(tmpdir):
      coloured=True, control=at_default("Background", "Color", doc="World Background Color at the default "
                                        "(a new Background node's grey 0.8): the Sky Texture taken out"))
 def _(tmpdir):
-    import bpy
-
-    mat, nt, out = material()
-    principled(nt, out)
-    base(lights=None)
-    wt = bpy.context.scene.world.node_tree
-    bg = next(n for n in wt.nodes if n.bl_idname == 'ShaderNodeBackground')
+    mat, wt, bg = _world_lit_smoke()
     sky = wt.nodes.new('ShaderNodeTexSky')
     bg.inputs["Strength"].default_value = 0.1
     wt.links.new(sky.outputs["Color"], bg.inputs["Color"])
     volume_object(tmpdir, mat=mat)
+
+
+@row("world_hdri_mapping_seen", "World ▸ Environment Texture (an image made by code) turned 100° about Z by "
+     "a Mapping node (Texture Coordinate Generated → Mapping → Environment), seen behind the smoke (Film ▸ "
+     "Transparent off) and lighting it", coloured=True, background=True,
+     control=at_default("Mapping", "Rotation", doc="The Mapping's Rotation at the default (0): the image "
+                        "unturned"))
+def _(tmpdir):
+    mat, wt, bg = _world_lit_smoke()
+    coords, mapping = wt.nodes.new('ShaderNodeTexCoord'), wt.nodes.new('ShaderNodeMapping')
+    env = wt.nodes.new('ShaderNodeTexEnvironment')
+    env.image = _sky_image(256, 128, bands=True)
+    mapping.inputs["Rotation"].default_value = (0.0, 0.0, math.radians(100.0))
+    wt.links.new(coords.outputs["Generated"], mapping.inputs["Vector"])
+    wt.links.new(mapping.outputs["Vector"], env.inputs["Vector"])
+    wt.links.new(env.outputs["Color"], bg.inputs["Color"])
+    volume_object(tmpdir, mat=mat)
+
+
+@row("world_sky_seen", "World ▸ Sky Texture (Multiple Scattering, Blender's default) seen behind the smoke "
+     "(Film ▸ Transparent off) and lighting it", coloured=True, background=True,
+     control=at_default("Background", "Color", doc="World Background Color at the default (a new "
+                        "Background node's grey 0.8): the Sky Texture taken out"))
+def _(tmpdir):
+    ROW_BY_ID["world_sky"].build(tmpdir)
+
+
+@row("world_gradient_seen", "World ▸ Background Color from nodes (world_gradient's gradient) seen behind the "
+     "smoke (Film ▸ Transparent off) and lighting it", coloured=True, background=True,
+     control=at_default("Mix", "Factor_Float", doc="The Mix's Factor at the default (0.5, unlinked): the "
+                        "gradient taken out, one colour halfway between ground and sky"))
+def _(tmpdir):
+    ROW_BY_ID["world_gradient"].build(tmpdir)
 
 
 for _flag, _what in (("scatter", "Volume Scatter"), ("diffuse", "Diffuse")):
@@ -1906,6 +1937,7 @@ def render_cycles(r: Row, tmpdir: str, samples: int = 2048, seed: int = 0) -> tu
     build(r, tmpdir)
     scene = bpy.context.scene
     cycles_single_scattering(scene, samples=samples)
+    scene.render.film_transparent = not r.background
     scene.cycles.volume_bounces = scene.cycles.max_bounces = r.bounces
     scene.cycles.transparent_max_bounces = r.transparent_bounces
     scene.cycles.seed = seed
@@ -1946,7 +1978,7 @@ def render_tfm(r: Row, tmpdir: str, samples: int = TFM_SAMPLES, control: bool = 
         r.control()
     scene = bpy.context.scene
     scene.render.engine = 'TFM'
-    scene.render.film_transparent = True
+    scene.render.film_transparent = not r.background
     scene.tfm.samples = samples
     fr = final_render_module()
     t0 = time.perf_counter()

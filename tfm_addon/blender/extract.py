@@ -12,12 +12,13 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from ..engine import caches, mesh_volume, shading
+from ..engine import affine, caches, mesh_volume, shading
+from ..engine.environment import Environment
 from ..engine.medium_attributes import constant_emits
 from ..engine.medium_grid import downsample
 from ..engine.scene import Camera, GlowBlocks, GridValue, Light, Medium, Mesh, RenderSettings, Scene
 from ..engine.scene import _digest as digest
-from . import fluid, materials, meshes, node_graph
+from . import fluid, materials, meshes
 from . import lights as lights_module
 from .camera import camera_from_object
 from .changes import Change
@@ -40,7 +41,7 @@ class Extraction:
     media: tuple[Medium, ...] = ()    # every medium (volume objects, meshes with volume materials)
     medium_sources: tuple[str, ...] = ()   # the objects they come from
     world_fog: Medium | None = None   # the World's Volume output, fog filling the scene
-    environment: np.ndarray | None = None   # the world's radiance by direction (an HDRI), or None
+    environment: Environment | None = None   # the world's radiance by direction, or None (constant)
     world_visibility: tuple[bool, bool, bool] = (True, True, True)   # camera, volume scatter, diffuse
 
     def scene(self, camera: Camera | None = None) -> Scene:
@@ -51,7 +52,8 @@ class Extraction:
         seen, medium, surfaces = self.world_visibility
         return Scene(camera=cam, lights=self.lights, media=media, meshes=self.meshes,
                      ambient=self.ambient if self.settings.ambient else (0.0, 0.0, 0.0),
-                     world=self.ambient if seen else (0.0, 0.0, 0.0), environment=self.environment,
+                     world=(0.0, 0.0, 0.0) if not seen else None if self.environment is not None
+                     else self.ambient, environment=self.environment,
                      world_lights_medium=medium, world_lights_surfaces=surfaces)
 
     @property
@@ -578,7 +580,7 @@ def _box_matrix(lo, hi) -> np.ndarray:
     return m
 
 
-def _grid_value(e: materials.Expr) -> GridValue:
+def _grid_value(e: affine.Expr) -> GridValue:
     return GridValue(e.grid, e.scale, e.offset) if e.grid else GridValue(offset=e.offset)
 
 
@@ -592,11 +594,16 @@ def _sigma(material, settings, label: str, notes: list[str], available=None) -> 
         return dict(fields=dict(sigma_a=(0.5, 0.5, 0.5), sigma_s=(0.5, 0.5, 0.5), anisotropy=0.0),
                     grid="density", constant=False, grids=("density",))
     if use_nodes and material is not None:
-        sigma, reason = materials.read_volume_material(material, available)
-        if sigma is not None and sigma.grid is None and sigma.grids:
-            sigma = None        # a constant density beside grids (an emission): evaluated per voxel
-        graph = None if sigma is not None else node_graph.compile_volume(material)
-        if graph is not None and graph.output is not None:
+        graph, reason = materials.volume_graph(material)
+        sigma = None
+        if graph is not None:
+            try:        # the fast path: constants times one grid (engine/affine.py)
+                sigma = affine.fold(graph, available, material.name)
+            except affine.NotAffine:
+                pass
+            if sigma is not None and sigma.grid is None and sigma.grids:
+                sigma = None        # a constant density beside grids (an emission): evaluated per voxel
+        if graph is not None and sigma is None:
             # a graph that is not scale x grid + offset: evaluated per voxel (engine/shading.py)
             notes.extend(f"{label}: {note}" for note in graph.notes)
             return dict(fields={}, grid=None, constant=False, grids=graph.grids, graph=graph,

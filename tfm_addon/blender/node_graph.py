@@ -87,6 +87,8 @@ KINDS = {
                                                    ("interpolation", n.interpolation),
                                                    ("extension", n.extension))),
     'ShaderNodeUVMap': ("UV_MAP", None),
+    'ShaderNodeTexEnvironment': ("TEX_ENVIRONMENT", lambda n: (
+        ("image", image_key(n.image, n.image_user, ENVIRONMENT_WIDTH)), ("interpolation", n.interpolation))),
     'ShaderNodeVolumePrincipled': ("PRINCIPLED_VOLUME",
                                    _strings("Density Attribute", "Color Attribute", "Temperature Attribute")),
     'ShaderNodeVolumeScatter': ("VOLUME_SCATTER", None),
@@ -100,32 +102,48 @@ KINDS = {
 
 
 SURFACE_ONLY = {'ShaderNodeTexImage', 'ShaderNodeUVMap'}   # they read UV coordinates
+WORLD_ONLY = {'ShaderNodeTexEnvironment'}                   # it reads the world's direction
+IMAGE_NODES = {'ShaderNodeTexImage', 'ShaderNodeTexEnvironment'}
+ENVIRONMENT_WIDTH = 2048    # an environment image is read averaged down to at most this wide: the
+#                             widest the background is drawn from (environment.PANORAMA_WIDTHS)
 
 
 MISSING_IMAGE = "missing image"    # the key of an image without pixels: never registered, so the
 #                                    engine shades it in Cycles' missing-texture pink
 
 
-def image_key(image, image_user=None) -> str:
+def image_key(image, image_user=None, max_width: int | None = None) -> str:
     """An image's content key (name, size, dirty flag, file); its pixels are read once per key into
-    ``shading.IMAGES``. An image whose file is missing or gives no pixels (files.image_problem)
-    has the key MISSING_IMAGE, which the engine renders in Cycles' missing-texture pink."""
+    ``shading.IMAGES`` (averaged down by a power of two to at most ``max_width`` wide). An image
+    whose file is missing or gives no pixels (files.image_problem) has the key MISSING_IMAGE,
+    which the engine renders in Cycles' missing-texture pink."""
     if image is None:
         return ""
     if files.image_problem("", image, files.scene_frame(), image_user) is not None:
         return MISSING_IMAGE
-    key = digest("image", image.name, tuple(image.size), bool(image.is_dirty), image.filepath)
+    w, h = image.size
+    f = 1 if max_width is None or w <= max_width else 2 ** int(np.ceil(np.log2(w / max_width)))
+    key = digest("image", image.name, tuple(image.size), bool(image.is_dirty), image.filepath, f)
     if key not in shading.IMAGES:
-        w, h = image.size
         px = np.empty(w * h * image.channels, np.float32)
         image.pixels.foreach_get(px)
         px = px.reshape(h, w, image.channels)
         if image.channels != 4:
             px = np.concatenate([px[..., :3] if image.channels >= 3 else np.repeat(px[..., :1], 3, -1),
                                  np.ones((h, w, 1), np.float32)], -1)
+        if f > 1:
+            hh, ww = max(1, h // f), max(1, w // f)
+            px = px[:hh * f, :ww * f].reshape(hh, f, ww, f, 4).mean(axis=(1, 3), dtype=np.float64)
+            px = np.ascontiguousarray(px, np.float32)
         srgb = not image.is_float and image.colorspace_settings.name == 'sRGB'
         shading.register_image(key, px, srgb)
     return key
+
+
+def _missing(node) -> bool:
+    """Whether an image node's image is set but cannot give its pixels (image_key: MISSING_IMAGE)."""
+    return node.image is not None and files.image_problem("", node.image, files.scene_frame(),
+                                                          node.image_user) is not None
 
 
 def image_note(node, owner: str = "") -> str | None:
@@ -139,18 +157,23 @@ def image_note(node, owner: str = "") -> str | None:
                                getattr(node, "image_user", None))
 
 
-def _unsupported_setting(node, surface: bool = False) -> str | None:
+def _unsupported_setting(node, surface: bool = False, world: bool = False) -> str | None:
     """Why a node of a known type cannot be evaluated as set, or None. (An Image Texture whose
     image is missing is evaluated anywhere: Cycles' missing-texture pink, whatever the
     coordinates.)"""
     kind = node.bl_idname
-    if kind == 'ShaderNodeTexImage' and node.image is not None and image_key(
-            node.image, node.image_user) == MISSING_IMAGE:
+    if kind in WORLD_ONLY and not world:
+        return "outside a world"
+    if kind in IMAGE_NODES and _missing(node):
         return None
     if kind in SURFACE_ONLY and not surface:
-        return "in a volume"
-    if kind == 'ShaderNodeTexImage' and (node.image is None or node.projection != 'FLAT'):
-        return "without an image" if node.image is None else f"with {node.projection.lower()} projection"
+        return "in a volume" if not world else "in a world"
+    if kind in IMAGE_NODES and node.image is None:
+        return "without an image"
+    if kind == 'ShaderNodeTexImage' and node.projection != 'FLAT':
+        return f"with {node.projection.lower()} projection"
+    if kind == 'ShaderNodeTexEnvironment' and node.projection != 'EQUIRECTANGULAR':
+        return f"with {node.projection.replace('_', ' ').lower()} projection"
     if kind == 'ShaderNodeAttribute' and node.attribute_type != 'GEOMETRY':
         return f"of type {node.attribute_type}"
     if kind == 'ShaderNodeVectorMath' and node.operation in ('REFRACT',):
@@ -212,8 +235,9 @@ def _constant(socket):
 
 
 class _Compiler:
-    def __init__(self, surface: bool = False, owner: str = ""):
+    def __init__(self, surface: bool = False, owner: str = "", world: bool = False):
         self.surface = surface       # a surface's graph: UV coordinates exist
+        self.world = world           # a world's graph: the coordinates are the direction
         self.owner = owner           # what the notes of a missing image name before the node
         self.nodes: list[Node] = []
         self.index: dict = {}        # Blender node -> its number in ``nodes``
@@ -264,7 +288,7 @@ class _Compiler:
         if key in self.index:
             return self.index[key]
         row = KINDS.get(node.bl_idname)
-        why = _unsupported_setting(node, self.surface) if row is not None else None
+        why = _unsupported_setting(node, self.surface, self.world) if row is not None else None
         if row is None or why:
             missing = image_note(node, self.owner)      # e.g. an Environment Texture in a graph
             if missing is not None:
@@ -282,13 +306,13 @@ class _Compiler:
         if node.bl_idname == 'ShaderNodeVolumeScatter' and phase != 'HENYEY_GREENSTEIN':
             self.notes.setdefault(f"'{node.name}' uses the {node.phase.replace('_', ' ').title()} phase "
                                   f"function, rendered as Henyey-Greenstein with its anisotropy", None)
-        if kind == "TEX_IMAGE":
+        if kind in ("TEX_IMAGE", "TEX_ENVIRONMENT"):
             missing = image_note(node, self.owner)
             if missing is not None:
                 self.notes.setdefault(missing, None)
         inputs = tuple(self.input(name, s) for name, s in _inputs(node))
         if kind.startswith("TEX_") and kind != "TEX_CHECKER" and not (
-                kind == "TEX_IMAGE" and image_key(node.image, node.image_user) == MISSING_IMAGE):
+                node.bl_idname in IMAGE_NODES and _missing(node)):
             varying = [i.name for i in inputs if i.name != "Vector" and isinstance(i.value, Link)]
             if varying:
                 self.notes.setdefault(f"'{node.name}' ({node.bl_label}): a linked {', '.join(varying)} "
@@ -306,7 +330,8 @@ def compile_volume(material, texspace=None, output: str = "Volume") -> ShaderGra
     if out is None:
         return None
     material_owner = getattr(material, "id_type", "") == 'MATERIAL'     # a world names itself
-    c = _Compiler(owner=f"material '{material.name}', " if material_owner else "")
+    c = _Compiler(owner=f"material '{material.name}', " if material_owner else "",
+                  world=output == "Surface")
     node, socket = c.source(out.inputs[output])
     if node is None:
         return None

@@ -18,7 +18,7 @@ import numpy as np
 from ..engine import caches
 from . import background
 
-BAKE_SIZE = (32, 64)        # (rows, columns) of the baked equirectangular image
+BAKE_SIZE = (256, 512)      # (rows, columns) of the baked equirectangular image (the background)
 BAKE_SAMPLES = 8            # the world alone converges in a few samples (no surfaces, no media)
 BAKE_TIMEOUT = 60.0         # seconds before a bake is given up
 
@@ -272,14 +272,14 @@ def _with_suns(env: np.ndarray, stdout: str) -> np.ndarray:
     """The image with each sun disc's light (radiance times solid angle, baked apart) shared
     bilinearly among the four pixels around its direction (their light-weighted mean direction is
     the sun's; the nearest pixel alone would tilt it by up to half a pixel)."""
-    from ..engine.world_light import environment_directions
+    from ..engine.environment import directions
 
     line = next((x for x in stdout.splitlines() if x.startswith("TFM_SUNS ")), None)
     if line is None:
         raise BakeFailed("Cycles gave no sun")
     env = np.array(env, np.float32)
     h, w = env.shape[:2]
-    _, omega = environment_directions(env)
+    _, omega = directions(env.shape[:2])
     omega = omega.reshape(h, w)
     for sun in json.loads(line[len("TFM_SUNS "):]):
         x, y, z = sun["direction"]

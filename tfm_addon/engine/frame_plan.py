@@ -131,16 +131,18 @@ def plan_faces(scene: Scene, settings: RenderSettings, light: Light, media: Medi
 
 
 def plan_passes(faces, *, lights: int, accumulate: bool, active: bool, maps: bool = True,
-                solids_seen: bool = True) -> dict:
+                solids_seen: bool = True, background_image: bool = False) -> dict:
     """The passes of a frame of ``faces``, how it ends and what its progress counts: ``passes``,
     ``lone`` (see FramePlan), ``clear_targets``, ``steps``. ``accumulate``: the frame adds a
     sample into sums; ``active``: only the active pixels are shaded; ``maps``: the lights' maps
     are a step each (``lights`` of them; False where a later sample reuses the first one's);
-    ``solids_seen``: the camera sees a solid (else a field face draws no pass)."""
+    ``solids_seen``: the camera sees a solid (else a field face draws no pass);
+    ``background_image``: the world seen behind everything varies with the direction (the
+    composite pass draws it, the one pass with a texture unit free for it: never lone)."""
     passes = [f for f in faces if not f.field or (solids_seen and f.light.lights_surfaces)]
     passes.sort(key=lambda f: f.field)          # stable: the first face the march carries leads
     drawn = len(passes) + int(not passes or passes[0].field)
-    return dict(passes=tuple(passes), lone=drawn <= 1 and (accumulate or not active),
+    return dict(passes=tuple(passes), lone=drawn <= 1 and (accumulate or not active) and not background_image,
                 clear_targets=not accumulate and active,
                 steps=2 + (lights if maps else 0) + drawn)
 
@@ -159,8 +161,10 @@ def plan_frame(scene: Scene, settings: RenderSettings, lights, media: MediaGPU, 
                                    map_res=map_res, image_side=image_side, world_field=field)
         faces += mine
         culled += dropped
+    image = not settings.film_transparent and not isinstance(scene.background, tuple)
     return FramePlan(tuple(faces), culled, **plan_passes(faces, lights=len(lights), accumulate=accumulate,
-                                                         active=active, solids_seen=seen_bounds is not None))
+                                                         active=active, solids_seen=seen_bounds is not None,
+                                                         background_image=image))
 
 
 def _face_side(settings, frame: LightFrame, slots, reached, map_res: int, image_side: int) -> int:

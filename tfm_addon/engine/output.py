@@ -39,7 +39,8 @@ class RenderOutput:
                 surface_mask: np.ndarray, world=None, background_mask: np.ndarray | None = None,
                 **kwargs) -> RenderOutput:
         """Assemble the combined image from its passes (all (h, w, 3) except the (h, w) masks).
-        ``world`` None: transparent film; else the RGB radiance seen, through the medium, at the
+        ``world`` None: transparent film; else the RGB radiance (or an (h, w, 3) image of it) seen,
+        through the medium, at the
         pixels of ``background_mask`` (no solid seen; default: not ``surface_mask``), with alpha 1
         everywhere but at holdouts (neither mask)."""
         h, w = surface_mask.shape

@@ -59,6 +59,7 @@ import numpy as np
 from scipy import ndimage
 
 from .boxes import slab
+from .camera import view_plane
 from .output import RenderOutput
 from .scene import Camera, Light, Medium, Mesh, RenderSettings, Scene
 
@@ -708,7 +709,7 @@ def _march_view(o: np.ndarray, d: np.ndarray, t0: np.ndarray, t1: np.ndarray, me
 def _world_suns(scene: Scene, count: int, seed: int = 0) -> list[Light]:
     """``count`` suns drawn at random over the world's directions (see the module docstring)."""
     rng = np.random.default_rng(seed)
-    env = scene.environment
+    env = None if scene.environment is None else scene.environment.image()
     if env is None:
         # stratified in z, the azimuths turned by the golden angle from a random start
         z = 1.0 - 2.0 * (np.arange(count) + rng.random(count)) / count
@@ -815,7 +816,11 @@ def render_reference(scene: Scene, settings: RenderSettings | None = None, *,
         return a.reshape(h, w, 3).astype(np.float32)
 
     transparent = True if settings is None else bool(settings.film_transparent)
+    world = None if transparent else scene.background
+    if world is not None and not isinstance(world, tuple):       # the environment, by direction
+        _, dirs, _, _ = _camera_rays(scene.camera)
+        world = image(world.radiance(dirs, footprint=view_plane(scene.camera).pixel_size))
     return RenderOutput.compose(image(scattering), image(surfaces), image(transmittance),
-                                mask.reshape(h, w), world=None if transparent else scene.background,
+                                mask.reshape(h, w), world=world,
                                 background_mask=background.reshape(h, w),
                                 timings_s={"reference": time.perf_counter() - start_time})

@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import diffusion, medium_attributes, multiple_scattering, shading, surface, world_light
+from . import diffusion, environment, medium_attributes, multiple_scattering, shading, surface, world_light
 from .adaptive import ActivePixels
 from .camera import view_plane
 from .errors import RenderCancelled
@@ -37,6 +37,7 @@ from .passes.bindings import (
     MEDIUM_EVERYWHERE,
     MEDIUM_GRID,
     MEDIUM_NONE,
+    BackgroundTexture,
     MediaGPU,
     MediumGPU,
     MediumSlot,
@@ -54,6 +55,7 @@ from .passes.scattering import (
     LIGHT_T_MARCH,
     LIGHT_T_NONE,
     LIGHT_T_TFM,
+    Backdrop,
     ScatteringTargets,
     run_light_pass,
 )
@@ -234,9 +236,10 @@ class Renderer:
         self._attributes = _Cache()
         self._fires = _Cache()
         self._fluences = _Cache()           # diffusion.py's fields on the GPU, and their lattices
+        self._backgrounds = _Cache()        # the world behind everything (passes/bindings.BackgroundTexture)
         self._caches = [self._media, self._solids, self._shadows, self._tfms, self._gobos,
                         self._gbuffers, self._targets, self._attributes, self._medium_shadows,
-                        self._fires, self._fluences]
+                        self._fires, self._fluences, self._backgrounds]
         self._frame_memos: dict[str, _FrameMemo] = {}   # per client: what the samples of its frame share
 
     @property
@@ -418,7 +421,8 @@ class Renderer:
         size = (plane.width_px, plane.height_px)
         targets = self._targets.get(size, lambda: ScatteringTargets(gl, size))[0]
         lone = frame.plan.lone
-        compose = (settings.film_transparent, scene.background) if lone else None
+        backdrop = self._backdrop(scene, settings, plane)
+        compose = backdrop if lone else None
         sums = None
         if accumulate is not None:
             sums = self._targets.get(("sums", accumulate), lambda: self._new_sums(size, want_passes))[0]
@@ -463,16 +467,29 @@ class Renderer:
         t0 = time.perf_counter()
         if accumulate is not None:
             if not lone:
-                sums.add(gl, targets, settings.film_transparent, scene.background, common["active"])
+                sums.add(gl, targets, backdrop, common["active"])
             steps.timings["accumulate"] = time.perf_counter() - t0
             return None, {}
         if not lone:
-            targets.compose(gl, settings.film_transparent, scene.background)
+            targets.compose(gl, backdrop)
         gl.finish()   # the read below then copies without waiting on the GPU
         combined = targets.read_combined()
         passes = targets.read_passes() if want_passes else {}
         steps.timings["readback"] = time.perf_counter() - t0
         return combined, passes
+
+    def _backdrop(self, scene: Scene, settings: RenderSettings, plane) -> Backdrop:
+        """What the composed image shows where no solid is seen: a constant world (black with a
+        transparent film), or the environment's panorama as wide as the camera's pixels need."""
+        seen = (0.0, 0.0, 0.0) if settings.film_transparent else scene.background
+        image = None
+        if not isinstance(seen, tuple):
+            width = environment.panorama_width(scene.camera)
+            image, built = self._backgrounds.get(
+                (seen.key, width), lambda: BackgroundTexture(self.gl, seen.panorama(width)))
+            self.counters["backgrounds"] += built
+            seen = (0.0, 0.0, 0.0)
+        return Backdrop(settings.film_transparent, seen, image, scene.camera, plane)
 
     def light_transmittance_at(self, scene: Scene, settings: RenderSettings | None, light_index: int,
                                points: np.ndarray) -> np.ndarray:

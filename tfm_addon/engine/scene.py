@@ -15,13 +15,16 @@ from collections import Counter
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from functools import cached_property
-from typing import Literal
+from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 
 from .camera_effects import Motion
 from .multiple_scattering import Octaves
 from .surface import Surface
+
+if TYPE_CHECKING:
+    from .environment import Environment
 
 RGB = tuple[float, float, float]
 
@@ -597,13 +600,13 @@ class RenderSettings:
 @dataclass(frozen=True, eq=False)
 class Scene:
     """Everything to render one frame. ``ambient`` is the world colour (radiance, W/(sr m^2))
-    that lights the media and the solids; ``world`` the radiance seen behind everything with an
-    opaque film (None: ``ambient``).
+    that lights the media and the solids, ``world`` the constant radiance seen behind everything
+    with an opaque film (None: the environment, or without one ``ambient``).
 
-    ``environment``: the world's radiance by direction, an (h, w, 3) equirectangular image (top row
-    first, Blender's mapping: u = 0.5 - atan2(y, x) / 2 pi, v from the bottom = 1 - acos(z) / pi),
-    or None for a constant world; the shadowed world light (engine/world_light.py) reads it, and
-    ``ambient`` holds its mean.
+    ``environment``: the world's radiance by direction (engine/environment.Environment: the
+    world's node graph, an HDRI through its mapping, a baked sky...), or None for a constant
+    world; the shadowed world light (engine/world_light.py) is made from it, the camera sees it
+    behind everything, and ``ambient`` holds its mean.
     ``media``: every participating medium (None entries are dropped); where they overlap their
     coefficients add up.
     ``world_lights_medium`` / ``world_lights_surfaces`` False: the world's light reaches no medium
@@ -619,7 +622,7 @@ class Scene:
     ambient: RGB = (0.0, 0.0, 0.0)
     media: tuple[Medium, ...] = ()
     world: RGB | None = None
-    environment: np.ndarray | None = None
+    environment: Environment | None = None
     world_lights_medium: bool = True
     world_lights_surfaces: bool = True
     motion: Motion | None = None
@@ -635,8 +638,11 @@ class Scene:
         return _digest(*[m.shape_key for m in self.shadow_casters])
 
     @property
-    def background(self) -> RGB:
-        """The world radiance seen where no solid is (with an opaque film)."""
+    def background(self) -> RGB | Environment:
+        """The world radiance seen where no solid is (with an opaque film): a constant, or the
+        environment by direction."""
+        if self.world is None and self.environment is not None:
+            return self.environment
         return tuple(float(c) for c in (self.ambient if self.world is None else self.world))
 
     @property

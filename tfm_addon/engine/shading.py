@@ -160,6 +160,7 @@ class _Evaluation:
         self.graph, self.grids, self.n, self.position = graph, grids, n, position
         self.memo: dict[int, dict] = {}
         self.uv: np.ndarray | None = None     # (n, 2) UV coordinates of surface points
+        self.footprint = 0.0        # radians a direction stands for (a world's: evaluate)
         self.current = -1           # the node being evaluated
 
     def reads(self, output: str) -> bool:
@@ -215,11 +216,14 @@ def convert(value, src: str, dst: str):
 
 
 def evaluate(graph: ShaderGraph, grids: Mapping[str, np.ndarray], n: int,
-             position: np.ndarray | None = None) -> VolumeFields:
+             position: np.ndarray | None = None, footprint: float = 0.0) -> VolumeFields:
     """The volume shader at ``n`` points: ``grids`` maps names to (n,) or (n, 3) values there
     (a grid the graph names but ``grids`` lacks reads 0, as in Cycles); ``position`` (n, 3) the
-    points in object space (for Texture Coordinate)."""
+    points in object space (for Texture Coordinate). ``footprint``: the angle (radians) each point
+    stands for, where the points are a world's directions: an Environment Texture is read from
+    its image averaged down to that size (0: the image itself)."""
     ev = _Evaluation(graph, grids, n, position)
+    ev.footprint = float(footprint)
     c = None
     if graph.output is not None:
         c = ev.outputs(graph.output.node).get(graph.output.output)
@@ -611,36 +615,111 @@ def _srgb_to_linear(c):
     return np.where(c <= 0.04045, c / 12.92, ((np.maximum(c, 0.04045) + 0.055) / 1.055) ** 2.4)
 
 
+def _sample_image(pixels: np.ndarray, srgb: bool, u: np.ndarray, v: np.ndarray, interpolation: str,
+                  extension: str) -> tuple[np.ndarray, np.ndarray]:
+    """An image (h, w, 4), bottom row first, read at texture coordinates (u, v) as Cycles reads it
+    (texel centres at (i + 0.5) / size; sRGB decoded after interpolation): (RGB (n, 3), alpha (n,)).
+    ``extension``: REPEAT, EXTEND or CLIP, or EQUIRECTANGULAR (u repeats, v extends)."""
+    h, w = pixels.shape[:2]
+    x, y = u * w - 0.5, v * h - 0.5
+
+    def wrap(i, n, repeat):
+        return np.mod(i, n) if repeat else np.clip(i, 0, n - 1)
+
+    def wrap_x(i):
+        return wrap(i, w, extension in ("REPEAT", "EQUIRECTANGULAR"))
+
+    def wrap_y(i):
+        return wrap(i, h, extension == "REPEAT")
+
+    flat = pixels.reshape(h * w, -1)
+    if interpolation == "Closest":
+        xi, yi = np.floor(x + 0.5).astype(np.int64), np.floor(y + 0.5).astype(np.int64)
+        rgba = flat.take(wrap_y(yi) * w + wrap_x(xi), axis=0)
+    else:
+        x0, y0 = np.floor(x), np.floor(y)
+        tx, ty = (x - x0).astype(F)[:, None], (y - y0).astype(F)[:, None]
+        x0, y0 = x0.astype(np.int64), y0.astype(np.int64)
+        xa, xb, ya, yb = wrap_x(x0), wrap_x(x0 + 1), wrap_y(y0) * w, wrap_y(y0 + 1) * w
+        rgba = ((flat.take(ya + xa, axis=0) * (1 - tx) + flat.take(ya + xb, axis=0) * tx) * (1 - ty)
+                + (flat.take(yb + xa, axis=0) * (1 - tx) + flat.take(yb + xb, axis=0) * tx) * ty)
+    if extension == "CLIP":
+        outside = (u < 0) | (u > 1) | (v < 0) | (v > 1)
+        rgba = np.where(outside[:, None], 0.0, rgba)
+    rgb = _srgb_to_linear(rgba[:, :3]) if srgb else rgba[:, :3]
+    return np.asarray(rgb, F), np.asarray(rgba[:, 3], F)
+
+
+MISSING = {"Color": np.array([1.0, 0.0, 1.0], F), "Alpha": np.ones((), F)}     # Cycles' missing image
+
+
 def _tex_image(node, ins, ev):
     entry = IMAGES.get(node.param("image", ""))
     v = ins.get("Vector")
     if v is None:        # unlinked: the active UV map
         v = _tex_coord(node, {}, ev).get("UV", np.zeros(3, F))
     if entry is None:
-        return {"Color": np.array([1.0, 0.0, 1.0], F), "Alpha": np.ones((), F)}   # Cycles' missing image
+        return MISSING
     pixels, srgb = entry
-    h, w = pixels.shape[:2]
     uv = np.broadcast_to(np.asarray(v, np.float64), (ev.n, 3))[:, :2]
-    x, y = uv[:, 0] * w - 0.5, uv[:, 1] * h - 0.5
-    extend = node.param("extension", "REPEAT")
+    rgb, alpha = _sample_image(pixels, srgb, uv[:, 0], uv[:, 1], node.param("interpolation", "Linear"),
+                               node.param("extension", "REPEAT"))
+    return {"Color": rgb, "Alpha": alpha}
 
-    def wrap(i, n):
-        return np.mod(i, n) if extend == "REPEAT" else np.clip(i, 0, n - 1)
 
-    if node.param("interpolation", "Linear") == "Closest":
-        xi, yi = np.floor(x + 0.5).astype(np.int64), np.floor(y + 0.5).astype(np.int64)
-        rgba = pixels[wrap(yi, h), wrap(xi, w)]
-    else:
-        x0, y0 = np.floor(x).astype(np.int64), np.floor(y).astype(np.int64)
-        tx, ty = (x - x0)[:, None], (y - y0)[:, None]
-        xa, xb, ya, yb = wrap(x0, w), wrap(x0 + 1, w), wrap(y0, h), wrap(y0 + 1, h)
-        rgba = ((pixels[ya, xa] * (1 - tx) + pixels[ya, xb] * tx) * (1 - ty)
-                + (pixels[yb, xa] * (1 - tx) + pixels[yb, xb] * tx) * ty)
-    if extend == "CLIP":
-        outside = (uv[:, 0] < 0) | (uv[:, 0] > 1) | (uv[:, 1] < 0) | (uv[:, 1] > 1)
-        rgba = np.where(outside[:, None], 0.0, rgba)
-    rgb = _srgb_to_linear(rgba[:, :3]) if srgb else rgba[:, :3]
-    return {"Color": np.asarray(rgb, F), "Alpha": np.asarray(rgba[:, 3], F)}
+_levels = caches.memo("shading.image_levels", 8)    # (image key, level) -> the image averaged down
+
+
+def image_level(key: str, level: int) -> np.ndarray | None:
+    """Registered image ``key`` averaged down by 2^level in each direction (boxes of its pixels;
+    a remainder row or column is dropped), or None when it is not registered."""
+    entry = IMAGES.get(key)
+    if entry is None:
+        return None
+    if level <= 0:
+        return entry[0]
+
+    def average():
+        pixels = entry[0]
+        f = 2 ** level
+        h, w = max(1, pixels.shape[0] // f), max(1, pixels.shape[1] // f)
+        fy, fx = min(f, pixels.shape[0]), min(f, pixels.shape[1])
+        out = pixels[:h * fy, :w * fx].reshape(h, fy, w, fx, -1).mean(axis=(1, 3), dtype=np.float64)
+        out = np.ascontiguousarray(out, np.float32)
+        out.setflags(write=False)
+        return out
+
+    return _levels.made((key, level), average)
+
+
+def equirectangular(d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Directions (n, 3) as an equirectangular image's texture coordinates, Cycles'
+    direction_to_equirectangular: u = 0.5 - atan2(y, x) / 2 pi, v = 1 - acos(z) / pi (v up)."""
+    d = np.asarray(d, np.float64)
+    length = np.maximum(np.linalg.norm(d, axis=-1), 1e-30)
+    u = 0.5 - np.arctan2(d[:, 1], d[:, 0]) / (2.0 * math.pi)
+    v = 1.0 - np.arccos(np.clip(d[:, 2] / length, -1.0, 1.0)) / math.pi
+    return u, v
+
+
+def _tex_environment(node, ins, ev):
+    """An Environment Texture (equirectangular) read in the directions of its Vector input (unlinked:
+    the world's direction, its Generated coordinates), from the image averaged down to the
+    evaluation's footprint (``evaluate``)."""
+    key = node.param("image", "")
+    entry = IMAGES.get(key)
+    if entry is None:
+        return MISSING
+    d = _texture_vector(ins, ev)
+    w = entry[0].shape[1]
+    level = 0
+    if ev.footprint > 0.0:
+        level = max(0, int(round(math.log2(max(ev.footprint * w / (2.0 * math.pi), 1.0)))))
+    pixels = image_level(key, level)
+    u, v = equirectangular(d)
+    rgb, alpha = _sample_image(pixels, entry[1], u, v, node.param("interpolation", "Linear"),
+                               "EQUIRECTANGULAR")
+    return {"Color": rgb, "Alpha": alpha}
 
 
 def _euler(r) -> np.ndarray:
@@ -819,6 +898,7 @@ NODES: dict[str, Callable] = {
     "TEX_COORD": _tex_coord, "MAPPING": _mapping, "TEX_NOISE": _tex_noise,
     "TEX_GRADIENT": _tex_gradient, "TEX_WHITE_NOISE": _tex_white_noise, "TEX_VORONOI": _tex_voronoi,
     "TEX_WAVE": _tex_wave, "TEX_CHECKER": _tex_checker, "TEX_IMAGE": _tex_image, "UV_MAP": _uv_map,
+    "TEX_ENVIRONMENT": _tex_environment,
     "PRINCIPLED_VOLUME": _principled, "VOLUME_SCATTER": _scatter, "VOLUME_ABSORPTION": _absorption,
     "VOLUME_COEFFICIENTS": _coefficients, "EMISSION": _emission, "BACKGROUND": _background,
     "ADD_SHADER": _add_shader,

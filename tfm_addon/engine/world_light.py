@@ -26,6 +26,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from . import environment
 from .scene import Light, Scene
 
 DEFAULT_DIRECTIONS = 16
@@ -65,23 +66,11 @@ def world_suns(radiance, n: int = DEFAULT_DIRECTIONS) -> tuple[Light, ...]:
                  for k, w in enumerate(directions(n)))
 
 
-def environment_directions(env: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(directions (h w, 3), solid angles (h w,)) of an equirectangular image's pixels (Scene's
-    convention)."""
-    h, w = env.shape[:2]
-    theta = math.pi * (np.arange(h) + 0.5) / h                 # from +Z, top row first
-    phi = math.pi - 2.0 * math.pi * (np.arange(w) + 0.5) / w
-    t, p = np.meshgrid(theta, phi, indexing="ij")
-    dirs = np.stack([np.sin(t) * np.cos(p), np.sin(t) * np.sin(p), np.cos(t)], axis=-1).reshape(-1, 3)
-    omega = (2.0 * math.pi / w) * (math.pi / h) * np.sin(t).reshape(-1)
-    return dirs, omega
-
-
 def environment_suns(env: np.ndarray, n: int = DEFAULT_DIRECTIONS) -> tuple[Light, ...]:
     """Suns standing in for an environment image: each direction of the lattice carries the
     irradiance of the pixels nearest to it, the sum of radiance times solid angle."""
     env = np.asarray(env, np.float64)
-    dirs, omega = environment_directions(env)
+    dirs, omega = environment.directions(env.shape[:2])
     centres = directions(n)
     nearest = np.argmax(dirs @ centres.T, axis=1)
     weight = env.reshape(-1, 3) * omega[:, None]
@@ -102,13 +91,6 @@ def environment_suns(env: np.ndarray, n: int = DEFAULT_DIRECTIONS) -> tuple[Ligh
     return tuple(Light(matrix_world=_sun_matrix(w), color=tuple(float(c) for c in power[k]), power_w=1.0,
                        kind="SUN", name=f"World {k + 1}/{n}", from_world=True, angle_rad=float(angle[k]))
                  for k, w in enumerate(toward) if np.any(power[k] > 0.0))
-
-
-def mean_radiance(env: np.ndarray) -> tuple[float, float, float]:
-    """An environment's radiance averaged over the sphere (what it is as a constant world)."""
-    _, omega = environment_directions(env)
-    rgb = (np.asarray(env, np.float64).reshape(-1, 3) * omega[:, None]).sum(axis=0) / (4.0 * math.pi)
-    return tuple(float(c) for c in rgb)
 
 
 def world_share(scene: Scene) -> float:
@@ -167,7 +149,9 @@ def with_world_light(scene: Scene, n: int = DEFAULT_DIRECTIONS) -> Scene:
     env = scene.environment
     suns = ()
     if scene.world_lights_medium or scene.world_lights_surfaces:
-        suns = world_suns(scene.ambient, n) if env is None else environment_suns(env, n)
+        suns = world_suns(scene.ambient, n) if env is None else environment_suns(env.image(), n)
         suns = tuple(replace(s, lights_medium=scene.world_lights_medium,
                              lights_surfaces=scene.world_lights_surfaces) for s in suns)
-    return replace(scene, lights=(*scene.lights, *suns), ambient=(0.0, 0.0, 0.0), world=scene.background)
+    seen = scene.background        # the world behind everything stays as it was
+    return replace(scene, lights=(*scene.lights, *suns), ambient=(0.0, 0.0, 0.0),
+                   world=seen if isinstance(seen, tuple) else None)

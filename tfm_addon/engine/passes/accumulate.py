@@ -44,7 +44,7 @@ class SampleSums:
         self.count += 1
         self.fbo.use()
 
-    def add(self, gl: GLContext, targets, film_transparent: bool, world, active=None) -> None:
+    def add(self, gl: GLContext, targets, backdrop, active=None) -> None:
         """Compose the sample in ``targets`` (scattering.ScatteringTargets, with the G-buffer
         bound) and add it (composite.frag with ACCUMULATE); ``active``: None, or (vertex buffer,
         count) of the rectangles of the pixels the sample shaded: only those are added."""
@@ -55,7 +55,7 @@ class SampleSums:
         if active is not None:
             defines["RECTS"] = 1
         self.fbo.use()
-        prog = targets.composite_program(gl, film_transparent, world, defines)
+        prog = targets.composite_program(gl, backdrop, defines)
         pass_state(gl.ctx, blend=True)
         if active is None:
             gl.draw_fullscreen(prog)

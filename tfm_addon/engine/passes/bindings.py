@@ -496,3 +496,28 @@ def gobo_texture(gl: GLContext, image: np.ndarray):
     tex.filter = (gl.ctx.LINEAR, gl.ctx.LINEAR)
     tex.repeat_x = tex.repeat_y = False
     return tex
+
+
+BACKGROUND_UNIT = 14    # the composite pass's background (its inputs take 11-13; it reads no other)
+
+
+class BackgroundTexture:
+    """The world seen behind everything where it varies with the direction, read by the composite
+    pass (shaders/background.glsl) in each pixel's direction: an equirectangular panorama
+    (environment.Environment.panorama), top row first, with its mipmaps."""
+
+    def __init__(self, gl: GLContext, image: np.ndarray):
+        h, w = image.shape[:2]
+        rows = np.ascontiguousarray(np.asarray(image, np.float32)[::-1, :, :3])     # v = 0: the bottom row
+        tex = gl.ctx.texture((w, h), 3, rows.tobytes(), dtype="f4")
+        tex.build_mipmaps()
+        tex.filter = (gl.ctx.LINEAR_MIPMAP_LINEAR, gl.ctx.LINEAR)
+        tex.repeat_x, tex.repeat_y = True, False
+        self.texture = tex
+
+    def bind(self, prog) -> None:
+        self.texture.use(BACKGROUND_UNIT)
+        prog["u_background"].value = BACKGROUND_UNIT
+
+    def release(self) -> None:
+        self.texture.release()

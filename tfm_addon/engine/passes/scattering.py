@@ -17,6 +17,7 @@ from .bindings import (
     MEDIUM_EVERYWHERE,
     MEDIUM_GRID,
     MEDIUM_NONE,
+    BackgroundTexture,
     MediaGPU,
     bind_light,
     bind_units,
@@ -86,25 +87,22 @@ class ScatteringTargets:
         if clear:
             self.fbo.clear(0, 0, 0, 0)
 
-    def compose(self, gl: GLContext, film_transparent: bool = True,
-                world=(0.0, 0.0, 0.0)) -> None:
-        """Write the combined image (blending off); ``world`` is the radiance seen behind
-        everything when the film is opaque."""
+    def compose(self, gl: GLContext, backdrop: Backdrop) -> None:
+        """Write the combined image (blending off), the world behind everything from ``backdrop``."""
         pass_state(gl.ctx)
         self.flipped = False
         self.combined_fbo.use()
-        gl.draw_fullscreen(self.composite_program(gl, film_transparent, world, {"TOP_ROW_FIRST": 1}))
+        gl.draw_fullscreen(self.composite_program(gl, backdrop, {"TOP_ROW_FIRST": 1}))
 
-    def composite_program(self, gl: GLContext, film_transparent: bool, world, defines=None):
+    def composite_program(self, gl: GLContext, backdrop: Backdrop, defines=None):
         """composite.frag with ``defines``, reading these targets (and the bound G-buffer)."""
-        prog = gl.program("fullscreen.vert", "composite.frag", defines)
+        prog = gl.program("fullscreen.vert", "composite.frag", {**(defines or {}), **backdrop.defines()})
         for unit, (name, tex) in enumerate(zip(("u_scatter", "u_surface", "u_transmittance"),
                                                self.textures, strict=True), start=11):
             tex.use(unit)
             prog[name].value = unit
         prog["u_gb1"].value = 1
-        set_uniforms(prog, u_film_transparent=int(bool(film_transparent)),
-                     u_world=tuple(float(c) for c in world))
+        backdrop.bind(prog)
         return prog
 
     def read_combined(self) -> np.ndarray:
@@ -132,6 +130,29 @@ class ScatteringTargets:
             t.release()
 
 
+@dataclasses.dataclass(frozen=True)
+class Backdrop:
+    """What a composed pixel shows behind the medium where no solid is seen: nothing (a
+    transparent film), a constant world (``world``, RGB) or the world by direction (``image``, a
+    BackgroundTexture, seen through the camera's view plane)."""
+
+    film_transparent: bool
+    world: tuple[float, float, float]
+    image: BackgroundTexture | None
+    camera: Camera
+    plane: ViewPlane
+
+    def defines(self) -> dict[str, int]:
+        return {"BACKGROUND_IMAGE": 1} if self.image is not None else {}
+
+    def bind(self, prog) -> None:
+        set_uniforms(prog, u_film_transparent=int(bool(self.film_transparent)),
+                     u_world=tuple(float(c) for c in self.world))
+        if self.image is not None:
+            camera_uniforms(prog, self.camera, self.plane)
+            self.image.bind(prog)
+
+
 def camera_uniforms(prog, camera: Camera, plane: ViewPlane) -> None:
     set_matrix(prog, "u_camera_to_world", camera_to_world(camera))
     set_uniforms(prog, u_plane0=(plane.x0, plane.y0), u_pixel_size=plane.pixel_size,
@@ -153,7 +174,7 @@ def run_light_pass(gl: GLContext, *, camera: Camera, plane: ViewPlane, medium: M
     (emission.AttributesGPU or None): the first medium's emission, added by the first pass, and
     colour grid. ``active``: None (every pixel), or (vertex buffer, count) of rectangles in window
     pixels: only the pixels they cover are shaded (adaptive sampling; the others keep the targets'
-    zeros). ``compose``: None, or (film_transparent, world) for a lone first pass that writes the
+    zeros). ``compose``: None, or the Backdrop of a lone first pass that writes the
     combined image too (the targets bound with ``begin(composing=True)``), or with ``sums``
     (accumulate.SampleSums, bound by ``begin_sample``) adds the sample into them instead.
     ``medium_shadow`` False: no solid shadows a point of the media from this face
@@ -255,9 +276,7 @@ def run_light_pass(gl: GLContext, *, camera: Camera, plane: ViewPlane, medium: M
     if defines.get("MS_GRID"):
         fluence.bind(prog, (octaves.surface, octaves.grid, octaves.emission))
     if compose is not None:
-        film_transparent, world = compose
-        set_uniforms(prog, u_film_transparent=int(bool(film_transparent)),
-                     u_world=tuple(float(c) for c in world))
+        compose.bind(prog)
     if active is None:
         gl.draw_fullscreen(prog)
     elif active[1]:

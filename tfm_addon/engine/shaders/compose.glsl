@@ -4,17 +4,24 @@
 // where no solid is seen, and alpha 1 (holdouts keep their alpha, as in Cycles). Read by
 // composite.frag, and by a lone light pass that composes its own image (scatter.frag COMPOSE).
 uniform int u_film_transparent;
-uniform vec3 u_world;             // radiance seen behind everything (opaque film)
+#ifndef BACKGROUND_GLSL
+// A constant world (the composite pass includes background.glsl first where the world seen varies
+// with the direction).
+uniform vec3 u_world;             // the world's radiance seen behind everything (opaque film)
+vec3 background(vec2 frag) {
+    return u_world;
+}
+#endif
 
-// scatter, the solids' radiance before the medium (surface), the view transmittance t, and the
-// G-buffer's hit flag (2 holdout, else odd: a solid).
-vec4 combined_pixel(vec3 scatter, vec3 surface, vec3 t, float hit_flag) {
+// scatter, the solids' radiance before the medium (surface), the view transmittance t, the
+// G-buffer's hit flag (2 holdout, else odd: a solid) and the window point (pixels).
+vec4 combined_pixel(vec3 scatter, vec3 surface, vec3 t, float hit_flag, vec2 frag) {
     vec3 rgb = scatter + t * surface;
     bool holdout = abs(hit_flag - 2.0) < 0.5;
     bool hit = hit_flag > 0.5 && !holdout;
     float alpha = hit ? 1.0 : 1.0 - (t.r + t.g + t.b) / 3.0;
     if (u_film_transparent == 0 && !holdout) {
-        if (!hit) rgb += t * u_world;
+        if (!hit) rgb += t * background(frag);
         alpha = 1.0;
     }
     return vec4(rgb, alpha);
@@ -32,8 +39,8 @@ layout(location = 2) out vec4 o_scatter;
 layout(location = 3) out vec4 o_surface;
 layout(location = 4) out vec4 o_transmittance;
 #endif
-void add_to_sums(vec3 scatter, vec3 surface, vec3 t, float hit_flag) {
-    o_combined = combined_pixel(scatter, surface, t, hit_flag);
+void add_to_sums(vec3 scatter, vec3 surface, vec3 t, float hit_flag, vec2 frag) {
+    o_combined = combined_pixel(scatter, surface, t, hit_flag, frag);
     o_square = o_combined * o_combined;
 #if PASSES
     o_scatter = vec4(scatter, 0.0);

@@ -5,6 +5,9 @@
 #ifdef ACCUMULATE
 #define SAMPLE_SUMS 1
 #endif
+#if BACKGROUND_IMAGE
+#include "background.glsl"
+#endif
 #include "compose.glsl"
 uniform sampler2D u_gb1;          // normal, hit (2 holdout, else odd: a solid)
 uniform sampler2D u_scatter;
@@ -23,8 +26,8 @@ void main() {
     vec3 scatter = texelFetch(u_scatter, px, 0).rgb;
     vec3 surface = texelFetch(u_surface, px, 0).rgb;
 #ifdef ACCUMULATE
-    add_to_sums(scatter, surface, t, texelFetch(u_gb1, px, 0).w);
+    add_to_sums(scatter, surface, t, texelFetch(u_gb1, px, 0).w, vec2(px) + 0.5);
 #else
-    o_combined = combined_pixel(scatter, surface, t, texelFetch(u_gb1, px, 0).w);
+    o_combined = combined_pixel(scatter, surface, t, texelFetch(u_gb1, px, 0).w, vec2(px) + 0.5);
 #endif
 }

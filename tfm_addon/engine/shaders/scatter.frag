@@ -11,13 +11,10 @@
 #include "fire_light.glsl"
 #include "surface.glsl"
 #include "octaves.glsl"
+#include "view.glsl"
 
 uniform sampler2D u_gb0;       // base colour, distance
 uniform sampler2D u_gb1;       // normal, roughness and metallic, hit flag (gbuffer_pack.glsl)
-uniform mat4 u_camera_to_world;
-uniform vec2 u_plane0;         // camera-space x, y of the window's lower-left corner (unit depth)
-uniform float u_pixel_size;    // at unit depth (perspective) or in metres (orthographic)
-uniform int u_ortho;
 uniform vec2 u_clip;           // clip start, end: depths along the view axis, metres
 uniform vec3 u_sigma_s;        // 1/m per unit density
 uniform float u_g;
@@ -412,7 +409,7 @@ void main() {
 #endif
 
 #if SUMS
-    add_to_sums(scatter, surface, transmittance, g1.w);
+    add_to_sums(scatter, surface, transmittance, g1.w, gl_FragCoord.xy);
 #else
 #if FIRST_PASS
     o_transmittance = vec4(transmittance, 1.0);
@@ -422,7 +419,7 @@ void main() {
     o_scatter = vec4(scatter, 0.0);
     o_surface = vec4(surface, 0.0);
 #if COMPOSE
-    o_combined = combined_pixel(scatter, surface, transmittance, g1.w);
+    o_combined = combined_pixel(scatter, surface, transmittance, g1.w, gl_FragCoord.xy);
 #endif
 #endif
 }

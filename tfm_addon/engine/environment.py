@@ -1,0 +1,133 @@
+"""The world's radiance by direction: one node graph, read for the light and for the background.
+
+A world whose Background colour varies with the direction (an Environment Texture, aimed or not by
+a Mapping node; a Sky Texture baked by Cycles; a gradient made of nodes) is a ``shading.ShaderGraph``
+whose output is the Background's radiance, evaluated with the direction as its Generated and
+Object coordinates, as Cycles evaluates a world shader. Two images are read from it:
+
+- ``image``: LIGHT_SIZE pixels over the sphere, each the radiance averaged over its part of it (an
+  Environment Texture is read from its image averaged down to that size). The world's light
+  (engine/world_light.py) is made from it.
+- ``panorama``: the background behind everything, as wide as the camera's pixels need
+  (``panorama_width``), read by the compose shader (shaders/compose.glsl) in each pixel's direction
+  at the level of detail of the pixel's size.
+
+The same graph, through the same mapping, gives both: what lights the scene is what the camera sees.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from functools import cached_property
+
+import numpy as np
+
+from . import caches, shading
+from .scene import Camera, _digest
+
+LIGHT_SIZE = (64, 128)          # (rows, columns) of the image the world's light is made from
+PANORAMA_WIDTHS = (256, 2048)   # the narrowest and widest background panorama
+
+
+def directions(size: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
+    """(directions (h w, 3), solid angles (h w,)) of the pixel centres of an equirectangular image
+    of ``size`` = (rows, columns), top row first (Cycles' mapping: shading.equirectangular)."""
+    h, w = size
+    theta = math.pi * (np.arange(h) + 0.5) / h                 # from +Z, top row first
+    phi = math.pi - 2.0 * math.pi * (np.arange(w) + 0.5) / w
+    t, p = np.meshgrid(theta, phi, indexing="ij")
+    dirs = np.stack([np.sin(t) * np.cos(p), np.sin(t) * np.sin(p), np.cos(t)], axis=-1).reshape(-1, 3)
+    omega = (2.0 * math.pi / w) * (math.pi / h) * np.sin(t).reshape(-1)
+    return dirs, omega
+
+
+_images = caches.memo("environment.images", 8)      # (graph key, size) -> radiance image
+
+
+@dataclass(frozen=True, eq=False)
+class Environment:
+    """The world's radiance by direction: ``graph``, a world's Surface graph (its output a
+    Background, read as an emission), with ``texspace`` making its Generated coordinates the
+    direction."""
+
+    graph: shading.ShaderGraph
+
+    @cached_property
+    def key(self) -> str:
+        return _digest("environment", self.graph.key)
+
+    def radiance(self, dirs: np.ndarray, footprint: float = 0.0) -> np.ndarray:
+        """(n, 3) float32 radiance (W/(sr m^2)) toward unit directions ``dirs`` (n, 3), each standing
+        for ``footprint`` radians (shading.evaluate)."""
+        n = len(dirs)
+        fields = shading.evaluate(self.graph, {}, n, np.asarray(dirs, np.float64), footprint=footprint)
+        return np.ascontiguousarray(np.maximum(np.broadcast_to(fields.emission, (n, 3)), 0.0), np.float32)
+
+    def _equirectangular(self, size: tuple[int, int]) -> np.ndarray:
+        def make():
+            dirs, _ = directions(size)
+            out = self.radiance(dirs, footprint=2.0 * math.pi / size[1]).reshape(*size, 3)
+            out.setflags(write=False)
+            return out
+
+        return _images.made((self.key, size), make)
+
+    def image(self) -> np.ndarray:
+        """The (h, w, 3) image of LIGHT_SIZE the world's light is made from, top row first (kept)."""
+        return self._equirectangular(LIGHT_SIZE)
+
+    def panorama(self, width: int) -> np.ndarray:
+        """The (width / 2, width, 3) background panorama, top row first (kept)."""
+        return self._equirectangular((max(1, width // 2), width))
+
+    @cached_property
+    def mean(self) -> tuple[float, float, float]:
+        """The radiance averaged over the sphere (what the world is as a constant)."""
+        return mean_radiance(self.image())
+
+
+def mean_radiance(env: np.ndarray) -> tuple[float, float, float]:
+    """An equirectangular image's radiance averaged over the sphere."""
+    _, omega = directions(env.shape[:2])
+    rgb = (np.asarray(env, np.float64).reshape(-1, 3) * omega[:, None]).sum(axis=0) / (4.0 * math.pi)
+    return tuple(float(c) for c in rgb)
+
+
+def from_image(pixels: np.ndarray, strength: float = 1.0, interpolation: str = "Linear") -> Environment:
+    """The environment of an equirectangular image (h, w, 3 or 4), top row first (Cycles' mapping),
+    times ``strength``: an Environment Texture feeding a Background, its image registered by its
+    content."""
+    px = np.asarray(pixels, np.float32)
+    if px.shape[-1] == 3:
+        px = np.concatenate([px, np.ones(px.shape[:2] + (1,), np.float32)], axis=-1)
+    px = np.ascontiguousarray(px[::-1])              # the registry's images are bottom row first
+    key = _digest("environment image", px)
+    if key not in shading.IMAGES:
+        px.setflags(write=False)
+        shading.register_image(key, px, False)
+    return with_texture(key, strength, interpolation)
+
+
+def with_texture(key: str, strength: float = 1.0, interpolation: str = "Linear") -> Environment:
+    """A Background of ``strength`` whose colour is an Environment Texture of registered image ``key``."""
+    from .shading import Input, Link, Node, ShaderGraph
+
+    texture = Node("TEX_ENVIRONMENT", (("image", key), ("interpolation", interpolation)), (), "Environment")
+    background = Node("BACKGROUND", (), (Input("Color", "RGBA", Link(0, "Color", "RGBA")),
+                                          Input("Strength", "VALUE", float(strength))), "Background")
+    return Environment(ShaderGraph((texture, background), Link(1, "Background", "SHADER"),
+                                   texspace=((0.5, 0.5, 0.5), (0.5, 0.5, 0.5))))
+
+
+def panorama_width(camera: Camera) -> int:
+    """How wide the background panorama is drawn from: a texel no wider than the camera's pixels
+    (a power of two within PANORAMA_WIDTHS; an orthographic camera sees one direction)."""
+    from .camera import view_plane
+
+    plane = view_plane(camera)
+    if plane.ortho:
+        return PANORAMA_WIDTHS[0]
+    texels = 2.0 * math.pi / max(plane.pixel_size, 1e-9)
+    width = 2 ** math.ceil(math.log2(max(texels, 1.0)))
+    return int(min(max(width, PANORAMA_WIDTHS[0]), PANORAMA_WIDTHS[1]))
