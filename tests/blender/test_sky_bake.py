@@ -30,7 +30,7 @@ def test_the_bake_places_each_direction_as_the_engine_reads_it(sky):
     w, bg, _ = sky
     coords = w.node_tree.nodes.new('ShaderNodeTexCoord')
     w.node_tree.links.new(coords.outputs["Generated"], bg.inputs["Color"])
-    image = sky_bake.bake(w)
+    image, _ = sky_bake.bake(w)
     dirs, _ = directions(image.shape[:2])
     assert image.shape == (*sky_bake.BAKE_SIZE, 3)
     assert np.abs(image - dirs.reshape(image.shape)).max() < 0.03
@@ -47,7 +47,7 @@ class _Bakes:
         tmp.cleanup()
         self.count += 1
         self.release.wait(5.0)
-        return np.full((*sky_bake.BAKE_SIZE, 3), 0.5, np.float32)
+        return np.full((*sky_bake.BAKE_SIZE, 3), 0.5, np.float32), ()
 
 
 def test_a_bake_is_kept_by_the_world_and_the_viewport_does_not_wait(sky, monkeypatch):

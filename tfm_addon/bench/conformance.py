@@ -1414,6 +1414,19 @@ def _(tmpdir):
     ROW_BY_ID["world_sky"].build(tmpdir)
 
 
+@row("world_sky_sun_seen", "World ▸ Sky Texture (Multiple Scattering, Blender's default) seen behind the "
+     "smoke (Film ▸ Transparent off), a Sun lamp (3 W/m²) along the sky's sun", coloured=True,
+     background=True,
+     control=at_default("Background", "Color", doc="World Background Color at the default (a new "
+                        "Background node's grey 0.8): the Sky Texture taken out"))
+def _(tmpdir):
+    ROW_BY_ID["world_sky"].build(tmpdir)
+    sky = node_of("Sky Texture")
+    e, r = sky.sun_elevation, sky.sun_rotation
+    toward = np.array([-math.cos(e) * math.sin(r), math.cos(e) * math.cos(r), math.sin(e)])
+    light('SUN', tuple(10.0 * toward), energy=3.0)
+
+
 @row("world_gradient_seen", "World ▸ Background Color from nodes (world_gradient's gradient) seen behind the "
      "smoke (Film ▸ Transparent off) and lighting it", coloured=True, background=True,
      control=at_default("Mix", "Factor_Float", doc="The Mix's Factor at the default (0.5, unlinked): the "

@@ -16,6 +16,7 @@ _lock = threading.Lock()
 _threads: set[threading.Thread] = set()
 _processes: set = set()
 _timers: set = set()
+_ending = False         # ``end`` is running: a child process started meanwhile is killed at once
 
 
 def start(thread: threading.Thread) -> threading.Thread:
@@ -27,9 +28,12 @@ def start(thread: threading.Thread) -> threading.Thread:
 
 
 def child(process):
-    """Count ``process`` (a subprocess.Popen) as the add-on's until ``finished(process)``."""
+    """Count ``process`` (a subprocess.Popen) as the add-on's until ``finished(process)`` (killed
+    at once while ``end`` runs: its thread was started before and is being joined)."""
     with _lock:
         _processes.add(process)
+        if _ending:
+            process.kill()
     return process
 
 
@@ -60,7 +64,9 @@ def end() -> None:
     """Unregister the timers, kill the child processes, join the threads (JOIN_TIMEOUT_S each)."""
     import bpy
 
+    global _ending
     with _lock:
+        _ending = True
         timers, processes, threads = list(_timers), list(_processes), list(_threads)
         _timers.clear()
         _processes.clear()
@@ -75,6 +81,8 @@ def end() -> None:
             thread.join(JOIN_TIMEOUT_S)
     with _lock:
         _threads.difference_update(t for t in threads if not t.is_alive())
+        _processes.difference_update(p for p in list(_processes) if p.poll() is not None)
+        _ending = False
 
 
 caches.REGISTRY.on_clear(end)

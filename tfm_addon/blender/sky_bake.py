@@ -6,7 +6,6 @@ redraw, a camera move or a click never bakes again."""
 from __future__ import annotations
 
 import json
-import math
 import os
 import subprocess
 import sys
@@ -16,6 +15,7 @@ import threading
 import numpy as np
 
 from ..engine import caches
+from ..engine.environment import Environment, from_image
 from . import background
 
 BAKE_SIZE = (256, 512)      # (rows, columns) of the baked equirectangular image (the background)
@@ -119,9 +119,10 @@ def _command(script: str, args: list[str]) -> list[str]:
 
 
 def bake(world, size: tuple[int, int] = BAKE_SIZE, samples: int = BAKE_SAMPLES,
-         timeout: float = BAKE_TIMEOUT) -> np.ndarray:
+         timeout: float = BAKE_TIMEOUT) -> tuple[np.ndarray, tuple]:
     """The world's Background radiance by direction, rendered by Cycles: an (h, w, 3) float32
-    image, top row first, its centre column the +X direction. Raises BakeFailed."""
+    image, top row first, its centre column the +X direction, without its sun discs; and the discs
+    (``_discs``). Raises BakeFailed."""
     return _run(*_prepare(world, size, samples), timeout)
 
 
@@ -138,7 +139,7 @@ def _prepare(world, size, samples) -> tuple[tempfile.TemporaryDirectory, list[st
     return tmp, _command(CHILD, [blend, world.name, exr, str(w), str(h), str(samples)]), exr
 
 
-def _run(tmp, cmd: list[str], exr: str, timeout: float) -> np.ndarray:
+def _run(tmp, cmd: list[str], exr: str, timeout: float) -> tuple[np.ndarray, tuple]:
     """Run a prepared bake (touches no Blender data: any thread)."""
     with tmp:
         try:
@@ -158,7 +159,9 @@ def _run(tmp, cmd: list[str], exr: str, timeout: float) -> np.ndarray:
         if process.returncode != 0 or not os.path.exists(exr + ".npy"):
             tail = (stderr or stdout or "").strip().splitlines()[-1:] or ["no output"]
             raise BakeFailed(f"Cycles failed ({tail[0]})")
-        return _with_suns(np.load(exr + ".npy").astype(np.float32), stdout)
+        image = np.load(exr + ".npy").astype(np.float32)
+        image.setflags(write=False)
+        return image, _discs(stdout)
 
 
 def sky_node(world):
@@ -197,14 +200,15 @@ def content_key(world) -> tuple:
     return nodes, links
 
 
-_baked = caches.memo("sky_bake.bakes", 8)      # content key -> (image or None, report line)
-_latest = caches.memo("sky_bake.latest", 16)    # world name -> its last bake's (image or None, report line)
+_baked = caches.memo("sky_bake.bakes", 8)      # content key -> (Environment or None, report line)
+_latest = caches.memo("sky_bake.latest", 16)    # world name -> its last bake's (Environment or None, line)
 _running: dict = {}     # content key -> the thread baking it (ended with the memos: background.end)
 caches.REGISTRY.on_clear(_running.clear)
 
 
-def sky_environment(world, wait: bool) -> tuple[np.ndarray | None, str]:
-    """The world baked by Cycles (kept by its content), and its report line. With ``wait`` False
+def sky_environment(world, wait: bool) -> tuple[Environment | None, str]:
+    """The world baked by Cycles (kept by its content) as an environment with its sun discs, and
+    its report line. With ``wait`` False
     (the viewport) a bake not done yet runs in the background, one at a time (a dragged slider
     bakes its last value, not each one), and the world's previous bake, or None, comes back
     meanwhile with a line saying so; the world is tagged for an update when a bake is done."""
@@ -224,7 +228,8 @@ def sky_environment(world, wait: bool) -> tuple[np.ndarray | None, str]:
 
         def work():
             try:
-                env = _run(*job, BAKE_TIMEOUT)
+                image, discs = _run(*job, BAKE_TIMEOUT)
+                env = from_image(image, discs=discs)
                 h, w = BAKE_SIZE
                 result = env, f"{label}: its Sky Texture is baked with Cycles ({w}x{h}, {BAKE_SAMPLES} " \
                               f"samples)"
@@ -268,28 +273,11 @@ def _tag_when_done(thread: threading.Thread, name: str) -> None:
     background.timer(poll, first_interval=0.25)
 
 
-def _with_suns(env: np.ndarray, stdout: str) -> np.ndarray:
-    """The image with each sun disc's light (radiance times solid angle, baked apart) shared
-    bilinearly among the four pixels around its direction (their light-weighted mean direction is
-    the sun's; the nearest pixel alone would tilt it by up to half a pixel)."""
-    from ..engine.environment import directions
-
+def _discs(stdout: str) -> tuple:
+    """Each sun disc baked apart: (direction toward it, the irradiance it sends, RGB)
+    (environment.Environment.discs)."""
     line = next((x for x in stdout.splitlines() if x.startswith("TFM_SUNS ")), None)
     if line is None:
         raise BakeFailed("Cycles gave no sun")
-    env = np.array(env, np.float32)
-    h, w = env.shape[:2]
-    _, omega = directions(env.shape[:2])
-    omega = omega.reshape(h, w)
-    for sun in json.loads(line[len("TFM_SUNS "):]):
-        x, y, z = sun["direction"]
-        row = math.acos(max(-1.0, min(1.0, z))) / math.pi * h - 0.5     # Scene's convention
-        col = (math.pi - math.atan2(y, x)) / (2.0 * math.pi) * w - 0.5
-        r0, c0 = math.floor(row), math.floor(col)
-        light = np.maximum(np.asarray(sun["light"], np.float32), 0.0)
-        for dr, fr in ((0, 1.0 - (row - r0)), (1, row - r0)):
-            for dc, fc in ((0, 1.0 - (col - c0)), (1, col - c0)):
-                r, c = min(max(r0 + dr, 0), h - 1), (c0 + dc) % w
-                env[r, c] += light * (fr * fc) / omega[r, c]
-    env.setflags(write=False)
-    return env
+    return tuple((tuple(float(v) for v in sun["direction"]), tuple(max(float(v), 0.0) for v in sun["light"]))
+                 for sun in json.loads(line[len("TFM_SUNS "):]))

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..engine import shading
-from ..engine.environment import Environment, from_image
+from ..engine.environment import Environment
 from ..engine.scene import GridValue, Medium
 from .sky_bake import sky_environment, sky_node
 
@@ -51,8 +51,7 @@ def environment(world, wait: bool = True) -> tuple[Environment | None, str | Non
     Texture baked by Cycles (sky_bake.py; ``wait`` False: in the background); and a note naming
     what is read only in part."""
     if sky_node(world) is not None:
-        image, note = sky_environment(world, wait)
-        return (None if image is None else from_image(image)), note
+        return sky_environment(world, wait)
     graph, note = _radiance(world)
     if graph is None or not graph.reads_position:
         return None, note

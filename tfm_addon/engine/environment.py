@@ -13,6 +13,10 @@ Object coordinates, as Cycles evaluates a world shader. Two images are read from
   at the level of detail of the pixel's size.
 
 The same graph, through the same mapping, gives both: what lights the scene is what the camera sees.
+A sun disc (a Sky Texture's) is far smaller than a pixel of either: it is kept apart (``discs``: its
+direction and the irradiance it sends) and its light shared among the four pixels around its
+direction at each image's own resolution, so that their light-weighted mean direction is the
+sun's.
 """
 
 from __future__ import annotations
@@ -45,29 +49,39 @@ def directions(size: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
 _images = caches.memo("environment.images", 8)      # (graph key, size) -> radiance image
 
 
+Disc = tuple[tuple[float, float, float], tuple[float, float, float]]   # (unit direction, W/m^2 RGB)
+
+
 @dataclass(frozen=True, eq=False)
 class Environment:
     """The world's radiance by direction: ``graph``, a world's Surface graph (its output a
     Background, read as an emission), with ``texspace`` making its Generated coordinates the
-    direction."""
+    direction; and ``discs``, sun discs too small for a pixel: (direction toward the sun, the
+    irradiance it sends, RGB)."""
 
     graph: shading.ShaderGraph
+    discs: tuple[Disc, ...] = ()
+    images: tuple = ()      # (key, pixels) of images it brings (from_image): registered when read
 
     @cached_property
     def key(self) -> str:
-        return _digest("environment", self.graph.key)
+        return _digest("environment", self.graph.key, repr(self.discs))
 
     def radiance(self, dirs: np.ndarray, footprint: float = 0.0) -> np.ndarray:
         """(n, 3) float32 radiance (W/(sr m^2)) toward unit directions ``dirs`` (n, 3), each standing
         for ``footprint`` radians (shading.evaluate)."""
         n = len(dirs)
+        for key, pixels in self.images:         # kept registered while the environment lives
+            if key not in shading.IMAGES:
+                shading.register_image(key, pixels, False)
         fields = shading.evaluate(self.graph, {}, n, np.asarray(dirs, np.float64), footprint=footprint)
         return np.ascontiguousarray(np.maximum(np.broadcast_to(fields.emission, (n, 3)), 0.0), np.float32)
 
     def _equirectangular(self, size: tuple[int, int]) -> np.ndarray:
         def make():
             dirs, _ = directions(size)
-            out = self.radiance(dirs, footprint=2.0 * math.pi / size[1]).reshape(*size, 3)
+            out = with_discs(self.radiance(dirs, footprint=2.0 * math.pi / size[1]).reshape(*size, 3),
+                             self.discs)
             out.setflags(write=False)
             return out
 
@@ -87,6 +101,27 @@ class Environment:
         return mean_radiance(self.image())
 
 
+def with_discs(env: np.ndarray, discs: tuple[Disc, ...]) -> np.ndarray:
+    """The equirectangular image ``env`` (top row first) with each disc's light shared bilinearly
+    among the four pixels around its direction (their light-weighted mean direction is the
+    disc's; the nearest pixel alone would tilt it by up to half a pixel)."""
+    if not discs:
+        return env
+    env = np.array(env, np.float32)
+    h, w = env.shape[:2]
+    omega = directions((h, w))[1].reshape(h, w)
+    for (x, y, z), light in discs:
+        row = math.acos(max(-1.0, min(1.0, z))) / math.pi * h - 0.5
+        col = (math.pi - math.atan2(y, x)) / (2.0 * math.pi) * w - 0.5
+        r0, c0 = math.floor(row), math.floor(col)
+        light = np.maximum(np.asarray(light, np.float32), 0.0)
+        for dr, fr in ((0, 1.0 - (row - r0)), (1, row - r0)):
+            for dc, fc in ((0, 1.0 - (col - c0)), (1, col - c0)):
+                r, c = min(max(r0 + dr, 0), h - 1), (c0 + dc) % w
+                env[r, c] += light * (fr * fc) / omega[r, c]
+    return env
+
+
 def mean_radiance(env: np.ndarray) -> tuple[float, float, float]:
     """An equirectangular image's radiance averaged over the sphere."""
     _, omega = directions(env.shape[:2])
@@ -94,22 +129,23 @@ def mean_radiance(env: np.ndarray) -> tuple[float, float, float]:
     return tuple(float(c) for c in rgb)
 
 
-def from_image(pixels: np.ndarray, strength: float = 1.0, interpolation: str = "Linear") -> Environment:
+def from_image(pixels: np.ndarray, strength: float = 1.0, interpolation: str = "Linear",
+               discs: tuple[Disc, ...] = ()) -> Environment:
     """The environment of an equirectangular image (h, w, 3 or 4), top row first (Cycles' mapping),
     times ``strength``: an Environment Texture feeding a Background, its image registered by its
-    content."""
+    content; ``discs`` beside it."""
     px = np.asarray(pixels, np.float32)
     if px.shape[-1] == 3:
         px = np.concatenate([px, np.ones(px.shape[:2] + (1,), np.float32)], axis=-1)
     px = np.ascontiguousarray(px[::-1])              # the registry's images are bottom row first
     key = _digest("environment image", px)
-    if key not in shading.IMAGES:
-        px.setflags(write=False)
-        shading.register_image(key, px, False)
-    return with_texture(key, strength, interpolation)
+    px.setflags(write=False)
+    env = with_texture(key, strength, interpolation, discs)
+    return Environment(env.graph, env.discs, ((key, px),))
 
 
-def with_texture(key: str, strength: float = 1.0, interpolation: str = "Linear") -> Environment:
+def with_texture(key: str, strength: float = 1.0, interpolation: str = "Linear",
+                 discs: tuple[Disc, ...] = ()) -> Environment:
     """A Background of ``strength`` whose colour is an Environment Texture of registered image ``key``."""
     from .shading import Input, Link, Node, ShaderGraph
 
@@ -117,7 +153,7 @@ def with_texture(key: str, strength: float = 1.0, interpolation: str = "Linear")
     background = Node("BACKGROUND", (), (Input("Color", "RGBA", Link(0, "Color", "RGBA")),
                                           Input("Strength", "VALUE", float(strength))), "Background")
     return Environment(ShaderGraph((texture, background), Link(1, "Background", "SHADER"),
-                                   texspace=((0.5, 0.5, 0.5), (0.5, 0.5, 0.5))))
+                                   texspace=((0.5, 0.5, 0.5), (0.5, 0.5, 0.5))), tuple(discs))
 
 
 def panorama_width(camera: Camera) -> int:
