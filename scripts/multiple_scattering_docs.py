@@ -49,9 +49,7 @@ def table(tmp: str, records: list | None = None) -> list[str]:
              "multiple scattering: SSIM | brightness |", "|---|---|---|---|---|---|---|"]
     for medium in (*bn.FIT, *bn.HELD_OUT):
         single = bn.render_tfm(medium, 0, os.path.join(tmp, medium)).image[..., :3]
-        for n in bn.BOUNCES:
-            if not bn.reference_path(medium, n).exists():
-                continue
+        for n in bn.stored_counts(medium):
             cycles = bn.load_reference(medium, n)[0]
             multi = bn.render_tfm(medium, n, os.path.join(tmp, medium)).image[..., :3]
             s = (metrics.ssim(single, cycles), metrics.brightness_ratio(single, cycles))

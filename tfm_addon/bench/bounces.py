@@ -25,7 +25,6 @@ import numpy as np
 from . import conformance as cf
 
 REF_DIR = Path(__file__).resolve().parents[2] / "tests" / "data" / "bounces"
-BOUNCES = (1, 2, 4, 16, 128)
 
 
 def _puff(tmpdir: str, *, density: float, color: float, light: str = 'POINT', anisotropy: float = 0.0,
@@ -209,6 +208,12 @@ def render_cycles(medium: str, bounces: int, tmpdir: str, samples: int,
 
 def reference_path(medium: str, bounces: int, directory: Path = REF_DIR) -> Path:
     return directory / f"{medium}_{bounces}.npz"
+
+
+def stored_counts(medium: str, directory: Path = REF_DIR) -> tuple[int, ...]:
+    """The bounce counts above 0 with a stored reference of ``medium``, in order."""
+    counts = {p.stem[len(medium) + 1:] for p in directory.glob(f"{medium}_*.npz")}
+    return tuple(sorted(int(c) for c in counts if c.isdigit() and int(c) > 0))
 
 
 def load_reference(medium: str, bounces: int, directory: Path = REF_DIR) -> tuple[np.ndarray, dict]:

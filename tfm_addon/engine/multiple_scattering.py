@@ -31,7 +31,8 @@ fields' weights out, fitted against Cycles (scripts/fit_octaves.py, docs/multipl
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import math
+from dataclasses import dataclass, fields, replace
 
 
 @dataclass(frozen=True)
@@ -62,7 +63,9 @@ class Octaves:
 SINGLE = Octaves()
 
 # Fitted against Cycles (scripts/fit_octaves.py on bench/bounces.FIT; docs/multiple_scattering.md):
-# bounce count -> octaves; a count between two rows takes the lower row. The surfaces' light is
+# bounce count -> octaves; a count between two rows is interpolated in the logarithm of the count
+# (``octaves``), so that the image changes smoothly with the count, and a count above the last row
+# takes the last row. The surfaces' light is
 # taken whole from one bounce on; the diffused light carries the light that scatters many times in
 # thick media, a little from 4 bounces on, most from 16, more at 128 (only its weight may grow from
 # the 16-bounce row: more bounces never give less light), as Cycles' thick media are brighter at
@@ -77,10 +80,21 @@ FITTED: dict[int, Octaves] = {
 
 
 def octaves(bounces: int) -> Octaves:
-    """The octaves that approximate ``bounces`` volume bounces (0: single scattering)."""
+    """The octaves that approximate ``bounces`` volume bounces (0: single scattering): the fitted
+    row of that count, or between two rows each weight interpolated linearly in log2 of the count
+    (every weight is then continuous in the count: 15 and 16 bounces differ as little as 16 and
+    17)."""
     if bounces <= 0:
         return SINGLE
-    return FITTED[max(n for n in FITTED if n <= bounces)]
+    counts = sorted(FITTED)
+    if bounces >= counts[-1]:
+        return FITTED[counts[-1]]
+    lo = max(n for n in counts if n <= bounces)
+    hi = min(n for n in counts if n > bounces)
+    t = (math.log2(bounces) - math.log2(lo)) / (math.log2(hi) - math.log2(lo))
+    a, b = FITTED[lo], FITTED[hi]
+    return replace(a, **{f.name: (1.0 - t) * getattr(a, f.name) + t * getattr(b, f.name)
+                         for f in fields(Octaves) if f.name != "count"})
 
 
 def for_settings(settings) -> Octaves:
