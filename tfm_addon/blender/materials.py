@@ -1,5 +1,5 @@
-"""Node materials: which shaders a material's output has, and its volume read as the renderer's
-numbers.
+"""Node materials: which shaders a material's output has, its volume read as the renderer's
+numbers, and whether camera rays see its surface.
 
 A volume material is read once, by the one node-graph reader (``node_graph.compile_volume``), into
 a ``shading.ShaderGraph``; ``read_volume_material`` folds it into constants and one grid
@@ -14,35 +14,11 @@ from collections.abc import Collection
 from ..engine.affine import AffineMedium, NotAffine, fold
 
 
-class Unreadable(Exception):
-    """A node set-up the engine cannot turn into numbers; the message says which node."""
-
-
 def output_node(material):
     """The material's active output node for Cycles (what Cycles would render), or None."""
     if material is None or material.node_tree is None:
         return None
     return material.node_tree.get_output_node('CYCLES')
-
-
-def _linked(socket):
-    """(node, its output socket) feeding ``socket`` through reroutes, or (None, None)."""
-    while socket.is_linked:
-        link = socket.links[0]
-        if link.is_muted:
-            return None, None
-        node = link.from_node
-        if node.bl_idname == 'NodeReroute':
-            socket = node.inputs[0]
-            continue
-        if node.mute:
-            raise Unreadable(f"node '{node.name}' is muted")
-        return node, link.from_socket
-    return None, None
-
-
-def _linked_node(socket):
-    return _linked(socket)[0]
 
 
 def volume_graph(material):
@@ -91,38 +67,25 @@ def has_surface_and_volume(material) -> bool:
 
 
 def hidden_from_camera(material) -> bool:
-    """Whether the surface is transparent to camera rays by a Light Path node: a Principled BSDF
-    whose Alpha is 0 when "Is Camera Ray" is 1 (Blender's preview floor, seen only in
+    """Whether the surface is transparent to camera rays: a Principled BSDF whose Alpha is 0 on a
+    camera ray (Blender's preview floor, a Light Path's "Is Camera Ray" driving it, seen only in
     reflections). Such a mesh is left out of what the camera sees; it still casts shadows."""
-    out = output_node(material)
-    if out is None:
+    from ..engine import shading
+    from ..engine.shading import Link
+    from .node_graph import compile_surface, subgraph
+
+    graph = compile_surface(material)
+    if graph is None:
         return False
-    try:
-        node = _linked_node(out.inputs["Surface"])
-        if node is None or node.bl_idname != 'ShaderNodeBsdfPrincipled':
-            return False
-        return ray_value(node.inputs["Alpha"]) <= 0.0
-    except (Unreadable, KeyError):
+    node = graph.nodes[graph.output.node]
+    if node.kind != "PRINCIPLED_BSDF":
         return False
-
-
-_MATH = {'ADD': lambda a, b: a + b, 'SUBTRACT': lambda a, b: a - b, 'MULTIPLY': lambda a, b: a * b,
-         'MINIMUM': min, 'MAXIMUM': max}
-
-
-def ray_value(socket, camera_ray: bool = True) -> float:
-    """A float input's value on a camera ray (or, ``camera_ray`` False, on a shadow ray), through
-    Light Path ("Is Camera Ray") and Math nodes; Unreadable for other nodes."""
-    if not socket.is_linked:
-        return float(socket.default_value)
-    link = socket.links[0]
-    node = _linked_node(socket)
-    if node is None:
-        return float(socket.default_value)
-    if node.bl_idname == 'ShaderNodeLightPath':
-        return 1.0 if link.from_socket.name == "Is Camera Ray" and camera_ray else 0.0
-    if node.bl_idname == 'ShaderNodeMath' and node.operation in _MATH:
-        a, b = (ray_value(node.inputs[i], camera_ray) for i in (0, 1))
-        value = _MATH[node.operation](a, b)
-        return min(max(value, 0.0), 1.0) if node.use_clamp else value
-    raise Unreadable(f"input '{socket.name}' is driven by node '{node.name}'")
+    alpha = next((i for i in node.inputs if i.name == "Alpha"), None)
+    if alpha is None:
+        return False
+    if not isinstance(alpha.value, Link):
+        return float(alpha.value) <= 0.0
+    sub = subgraph(graph, alpha.value)
+    if sub.reads_position or sub.grids:
+        return False
+    return float(shading.evaluate_value(sub, "VALUE", 1, camera_ray=True)[0]) <= 0.0

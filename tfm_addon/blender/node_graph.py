@@ -96,14 +96,26 @@ KINDS = {
     'ShaderNodeVolumeCoefficients': ("VOLUME_COEFFICIENTS", None),
     'ShaderNodeEmission': ("EMISSION", None),
     'ShaderNodeBackground': ("BACKGROUND", None),    # the world's: radiance Color x Strength
+    # a surface's closures (blender/surfaces.py reads them into engine/surface.Surface)
+    'ShaderNodeBsdfPrincipled': ("PRINCIPLED_BSDF", _props("distribution")),
+    'ShaderNodeBsdfDiffuse': ("DIFFUSE_BSDF", None),
+    'ShaderNodeBsdfGlossy': ("GLOSSY_BSDF", _props("distribution")),
+    'ShaderNodeBsdfAnisotropic': ("GLOSSY_BSDF", _props("distribution")),   # the Glossy BSDF's type since 4.0
+    'ShaderNodeLightPath': ("LIGHT_PATH", None),
     'ShaderNodeAddShader': ("ADD_SHADER", None),
     'ShaderNodeMixShader': ("MIX_SHADER", None),
 }
 
 
-SURFACE_ONLY = {'ShaderNodeTexImage', 'ShaderNodeUVMap'}   # they read UV coordinates
+SURFACE_ONLY = {'ShaderNodeTexImage', 'ShaderNodeUVMap',   # they read UV coordinates
+                'ShaderNodeBsdfPrincipled', 'ShaderNodeBsdfDiffuse', 'ShaderNodeBsdfGlossy',
+                'ShaderNodeBsdfAnisotropic', 'ShaderNodeLightPath'}
 WORLD_ONLY = {'ShaderNodeTexEnvironment'}                   # it reads the world's direction
 IMAGE_NODES = {'ShaderNodeTexImage', 'ShaderNodeTexEnvironment'}
+# the closures blender/surfaces.py reads, and their inputs it does not (kept as their own values, a
+# link named by the closure's "linked" parameter)
+CLOSURES = {"PRINCIPLED_BSDF", "DIFFUSE_BSDF", "GLOSSY_BSDF", "EMISSION", "MIX_SHADER"}
+GEOMETRY_INPUTS = {"Normal", "Tangent", "Coat Normal"}
 ENVIRONMENT_WIDTH = 2048    # an environment image is read averaged down to at most this wide: the
 #                             widest the background is drawn from (environment.PANORAMA_WIDTHS)
 
@@ -269,6 +281,8 @@ class _Compiler:
         if node is None:
             return Input(name, kind, 0.0 if kind == 'SHADER' else _constant(socket))
         index = self.node(node)
+        if index is None and self.surface and kind == 'SHADER':     # a surface's unknown closure
+            return Input(name, kind, Link(self.unread_shader(node), "Shader", "SHADER"))
         if index is None:
             if node.as_pointer() not in self.explained:      # one line a node, its reason when known
                 self.notes.setdefault(f"node '{node.name}' ({node.bl_label}) is not read by the engine; "
@@ -282,6 +296,12 @@ class _Compiler:
                                   f"reads its own value", None)
             return Input(name, kind, _constant(socket))
         return Input(name, kind, Link(index, _output_name(node, out), out.type))
+
+    def unread_shader(self, node) -> int:
+        """A surface's shader node the engine does not read, kept as UNREAD_SHADER (its name and
+        label) for blender/surfaces.py to name and stand in for."""
+        self.nodes.append(Node("UNREAD_SHADER", (("label", node.bl_label),), (), node.name))
+        return len(self.nodes) - 1
 
     def node(self, node) -> int | None:
         key = node.as_pointer()
@@ -310,14 +330,22 @@ class _Compiler:
             missing = image_note(node, self.owner)
             if missing is not None:
                 self.notes.setdefault(missing, None)
-        inputs = tuple(self.input(name, s) for name, s in _inputs(node))
+        closure = self.surface and kind in CLOSURES
+        inputs = tuple(Input(name, s.type, _constant(s)) if closure and name in GEOMETRY_INPUTS
+                       else self.input(name, s) for name, s in _inputs(node))
         if kind.startswith("TEX_") and kind != "TEX_CHECKER" and not (
                 node.bl_idname in IMAGE_NODES and _missing(node)):
             varying = [i.name for i in inputs if i.name != "Vector" and isinstance(i.value, Link)]
             if varying:
                 self.notes.setdefault(f"'{node.name}' ({node.bl_label}): a linked {', '.join(varying)} "
                                       f"is read as its mean over the volume", None)
-        self.nodes.append(Node(kind, params(node) if params else (), inputs, node.name))
+        values = params(node) if params else ()
+        if closure:     # the sockets' own values (a linked one's beside its link), the shading normal's link
+            values += (("own_values", tuple((name, _constant(s)) for name, s in _inputs(node)
+                                            if s.type != 'SHADER')),
+                       ("linked", tuple(name for name, s in _inputs(node)
+                                        if name in GEOMETRY_INPUTS and self.source(s)[0] is not None)))
+        self.nodes.append(Node(kind, values, inputs, node.name))
         self.index[key] = len(self.nodes) - 1
         return self.index[key]
 
@@ -342,6 +370,59 @@ def compile_volume(material, texspace=None, output: str = "Volume") -> ShaderGra
     link = None if index is None else Link(index, _output_name(node, socket), socket.type)
     kw = {} if texspace is None else {"texspace": tuple(tuple(float(x) for x in v) for v in texspace)}
     return ShaderGraph(tuple(c.nodes), link, tuple(c.notes), **kw)
+
+
+WORLD_TEXSPACE = ((0.5, 0.5, 0.5), (0.5, 0.5, 0.5))     # a world's Generated coordinates: the direction
+
+
+def compile_world(world) -> ShaderGraph | None:
+    """The world's Surface (its Background read as an emission) as a ShaderGraph whose Generated
+    and Object coordinates are the direction, as Cycles evaluates a world shader; None when its
+    output has no Surface shader (engine/environment.py evaluates it)."""
+    return compile_volume(world, texspace=WORLD_TEXSPACE, output="Surface")
+
+
+def compile_surface(material, texspace=None) -> ShaderGraph | None:
+    """The material's surface shader as a ShaderGraph (its output the Link to the closure feeding
+    the output's Surface socket; a shader node the engine does not read is an UNREAD_SHADER node),
+    or None when the Surface socket is not linked. Its closures are read by blender/surfaces.py,
+    the values feeding them evaluated by engine/shading.py (``subgraph``)."""
+    out = output_node(material)
+    if out is None:
+        return None
+    c = _Compiler(surface=True)      # blender/surfaces.py names the material in its notes
+    node, socket = c.source(out.inputs["Surface"])
+    if node is None:
+        return None
+    index = c.node(node)
+    link = (Link(c.unread_shader(node), "Shader", "SHADER") if index is None
+            else Link(index, _output_name(node, socket), socket.type))
+    kw = {} if texspace is None else {"texspace": tuple(tuple(float(x) for x in v) for v in texspace)}
+    return ShaderGraph(tuple(c.nodes), link, tuple(c.notes), **kw)
+
+
+def subgraph(graph: ShaderGraph, link: Link) -> ShaderGraph:
+    """The part of ``graph`` that ``link`` reads (its nodes renumbered), with ``link`` its output."""
+    order: list[int] = []
+
+    def visit(i: int) -> None:
+        if i in order:
+            return
+        for inp in graph.nodes[i].inputs:
+            if isinstance(inp.value, Link):
+                visit(inp.value.node)
+        order.append(i)
+
+    visit(link.node)
+    new = {old: k for k, old in enumerate(order)}
+
+    def renumber(inp: Input) -> Input:
+        v = inp.value
+        return Input(inp.name, inp.kind, Link(new[v.node], v.output, v.kind)) if isinstance(v, Link) else inp
+
+    nodes = tuple(Node(n.kind, n.params, tuple(renumber(i) for i in n.inputs), n.label)
+                  for n in (graph.nodes[i] for i in order))
+    return ShaderGraph(nodes, Link(new[link.node], link.output, link.kind), (), graph.texspace)
 
 
 def compile_socket(socket, texspace=None) -> ShaderGraph:

@@ -1,10 +1,11 @@
 """A material's surface shader read as the engine's ``Surface`` (engine/surface.py).
 
-The walk starts at the Cycles output's Surface socket. Each shader node the engine shades has a row
-in ``SHADERS``; Mix and Add Shader combine what their inputs give (``surface.mix``). An input of a
-shader reads its constant value, or the value of the node graph feeding it (Value, RGB, Math, Mix,
-Color Ramp, ... compiled by ``node_graph`` and evaluated by ``engine/shading.py``). What is not
-read is named once in the report and rendered as said there.
+The material is read once, by the one node-graph reader (``node_graph.compile_surface``). Each
+closure the engine shades has a row in ``SHADERS``; Mix and Add Shader combine what their inputs
+give (``surface.mix``). An input of a closure reads its constant value, or the value of the part
+of the graph feeding it (Value, RGB, Math, Mix, Color Ramp, Light Path, ... evaluated by
+``engine/shading.py``); a part that varies over the surface (a texture) is kept as its graph where
+the engine renders it. What is not read is named once in the report and rendered as said there.
 """
 
 from __future__ import annotations
@@ -12,78 +13,86 @@ from __future__ import annotations
 from dataclasses import replace
 
 from ..engine import shading
+from ..engine.shading import Link, Node, ShaderGraph
 from ..engine.surface import Surface, effective_ior, mix
 from . import node_graph
-from .materials import Unreadable, output_node, ray_value
 
 FALLBACK = Surface.lambert((0.5, 0.5, 0.5))
 
 
 class _Reader:
-    def __init__(self, material, texspace=None):
+    def __init__(self, material, graph: ShaderGraph):
         self.material = material
-        self.texspace = texspace
+        self.graph = graph
         self.notes: dict[str, None] = {}
         self.textures: dict[str, object] = {}     # input name -> the graph of a varying one
+        for line in graph.notes:
+            self.note(line)
 
     def note(self, line: str) -> None:
         self.notes.setdefault(f"Material '{self.material.name}': {line}", None)
 
-    def value(self, node, name: str, varying: bool = False):
+    def input(self, node: Node, name: str):
+        return next((i for i in node.inputs if i.name == name), None)
+
+    def value(self, node: Node, name: str, varying: bool = False, camera_ray: bool = True):
         """The input ``name`` of ``node``: its constant, or what the graph feeding it gives; a
         graph that varies over the surface (textures) is kept in ``textures`` when ``varying``
         (the constant returned is then the socket's own value), else named in the report."""
-        socket = node.inputs[name]
-        kind = "RGBA" if socket.type == 'RGBA' else "VECTOR" if socket.type == 'VECTOR' else "VALUE"
-        graph = node_graph.compile_socket(socket, self.texspace)
-        for line in graph.notes:
-            self.note(line)
-        v = socket.default_value
-        own = tuple(float(x) for x in v[:3]) if kind != "VALUE" else float(v)
-        if graph.output is None:
-            return own
-        if graph.reads_position or graph.grids:
+        inp = self.input(node, name)
+        own = inp.value
+        if not isinstance(own, Link):
+            return tuple(float(x) for x in own) if isinstance(own, tuple) else float(own)
+        sub = node_graph.subgraph(self.graph, own)
+        kind = inp.kind if inp.kind in ("RGBA", "VECTOR") else "VALUE"
+        if sub.reads_position or sub.grids:
             if varying:
-                self.textures[name] = graph
+                self.textures[name] = sub
             else:
-                names = ", ".join(f"'{n.label}'" for n in graph.nodes if n.kind.startswith("TEX_"))
-                self.note(f"'{name}' of '{node.name}' varies over the surface (from {names or 'its position'}"
-                          f"), which is not rendered: it reads its own value")
-            return own
-        v = shading.evaluate_value(graph, kind, 1)[0]
+                names = ", ".join(f"'{n.label}'" for n in sub.nodes if n.kind.startswith("TEX_"))
+                self.note(f"'{name}' of '{node.label}' varies over the surface (from "
+                          f"{names or 'its position'}), which is not rendered: it reads its own value")
+            return self.default(node, name)
+        v = shading.evaluate_value(sub, kind, 1, camera_ray=camera_ray)[0]
         return tuple(float(x) for x in v) if kind != "VALUE" else float(v)
 
-    def unread(self, node, names_defaults) -> None:
+    def default(self, node: Node, name: str):
+        """A linked socket's own value (the compiler keeps a closure's as ``own_values``)."""
+        return dict(node.param("own_values", ())).get(name, 0.0)
+
+    def unread(self, node: Node, names_defaults) -> None:
         """A line for each input of ``node`` set away from its default (None: linked at all)."""
         for name, default in names_defaults:
-            if name not in node.inputs:
+            inp = self.input(node, name)
+            if inp is None:
                 continue
-            changed = node.inputs[name].is_linked if default is None else self.value(node, name) != default
+            linked = isinstance(inp.value, Link) or name in node.param("linked", ())
+            changed = linked if default is None else self.value(node, name) != default
             if changed:
-                self.note(f"'{name}' of '{node.name}' ({node.bl_label}) is not rendered")
+                self.note(f"'{name}' of '{node.label}' ({_TITLES.get(node.kind, node.kind)}) is not rendered")
 
-    def shader(self, socket) -> Surface | None:
-        """The surface the shader feeding ``socket`` gives (None: no shader)."""
-        node, _ = node_graph.source(socket)
-        if node is None:
+    def shader(self, inp) -> Surface | None:
+        """The surface the closure feeding input ``inp`` (or Link) gives (None: no shader)."""
+        link = inp.value if hasattr(inp, "value") else inp
+        if not isinstance(link, Link):
             return None
-        read = SHADERS.get(node.bl_idname)
-        if read is None:
-            self.note(f"its surface shader '{node.name}' ({node.bl_label}) is not read; rendered as a "
+        node = self.graph.nodes[link.node]
+        if node.kind == "UNREAD_SHADER":
+            self.note(f"its surface shader '{node.label}' ({node.param('label')}) is not read; rendered as a "
                       f"diffuse grey {FALLBACK.base_color[0]:g}")
             return FALLBACK
-        return read(self, node)
+        return SHADERS[node.kind](self, node)
 
 
-def _principled(r: _Reader, node) -> Surface:
+_TITLES = {"PRINCIPLED_BSDF": "Principled BSDF", "DIFFUSE_BSDF": "Diffuse BSDF", "GLOSSY_BSDF": "Glossy BSDF"}
+
+
+def _principled(r: _Reader, node: Node) -> Surface:
     r.unread(node, (("Subsurface Weight", 0.0), ("Transmission Weight", 0.0), ("Coat Weight", 0.0),
                     ("Sheen Weight", 0.0), ("Anisotropic", 0.0), ("Diffuse Roughness", 0.0),
                     ("Thin Film Thickness", 0.0), ("Normal", None)))
-    try:        # the alpha shadow rays see (a surface hidden from camera rays is left out of the view)
-        alpha = ray_value(node.inputs["Alpha"], camera_ray=False)
-    except Unreadable:
-        alpha = r.value(node, "Alpha")
-    alpha = min(max(alpha, 0.0), 1.0)
+    # the alpha shadow rays see (a surface hidden from camera rays is left out of the view)
+    alpha = min(max(r.value(node, "Alpha", camera_ray=False), 0.0), 1.0)
     strength = r.value(node, "Emission Strength")
     emission = tuple(c * strength for c in r.value(node, "Emission Color"))
     return Surface(base_color=tuple(max(c, 0.0) for c in r.value(node, "Base Color", varying=True)),
@@ -95,30 +104,31 @@ def _principled(r: _Reader, node) -> Surface:
                    ior=effective_ior(r.value(node, "IOR"), r.value(node, "Specular IOR Level")),
                    specular_tint=tuple(max(c, 0.0) for c in r.value(node, "Specular Tint")),
                    emission=emission if strength > 1e-5 else (0.0, 0.0, 0.0),
-                   multiscatter=node.distribution == 'MULTI_GGX', alpha=alpha)
+                   multiscatter=node.param("distribution") == 'MULTI_GGX', alpha=alpha)
 
 
-def _diffuse(r: _Reader, node) -> Surface:
+def _diffuse(r: _Reader, node: Node) -> Surface:
     if r.value(node, "Roughness") > 0.0:
-        r.note(f"the Roughness of '{node.name}' (Oren-Nayar) is rendered as 0 (Lambert)")
+        r.note(f"the Roughness of '{node.label}' (Oren-Nayar) is rendered as 0 (Lambert)")
     surface = Surface.lambert(tuple(max(c, 0.0) for c in r.value(node, "Color", varying=True)))
     return replace(surface, base_texture=r.textures.pop("Color", None))
 
 
-def _glossy(r: _Reader, node) -> Surface:
-    if node.distribution not in ('GGX', 'MULTI_GGX'):
-        r.note(f"'{node.name}' uses the {node.distribution.replace('_', ' ').title()} distribution, "
+def _glossy(r: _Reader, node: Node) -> Surface:
+    distribution = node.param("distribution")
+    if distribution not in ('GGX', 'MULTI_GGX'):
+        r.note(f"'{node.label}' uses the {distribution.replace('_', ' ').title()} distribution, "
                f"rendered as GGX")
     if r.value(node, "Anisotropy") != 0.0:
-        r.note(f"the Anisotropy of '{node.name}' is not rendered")
+        r.note(f"the Anisotropy of '{node.label}' is not rendered")
     return Surface(base_color=tuple(max(c, 0.0) for c in r.value(node, "Color", varying=True)), metallic=1.0,
                    base_texture=r.textures.pop("Color", None),
                    roughness=min(max(r.value(node, "Roughness", varying=True), 0.0), 1.0), ior=1.0,
                    roughness_texture=r.textures.pop("Roughness", None),
-                   multiscatter=node.distribution == 'MULTI_GGX', constant_fresnel=True)
+                   multiscatter=distribution == 'MULTI_GGX', constant_fresnel=True)
 
 
-def _emission(r: _Reader, node) -> Surface:
+def _emission(r: _Reader, node: Node) -> Surface:
     strength = r.value(node, "Strength")
     return Surface(weight=0.0, emission=tuple(c * strength for c in r.value(node, "Color")))
 
@@ -131,23 +141,23 @@ def _combine(r: _Reader, parts) -> Surface:
     return surface
 
 
-def _mix_shader(r: _Reader, node) -> Surface:
+def _mix_shader(r: _Reader, node: Node) -> Surface:
     f = min(max(r.value(node, "Fac"), 0.0), 1.0)
-    return _combine(r, [(1.0 - f, r.shader(node.inputs[1])), (f, r.shader(node.inputs[2]))])
+    a, b = (r.shader(r.input(node, name)) for name in ("Shader", "Shader_001"))
+    return _combine(r, [(1.0 - f, a), (f, b)])
 
 
-def _add_shader(r: _Reader, node) -> Surface:
-    return _combine(r, [(1.0, r.shader(node.inputs[0])), (1.0, r.shader(node.inputs[1]))])
+def _add_shader(r: _Reader, node: Node) -> Surface:
+    return _combine(r, [(1.0, r.shader(r.input(node, name))) for name in ("Shader", "Shader_001")])
 
 
 SHADERS = {
-    'ShaderNodeBsdfPrincipled': _principled,
-    'ShaderNodeBsdfDiffuse': _diffuse,
-    'ShaderNodeBsdfGlossy': _glossy,
-    'ShaderNodeBsdfAnisotropic': _glossy,     # the Glossy BSDF's type since Blender 4.0
-    'ShaderNodeEmission': _emission,
-    'ShaderNodeMixShader': _mix_shader,
-    'ShaderNodeAddShader': _add_shader,
+    "PRINCIPLED_BSDF": _principled,
+    "DIFFUSE_BSDF": _diffuse,
+    "GLOSSY_BSDF": _glossy,
+    "EMISSION": _emission,
+    "MIX_SHADER": _mix_shader,
+    "ADD_SHADER": _add_shader,
 }
 
 
@@ -155,11 +165,11 @@ def read_surface(material, notes: list[str] | None = None, texspace=None) -> Sur
     """The material's surface, or None when it has no node surface (the caller shades the
     object's colour); lines for what is not read go to ``notes``. ``texspace``: (location, size)
     of the object's texture space (Generated coordinates)."""
-    out = output_node(material)
-    if out is None or not out.inputs["Surface"].is_linked:
+    graph = node_graph.compile_surface(material, texspace)
+    if graph is None:
         return None
-    r = _Reader(material, texspace)
-    surface = r.shader(out.inputs["Surface"])
+    r = _Reader(material, graph)
+    surface = r.shader(graph.output)
     if surface is not None and max(surface.emission) > 0.0:
         r.note("its emission is seen but lights nothing around it (Cycles lights the scene with it)")
     if notes is not None:

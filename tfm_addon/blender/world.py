@@ -28,18 +28,15 @@ def background_node(world):
     return None
 
 
-WORLD_TEXSPACE = ((0.5, 0.5, 0.5), (0.5, 0.5, 0.5))     # a world's Generated coordinates: the direction
-
-
 def _radiance(world) -> tuple[shading.ShaderGraph | None, str | None]:
     """The world's Background compiled by the one node-graph reader (node_graph.py; the Background
     read as an emission, the direction as its Generated and Object coordinates), and a note naming
     what is not read; None where the output is not a Background node."""
     if background_node(world) is None:
         return None, None
-    from .node_graph import compile_volume
+    from .node_graph import compile_world
 
-    graph = compile_volume(world, texspace=WORLD_TEXSPACE, output="Surface")
+    graph = compile_world(world)
     if graph is None or graph.output is None:
         return None, None
     return graph, "; ".join(f"World '{world.name}': {n}" for n in graph.notes) or None

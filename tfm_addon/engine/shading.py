@@ -161,6 +161,7 @@ class _Evaluation:
         self.memo: dict[int, dict] = {}
         self.uv: np.ndarray | None = None     # (n, 2) UV coordinates of surface points
         self.footprint = 0.0        # radians a direction stands for (a world's: evaluate)
+        self.camera_ray = True      # the ray a Light Path node reads (a surface's: evaluate_value)
         self.current = -1           # the node being evaluated
 
     def reads(self, output: str) -> bool:
@@ -238,11 +239,13 @@ def evaluate(graph: ShaderGraph, grids: Mapping[str, np.ndarray], n: int,
 
 
 def evaluate_value(graph: ShaderGraph, kind: str, n: int, position: np.ndarray | None = None,
-                   uv: np.ndarray | None = None):
+                   uv: np.ndarray | None = None, camera_ray: bool = True):
     """The value ``graph.output`` links to, as socket type ``kind`` (VALUE: (n,), RGBA or VECTOR:
-    (n, 3)), at ``n`` points of a surface: ``position`` (n, 3) in object space, ``uv`` (n, 2)."""
+    (n, 3)), at ``n`` points of a surface: ``position`` (n, 3) in object space, ``uv`` (n, 2);
+    ``camera_ray``: the ray a Light Path node reads (False: a shadow ray)."""
     ev = _Evaluation(graph, {}, n, position)
     ev.uv = uv
+    ev.camera_ray = camera_ray
     value = ev.input(Input("value", kind, graph.output))
     shape = (n, 3) if kind in ("RGBA", "VECTOR") else (n,)
     return np.broadcast_to(np.asarray(value, F), shape)
@@ -594,6 +597,13 @@ def _tex_coord(node, ins, ev):
     return {**out, "Object": ev.position, "Generated": generated}
 
 
+def _light_path(node, ins, ev):
+    """Light Path: Is Camera Ray on a camera ray, Is Shadow Ray on a shadow ray; every other output
+    reads 0."""
+    return {"Is Camera Ray": np.asarray(float(ev.camera_ray), F),
+            "Is Shadow Ray": np.asarray(float(not ev.camera_ray), F)}
+
+
 def _uv_map(node, ins, ev):
     return {"UV": _tex_coord(node, ins, ev).get("UV", np.zeros(3, F))}
 
@@ -898,7 +908,7 @@ NODES: dict[str, Callable] = {
     "TEX_COORD": _tex_coord, "MAPPING": _mapping, "TEX_NOISE": _tex_noise,
     "TEX_GRADIENT": _tex_gradient, "TEX_WHITE_NOISE": _tex_white_noise, "TEX_VORONOI": _tex_voronoi,
     "TEX_WAVE": _tex_wave, "TEX_CHECKER": _tex_checker, "TEX_IMAGE": _tex_image, "UV_MAP": _uv_map,
-    "TEX_ENVIRONMENT": _tex_environment,
+    "TEX_ENVIRONMENT": _tex_environment, "LIGHT_PATH": _light_path,
     "PRINCIPLED_VOLUME": _principled, "VOLUME_SCATTER": _scatter, "VOLUME_ABSORPTION": _absorption,
     "VOLUME_COEFFICIENTS": _coefficients, "EMISSION": _emission, "BACKGROUND": _background,
     "ADD_SHADER": _add_shader,
