@@ -71,9 +71,7 @@ class Environment:
         """(n, 3) float32 radiance (W/(sr m^2)) toward unit directions ``dirs`` (n, 3), each standing
         for ``footprint`` radians (shading.evaluate)."""
         n = len(dirs)
-        for key, pixels in self.images:         # kept registered while the environment lives
-            if key not in shading.IMAGES:
-                shading.register_image(key, pixels, False)
+        self._register()
         fields = shading.evaluate(self.graph, {}, n, np.asarray(dirs, np.float64), footprint=footprint)
         return np.ascontiguousarray(np.maximum(np.broadcast_to(fields.emission, (n, 3)), 0.0), np.float32)
 
@@ -87,9 +85,27 @@ class Environment:
 
         return _images.made((self.key, size), make)
 
+    def _register(self) -> None:
+        """The images it brings (from_image), registered again where the registry let them go."""
+        for key, pixels in self.images:
+            if key not in shading.IMAGES:
+                shading.register_image(key, pixels, False)
+
+    @cached_property
+    def light_size(self) -> tuple[int, int]:
+        """The size of the image the world's light is made from: LIGHT_SIZE, or an environment
+        image's own size where it is smaller (it is read as it is, not interpolated up)."""
+        self._register()
+        sizes = [shading.IMAGES.get(n.param("image", ""), (None,))[0] for n in self.graph.nodes
+                 if n.kind == "TEX_ENVIRONMENT"]
+        sizes = [px.shape[:2] for px in sizes if px is not None]
+        if not sizes:
+            return LIGHT_SIZE
+        return (min(LIGHT_SIZE[0], max(h for h, _ in sizes)), min(LIGHT_SIZE[1], max(w for _, w in sizes)))
+
     def image(self) -> np.ndarray:
-        """The (h, w, 3) image of LIGHT_SIZE the world's light is made from, top row first (kept)."""
-        return self._equirectangular(LIGHT_SIZE)
+        """The (h, w, 3) image of ``light_size`` the world's light is made from, top row first (kept)."""
+        return self._equirectangular(self.light_size)
 
     def panorama(self, width: int) -> np.ndarray:
         """The (width / 2, width, 3) background panorama, top row first (kept)."""
