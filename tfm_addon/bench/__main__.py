@@ -13,6 +13,9 @@ to docs/conformance.md and docs/conformance/ (a Blender subprocess; about 10 s).
 --only peers (run only when named): time to quality against Cycles with OpenImageDenoise and EEVEE
 (tfm_addon/bench/peers.py), SSIM against seconds per scene at 320x180 and 1920x1080, written to
 <out>/peers/ and, with the README's chart, docs/peers/; --quick: 320x180 only, fewer samples.
+--only flicker (run only when named): frame-to-frame change of the still pixels of an evolving
+smoke's frame sequence, TFM Auto against Cycles with OpenImageDenoise (tfm_addon/bench/flicker.py),
+with Auto's choices by frame, written to <out>/flicker/ and the README; --quick: 4 frames.
 --gpu (alias --paper): the renderer part only, at the paper's 1280x720 with 1024^2 maps, no
 Blender and no numpy reference (the ground truth is the GPU brute force at one step per voxel).
 """
@@ -28,7 +31,7 @@ from pathlib import Path
 SECTIONS = ("methods", "table1", "sweeps", "blender", "renderer", "emission", "viewport", "lights")
 # Run only when named with --only: the conformance suite against Cycles writes docs/conformance.md
 # and docs/conformance/ (tfm_addon/bench/conformance.py, in a Blender subprocess).
-OPT_IN = ("conformance", "peers")
+OPT_IN = ("conformance", "peers", "flicker")
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -94,6 +97,13 @@ def main(argv: list[str] | None = None) -> int:
         from . import peers
 
         peers.publish(peers.run(out, args.quick, cache), quick=args.quick)
+        if not sections:
+            return 0
+    if "flicker" in sections:
+        sections.discard("flicker")
+        from . import flicker
+
+        flicker.publish(flicker.run(out, args.quick), quick=args.quick)
         if not sections:
             return 0
     t_start = time.perf_counter()
