@@ -1,7 +1,12 @@
-"""Render the README's first picture: a spot's beam through fog with a bar's shadow shaft over a
-ground, TFM beside Cycles, each with its render time (docs/readme_shaft.png).
+"""Render the README's pictures, TFM beside Cycles, each with its render time:
 
-    .venv/bin/python scripts/readme_picture.py [--size 480x270] [--cycles-samples 256]
+- ``--scene shaft`` (the first picture): a spot's beam through fog with a bar's shadow shaft over
+  a ground (docs/readme_shaft.png);
+- ``--scene sky``: a smoke under Blender's default Sky Texture with a Sun lamp along the sky's
+  sun, seen against the sky (the conformance row ``world_sky_sun_seen`` at this size;
+  docs/readme_sky.png).
+
+    .venv/bin/python scripts/readme_picture.py [--scene shaft|sky] [--size 480x270] [--cycles-samples 256]
 """
 
 from __future__ import annotations
@@ -17,40 +22,58 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, ROOT)
 
 
-def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__,
-                                     formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--size", default="480x270")
-    parser.add_argument("--cycles-samples", type=int, default=256)
-    parser.add_argument("--out", default=os.path.join(ROOT, "docs", "readme_shaft.png"))
-    args = parser.parse_args(argv)
-    w, h = (int(v) for v in args.size.split("x"))
-
+def _shaft(w: int, h: int, tmp: str) -> None:
+    """The spot's beam through the World's fog, a bar and a crate over a ground."""
     import bpy
-    import numpy as np
 
-    import tfm_addon
     from tfm_addon import scenes
     from tfm_addon.blender import scene_builder as sb
     from tfm_addon.engine import Camera, Light, Scene
 
-    tfm_addon.register()
-    bpy.ops.wm.read_homefile(use_empty=True)
-    tmp = tempfile.mkdtemp(prefix="tfm_readme_")
     light = Light(matrix_world=scenes.look_at((-2.2, -0.8, 5.0), (0.4, 0.3, 0.0)), power_w=4000.0,
-                      spot_size_rad=math.radians(38), spot_blend=0.2)
+                  spot_size_rad=math.radians(38), spot_blend=0.2)
     meshes = (scenes.box_mesh((-1.15, -0.45, 3.4), (0.16, 1.4, 0.16), name="Bar"),
               scenes.box_mesh((1.2, 1.0, 0.5), (1.0, 1.0, 1.0), color=(0.7, 0.5, 0.3), name="Crate"),
               scenes.plane_mesh((0, 0, 0), 14.0, color=(0.6, 0.6, 0.6)))
     camera = Camera(matrix_world=scenes.look_at((6.0, -7.0, 2.4), (0.0, 0.0, 1.6)), width_px=w, height_px=h,
                     lens_mm=32.0)
     sb.build(Scene(camera=camera, lights=(light,), meshes=meshes), tmp)
-    scene = bpy.context.scene
-    nt = scene.world.node_tree
+    nt = bpy.context.scene.world.node_tree
     out = next(n for n in nt.nodes if n.bl_idname == 'ShaderNodeOutputWorld')
     fog = nt.nodes.new('ShaderNodeVolumeScatter')
     fog.inputs["Density"].default_value = 0.08
     nt.links.new(fog.outputs[0], out.inputs["Volume"])
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--scene", choices=("shaft", "sky"), default="shaft")
+    parser.add_argument("--size", default="480x270")
+    parser.add_argument("--cycles-samples", type=int, default=256)
+    parser.add_argument("--out", default=None, help="default: docs/readme_<scene>.png")
+    args = parser.parse_args(argv)
+    args.out = args.out or os.path.join(ROOT, "docs", f"readme_{args.scene}.png")
+    w, h = (int(v) for v in args.size.split("x"))
+
+    import bpy
+    import numpy as np
+
+    import tfm_addon
+    from tfm_addon.blender import scene_builder as sb
+
+    tfm_addon.register()
+    bpy.ops.wm.read_homefile(use_empty=True)
+    tmp = tempfile.mkdtemp(prefix="tfm_readme_")
+    if args.scene == "sky":
+        from tfm_addon.bench import conformance
+
+        conformance.build(conformance.ROW_BY_ID["world_sky_sun_seen"], tmp)
+        scene = bpy.context.scene
+        scene.render.resolution_x, scene.render.resolution_y = w, h
+    else:
+        _shaft(w, h, tmp)
+        scene = bpy.context.scene
 
     def render(name):
         t0 = time.perf_counter()

@@ -18,8 +18,8 @@ from ..engine import caches
 from ..engine.environment import Environment, from_image
 from . import background
 
-BAKE_SIZE = (256, 512)      # (rows, columns) of the baked equirectangular image (the background)
-BAKE_SAMPLES = 8            # the world alone converges in a few samples (no surfaces, no media)
+BAKE_SIZE = (512, 1024)     # (rows, columns) of the baked equirectangular image (the background)
+BAKE_SAMPLES = 32           # the world alone converges in a few samples; the background shows the noise of 8
 BAKE_TIMEOUT = 60.0         # seconds before a bake is given up
 
 # Run in the child: append the world into an empty scene, look at it through a panoramic
