@@ -79,3 +79,24 @@ def test_mix_of_diffuse_and_emission(blank):
     assert s.base_color == pytest.approx((0.2, 0.4, 0.6))
     assert s.emission == pytest.approx((1.0, 0.5, 0.0))
     assert len(notes) == 1 and "lights nothing" in notes[0], notes
+
+
+@pytest.mark.parametrize("node_type", ['ShaderNodeRGB', 'ShaderNodeVolumeScatter', 'ShaderNodeBsdfToon'])
+def test_what_is_no_surface_shader_renders_grey_with_a_line(blank, node_type):
+    """A colour, a volume shader or a shader the engine does not read, plugged into the Surface
+    (and into one side of a Mix Shader): the grey diffuse stands in, one line names it."""
+    mat = bpy.data.materials.new("Odd")
+    nt = mat.node_tree
+    nt.nodes.remove(nt.nodes["Principled BSDF"])
+    odd = nt.nodes.new(node_type)
+    nt.links.new(odd.outputs[0], nt.nodes["Material Output"].inputs["Surface"])
+    s, notes = _surface(mat)
+    assert s.base_color == pytest.approx((0.5, 0.5, 0.5)) and len(notes) == 1, notes
+    assert f"'{odd.name}'" in notes[0] and "rendered as a diffuse grey" in notes[0], notes
+    mix = nt.nodes.new('ShaderNodeMixShader')
+    diffuse = nt.nodes.new('ShaderNodeBsdfDiffuse')
+    nt.links.new(odd.outputs[0], mix.inputs[1])
+    nt.links.new(diffuse.outputs[0], mix.inputs[2])
+    nt.links.new(mix.outputs[0], nt.nodes["Material Output"].inputs["Surface"])
+    s, notes = _surface(mat)
+    assert any("rendered as a diffuse grey" in n for n in notes), notes

@@ -70,19 +70,21 @@ def end() -> None:
         timers, processes, threads = list(_timers), list(_processes), list(_threads)
         _timers.clear()
         _processes.clear()
-    for poll in timers:
-        if bpy.app.timers.is_registered(poll):
-            bpy.app.timers.unregister(poll)
-    for process in processes:
-        if process.poll() is None:
-            process.kill()
-    for thread in threads:
-        if thread is not threading.current_thread():
-            thread.join(JOIN_TIMEOUT_S)
-    with _lock:
-        _threads.difference_update(t for t in threads if not t.is_alive())
-        _processes.difference_update(p for p in list(_processes) if p.poll() is not None)
-        _ending = False
+    try:
+        for poll in timers:
+            if bpy.app.timers.is_registered(poll):
+                bpy.app.timers.unregister(poll)
+        for process in processes:
+            if process.poll() is None:
+                process.kill()
+        for thread in threads:
+            if thread is not threading.current_thread():
+                thread.join(JOIN_TIMEOUT_S)
+    finally:
+        with _lock:
+            _threads.difference_update(t for t in threads if not t.is_alive())
+            _processes.difference_update(p for p in list(_processes) if p.poll() is not None)
+            _ending = False
 
 
 caches.REGISTRY.on_clear(end)

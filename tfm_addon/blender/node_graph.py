@@ -143,11 +143,12 @@ def image_key(image, image_user=None, max_width: int | None = None) -> str:
         if image.channels != 4:
             px = np.concatenate([px[..., :3] if image.channels >= 3 else np.repeat(px[..., :1], 3, -1),
                                  np.ones((h, w, 1), np.float32)], -1)
-        if f > 1:
-            hh, ww = max(1, h // f), max(1, w // f)
-            px = px[:hh * f, :ww * f].reshape(hh, f, ww, f, 4).mean(axis=(1, 3), dtype=np.float64)
-            px = np.ascontiguousarray(px, np.float32)
         srgb = not image.is_float and image.colorspace_settings.name == 'sRGB'
+        if f > 1:       # averaged in linear light, as Cycles adds it up
+            if srgb:
+                px = np.concatenate([shading.srgb_to_linear(px[..., :3]), px[..., 3:]], axis=-1)
+                srgb = False
+            px = shading.area_resize(px, max(1, round(h / f)), max(1, round(w / f)))
         shading.register_image(key, px, srgb)
     return key
 
@@ -323,9 +324,11 @@ class _Compiler:
         kind, params = row
         self.index[key] = None       # a cycle reads defaults (Blender marks such links invalid)
         phase = getattr(node, "phase", 'HENYEY_GREENSTEIN')
-        if node.bl_idname == 'ShaderNodeVolumeScatter' and phase != 'HENYEY_GREENSTEIN':
+        if node.bl_idname in ('ShaderNodeVolumeScatter', 'ShaderNodeVolumeCoefficients') \
+                and phase != 'HENYEY_GREENSTEIN':
             self.notes.setdefault(f"'{node.name}' uses the {node.phase.replace('_', ' ').title()} phase "
-                                  f"function, rendered as Henyey-Greenstein with its anisotropy", None)
+                                  f"function, rendered as Henyey-Greenstein with its anisotropy (0 where "
+                                  f"it has none)", None)
         if kind in ("TEX_IMAGE", "TEX_ENVIRONMENT"):
             missing = image_note(node, self.owner)
             if missing is not None:

@@ -77,11 +77,13 @@ class _Reader:
         if not isinstance(link, Link):
             return None
         node = self.graph.nodes[link.node]
-        if node.kind == "UNREAD_SHADER":
-            self.note(f"its surface shader '{node.label}' ({node.param('label')}) is not read; rendered as a "
+        read = SHADERS.get(node.kind)
+        if read is None:        # an unknown shader, a volume shader, a colour plugged into a shader socket
+            label = node.param("label") or node.kind.replace("_", " ").title()
+            self.note(f"its surface shader '{node.label}' ({label}) is not read; rendered as a "
                       f"diffuse grey {FALLBACK.base_color[0]:g}")
             return FALLBACK
-        return SHADERS[node.kind](self, node)
+        return read(self, node)
 
 
 _TITLES = {"PRINCIPLED_BSDF": "Principled BSDF", "DIFFUSE_BSDF": "Diffuse BSDF", "GLOSSY_BSDF": "Glossy BSDF"}

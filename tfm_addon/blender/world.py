@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..engine import shading
-from ..engine.environment import Environment
+from ..engine.environment import Environment, of_graph
 from ..engine.scene import GridValue, Medium
 from .sky_bake import sky_environment, sky_node
 
@@ -52,7 +52,7 @@ def environment(world, wait: bool = True) -> tuple[Environment | None, str | Non
     graph, note = _radiance(world)
     if graph is None or not graph.reads_position:
         return None, note
-    return Environment(graph), note
+    return of_graph(graph), note
 
 
 def ambient_radiance(world, wait: bool = True) -> tuple[RGB, str | None]:

@@ -262,7 +262,7 @@ def _principled(f: _Folder, node: Node, ins: dict) -> _Closure:
     if color_grid and (any(kk < 1.0 for kk in k) or any(v > 1.0 for v in c.rgb)):
         notes.append(f"'{node.label}': with a colour grid, the extinction is read without it "
                      f"(exact for a black Absorption Color and colours up to 1)")
-    g = f.constant(ins["Anisotropy"])
+    g = f.constant(ins["Anisotropy"]) if "Anisotropy" in ins else 0.0   # a phase without one: 0
     out = _Closure(a, s, g * sum(s) / 3.0, grid, grid is None, color_grid, notes=notes)
     strength = f.scalar(ins["Emission Strength"])
     if strength.grid or strength.offset > 0.0:
@@ -284,7 +284,7 @@ def _scatter(f: _Folder, node: Node, ins: dict) -> _Closure:
     c = f.rgb(ins["Color"])
     d, grid = f.density(ins["Density"])
     s = tuple(d * v for v in c)
-    g = f.constant(ins["Anisotropy"])
+    g = f.constant(ins["Anisotropy"]) if "Anisotropy" in ins else 0.0   # a phase without one: 0
     return _Closure((0.0, 0.0, 0.0), s, g * sum(s) / 3.0, grid, grid is None)
 
 
@@ -297,7 +297,7 @@ def _absorption(f: _Folder, node: Node, ins: dict) -> _Closure:
 def _coefficients(f: _Folder, node: Node, ins: dict) -> _Closure:
     a = f.rgb(ins["Absorption Coefficients"])
     s = f.rgb(ins["Scatter Coefficients"])
-    g = f.constant(ins["Anisotropy"])
+    g = f.constant(ins["Anisotropy"]) if "Anisotropy" in ins else 0.0   # a phase without one: 0
     out = _Closure(a, s, g * sum(s) / 3.0)
     e = f.rgb(ins["Emission Coefficients"])
     if any(v > 0.0 for v in e):

@@ -61,7 +61,7 @@ class Environment:
 
     graph: shading.ShaderGraph
     discs: tuple[Disc, ...] = ()
-    images: tuple = ()      # (key, pixels) of images it brings (from_image): registered when read
+    images: tuple = ()      # (key, pixels, sRGB) of the images it reads: registered again when read
 
     @cached_property
     def key(self) -> str:
@@ -86,10 +86,11 @@ class Environment:
         return _images.made((self.key, size), make)
 
     def _register(self) -> None:
-        """The images it brings (from_image), registered again where the registry let them go."""
-        for key, pixels in self.images:
+        """The images it reads, registered again where the registry let them go (it keeps the last
+        few: a scene's other textures may have pushed them out since the world was read)."""
+        for key, pixels, srgb in self.images:
             if key not in shading.IMAGES:
-                shading.register_image(key, pixels, False)
+                shading.register_image(key, pixels, srgb)
 
     @cached_property
     def light_size(self) -> tuple[int, int]:
@@ -157,7 +158,15 @@ def from_image(pixels: np.ndarray, strength: float = 1.0, interpolation: str = "
     key = _digest("environment image", px)
     px.setflags(write=False)
     env = with_texture(key, strength, interpolation, discs)
-    return Environment(env.graph, env.discs, ((key, px),))
+    return Environment(env.graph, env.discs, ((key, px, False),))
+
+
+def of_graph(graph: shading.ShaderGraph) -> Environment:
+    """The environment of a world's compiled graph, holding the images its Environment Textures
+    read now (registered by the node-graph reader) so that it can read them later."""
+    keys = dict.fromkeys(n.param("image", "") for n in graph.nodes if n.kind == "TEX_ENVIRONMENT")
+    entries = [(k, shading.IMAGES.get(k)) for k in keys]
+    return Environment(graph, (), tuple((k, e[0], e[1]) for k, e in entries if e is not None))
 
 
 def with_texture(key: str, strength: float = 1.0, interpolation: str = "Linear",

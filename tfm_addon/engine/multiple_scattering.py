@@ -93,8 +93,12 @@ def octaves(bounces: int) -> Octaves:
     hi = min(n for n in counts if n > bounces)
     t = (math.log2(bounces) - math.log2(lo)) / (math.log2(hi) - math.log2(lo))
     a, b = FITTED[lo], FITTED[hi]
-    return replace(a, **{f.name: (1.0 - t) * getattr(a, f.name) + t * getattr(b, f.name)
-                         for f in fields(Octaves) if f.name != "count"})
+    values = {f.name: (1.0 - t) * getattr(a, f.name) + t * getattr(b, f.name)
+              for f in fields(Octaves) if f.name != "count"}
+    for name in ("z", "m"):     # the slab term's shape: the row's where it is on (k > 0) alone
+        if a.k == 0.0 or b.k == 0.0:
+            values[name] = getattr(b if a.k == 0.0 else a, name)
+    return replace(a, **values)
 
 
 def for_settings(settings) -> Octaves:

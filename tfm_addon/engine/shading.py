@@ -620,7 +620,7 @@ def register_image(key: str, pixels: np.ndarray, srgb: bool) -> None:
     IMAGES.put(key, (pixels, srgb))
 
 
-def _srgb_to_linear(c):
+def srgb_to_linear(c):
     c = np.asarray(c, np.float64)
     return np.where(c <= 0.04045, c / 12.92, ((np.maximum(c, 0.04045) + 0.055) / 1.055) ** 2.4)
 
@@ -656,7 +656,7 @@ def _sample_image(pixels: np.ndarray, srgb: bool, u: np.ndarray, v: np.ndarray, 
     if extension == "CLIP":
         outside = (u < 0) | (u > 1) | (v < 0) | (v > 1)
         rgba = np.where(outside[:, None], 0.0, rgba)
-    rgb = _srgb_to_linear(rgba[:, :3]) if srgb else rgba[:, :3]
+    rgb = srgb_to_linear(rgba[:, :3]) if srgb else rgba[:, :3]
     return np.asarray(rgb, F), np.asarray(rgba[:, 3], F)
 
 
@@ -680,24 +680,40 @@ def _tex_image(node, ins, ev):
 _levels = caches.memo("shading.image_levels", 8)    # (image key, level) -> the image averaged down
 
 
-def image_level(key: str, level: int) -> np.ndarray | None:
-    """Registered image ``key`` averaged down by 2^level in each direction (boxes of its pixels;
-    a remainder row or column is dropped), or None when it is not registered."""
-    entry = IMAGES.get(key)
-    if entry is None:
-        return None
+def area_resize(pixels: np.ndarray, rows: int, cols: int) -> np.ndarray:
+    """``pixels`` (h, w, c) averaged down to (rows, cols): each new pixel the exact area mean of the
+    part of the image it covers (fractions of pixels included), so that the image still spans the
+    same extent and its mean is kept."""
+    out = np.asarray(pixels, np.float64)
+    for axis, n in ((0, rows), (1, cols)):
+        a = np.moveaxis(out, axis, 0)
+        size = a.shape[0]
+        if n != size:
+            total = np.concatenate([np.zeros((1,) + a.shape[1:]), np.cumsum(a, axis=0)])   # at edges 0..size
+            edges = np.linspace(0.0, size, n + 1)
+            i = np.minimum(np.floor(edges).astype(np.int64), size - 1)
+            t = (edges - i).reshape((-1,) + (1,) * (a.ndim - 1))
+            at = total[i] + (total[i + 1] - total[i]) * t          # the running sum at each edge
+            a = np.diff(at, axis=0) / (size / n)
+        out = np.moveaxis(a, 0, axis)
+    return np.ascontiguousarray(out, np.float32)
+
+
+def image_level(key: str, entry, level: int) -> tuple[np.ndarray, bool]:
+    """Registered image ``key`` (its ``entry``: pixels, sRGB-encoded) averaged down by 2^level on
+    each side (``area_resize``; an sRGB image decoded first, as Cycles adds up linear light):
+    (pixels, whether they are still sRGB-encoded)."""
     if level <= 0:
-        return entry[0]
+        return entry
 
     def average():
-        pixels = entry[0]
-        f = 2 ** level
-        h, w = max(1, pixels.shape[0] // f), max(1, pixels.shape[1] // f)
-        fy, fx = min(f, pixels.shape[0]), min(f, pixels.shape[1])
-        out = pixels[:h * fy, :w * fx].reshape(h, fy, w, fx, -1).mean(axis=(1, 3), dtype=np.float64)
-        out = np.ascontiguousarray(out, np.float32)
+        pixels, srgb = entry
+        if srgb:
+            pixels = np.concatenate([srgb_to_linear(pixels[..., :3]), pixels[..., 3:]], axis=-1)
+        h, w = pixels.shape[:2]
+        out = area_resize(pixels, max(1, round(h / 2 ** level)), max(1, round(w / 2 ** level)))
         out.setflags(write=False)
-        return out
+        return out, False
 
     return _levels.made((key, level), average)
 
@@ -725,9 +741,9 @@ def _tex_environment(node, ins, ev):
     level = 0
     if ev.footprint > 0.0:
         level = max(0, int(round(math.log2(max(ev.footprint * w / (2.0 * math.pi), 1.0)))))
-    pixels = image_level(key, level)
+    pixels, srgb = image_level(key, entry, level)
     u, v = equirectangular(d)
-    rgb, alpha = _sample_image(pixels, entry[1], u, v, node.param("interpolation", "Linear"),
+    rgb, alpha = _sample_image(pixels, srgb, u, v, node.param("interpolation", "Linear"),
                                "EQUIRECTANGULAR")
     return {"Color": rgb, "Alpha": alpha}
 
@@ -843,7 +859,7 @@ def _principled(node, ins, ev):
     absorption = np.maximum(1.0 - color, 0.0) * k
     d = np.asarray(density)[..., None]
     sigma_s = color * d
-    out = Closure(sigma_s, absorption * d, np.zeros(3, F), ins["Anisotropy"] * _mean3(sigma_s))
+    out = Closure(sigma_s, absorption * d, np.zeros(3, F), ins.get("Anisotropy", 0.0) * _mean3(sigma_s))
     strength = ins["Emission Strength"]
     out.emission = np.where((np.asarray(strength) > CUTOFF)[..., None],
                             ins["Emission Color"] * np.asarray(strength)[..., None], 0.0)
@@ -861,7 +877,7 @@ def _principled(node, ins, ev):
 def _scatter(node, ins, ev):
     d = np.maximum(ins["Density"], 0.0)[..., None]
     s = ins["Color"] * d
-    return {"Volume": Closure(s, np.zeros(3, F), np.zeros(3, F), ins["Anisotropy"] * _mean3(s))}
+    return {"Volume": Closure(s, np.zeros(3, F), np.zeros(3, F), ins.get("Anisotropy", 0.0) * _mean3(s))}
 
 
 def _absorption(node, ins, ev):
@@ -873,7 +889,7 @@ def _coefficients(node, ins, ev):
     s = np.maximum(ins["Scatter Coefficients"], 0.0)
     a = np.maximum(ins["Absorption Coefficients"], 0.0)
     e = np.maximum(ins.get("Emission Coefficients", np.zeros(3, F)), 0.0)
-    return {"Volume": Closure(s, a, e, ins["Anisotropy"] * _mean3(s))}
+    return {"Volume": Closure(s, a, e, ins.get("Anisotropy", 0.0) * _mean3(s))}
 
 
 def _emission(node, ins, ev):
