@@ -116,7 +116,7 @@ IMAGE_NODES = {'ShaderNodeTexImage', 'ShaderNodeTexEnvironment'}
 # link named by the closure's "linked" parameter)
 CLOSURES = {"PRINCIPLED_BSDF", "DIFFUSE_BSDF", "GLOSSY_BSDF", "EMISSION", "MIX_SHADER"}
 GEOMETRY_INPUTS = {"Normal", "Tangent", "Coat Normal"}
-ENVIRONMENT_WIDTH = 2048    # an environment image is read averaged down to at most this wide: the
+ENVIRONMENT_WIDTH = 4096    # an environment image is read averaged down to at most this wide: the
 #                             widest the background is drawn from (environment.PANORAMA_WIDTHS)
 
 

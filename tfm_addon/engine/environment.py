@@ -31,7 +31,18 @@ from . import caches, shading
 from .scene import Camera, _digest
 
 LIGHT_SIZE = (64, 128)          # (rows, columns) of the image the world's light is made from
-PANORAMA_WIDTHS = (256, 2048)   # the narrowest and widest background panorama
+PANORAMA_WIDTHS = (256, 4096)   # the narrowest and widest background panorama
+GRAPH_DETAIL = 2048             # the widest a world without images is drawn from (its nodes are smooth)
+CHUNK = 1 << 19                 # directions evaluated at once
+
+
+def band_directions(size: tuple[int, int], r0: int, r1: int) -> np.ndarray:
+    """The directions of rows r0..r1 of an equirectangular image of ``size`` (``directions``)."""
+    h, w = size
+    theta = math.pi * (np.arange(r0, r1) + 0.5) / h
+    phi = math.pi - 2.0 * math.pi * (np.arange(w) + 0.5) / w
+    t, p = np.meshgrid(theta, phi, indexing="ij")
+    return np.stack([np.sin(t) * np.cos(p), np.sin(t) * np.sin(p), np.cos(t)], axis=-1).reshape(-1, 3)
 
 
 def directions(size: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
@@ -77,9 +88,13 @@ class Environment:
 
     def _equirectangular(self, size: tuple[int, int]) -> np.ndarray:
         def make():
-            dirs, _ = directions(size)
-            out = with_discs(self.radiance(dirs, footprint=2.0 * math.pi / size[1]).reshape(*size, 3),
-                             self.discs)
+            h, w = size
+            out = np.empty((h, w, 3), np.float32)
+            rows = max(1, CHUNK // w)       # evaluated a band of rows at a time: bounded memory
+            for r in range(0, h, rows):
+                dirs = band_directions(size, r, min(h, r + rows))
+                out[r:r + rows] = self.radiance(dirs, footprint=2.0 * math.pi / w).reshape(-1, w, 3)
+            out = with_discs(out, self.discs)
             out.setflags(write=False)
             return out
 
@@ -103,6 +118,18 @@ class Environment:
         if not sizes:
             return LIGHT_SIZE
         return (min(LIGHT_SIZE[0], max(h for h, _ in sizes)), min(LIGHT_SIZE[1], max(w for _, w in sizes)))
+
+    @cached_property
+    def detail(self) -> int:
+        """The widest panorama that shows more of it: its widest image's width rounded up to a
+        power of two, or GRAPH_DETAIL for a world of nodes alone."""
+        self._register()
+        widths = [shading.IMAGES.get(n.param("image", ""), (None,))[0] for n in self.graph.nodes
+                  if n.kind == "TEX_ENVIRONMENT"]
+        widths = [px.shape[1] for px in widths if px is not None]
+        if not widths:
+            return GRAPH_DETAIL
+        return 2 ** math.ceil(math.log2(max(max(widths), 1)))
 
     def image(self) -> np.ndarray:
         """The (h, w, 3) image of ``light_size`` the world's light is made from, top row first (kept)."""
@@ -181,9 +208,11 @@ def with_texture(key: str, strength: float = 1.0, interpolation: str = "Linear",
                                    texspace=((0.5, 0.5, 0.5), (0.5, 0.5, 0.5))), tuple(discs))
 
 
-def panorama_width(camera: Camera) -> int:
-    """How wide the background panorama is drawn from: a texel no wider than the camera's pixels
-    (a power of two within PANORAMA_WIDTHS; an orthographic camera sees one direction)."""
+def panorama_width(camera: Camera, env: Environment | None = None) -> int:
+    """How wide the background panorama is drawn from: a texel no wider than the camera's pixels,
+    and no finer than the environment's own detail (its widest image, or GRAPH_DETAIL for a world
+    of nodes alone): a power of two within PANORAMA_WIDTHS (an orthographic camera sees one
+    direction)."""
     from .camera import view_plane
 
     plane = view_plane(camera)
@@ -191,4 +220,5 @@ def panorama_width(camera: Camera) -> int:
         return PANORAMA_WIDTHS[0]
     texels = 2.0 * math.pi / max(plane.pixel_size, 1e-9)
     width = 2 ** math.ceil(math.log2(max(texels, 1.0)))
-    return int(min(max(width, PANORAMA_WIDTHS[0]), PANORAMA_WIDTHS[1]))
+    detail = PANORAMA_WIDTHS[1] if env is None else env.detail
+    return int(min(max(width, PANORAMA_WIDTHS[0]), PANORAMA_WIDTHS[1], max(detail, PANORAMA_WIDTHS[0])))

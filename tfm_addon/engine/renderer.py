@@ -484,7 +484,7 @@ class Renderer:
         seen = (0.0, 0.0, 0.0) if settings.film_transparent else scene.background
         image = None
         if not isinstance(seen, tuple):
-            width = environment.panorama_width(scene.camera)
+            width = environment.panorama_width(scene.camera, seen)
             image, built = self._backgrounds.get(
                 (seen.key, width), lambda: BackgroundTexture(self.gl, seen.panorama(width)))
             self.counters["backgrounds"] += built

@@ -684,12 +684,14 @@ def area_resize(pixels: np.ndarray, rows: int, cols: int) -> np.ndarray:
     """``pixels`` (h, w, c) averaged down to (rows, cols): each new pixel the exact area mean of the
     part of the image it covers (fractions of pixels included), so that the image still spans the
     same extent and its mean is kept."""
-    out = np.asarray(pixels, np.float64)
+    out = np.asarray(pixels)
     for axis, n in ((0, rows), (1, cols)):
         a = np.moveaxis(out, axis, 0)
         size = a.shape[0]
-        if n != size:
-            total = np.concatenate([np.zeros((1,) + a.shape[1:]), np.cumsum(a, axis=0)])   # at edges 0..size
+        if n != size and size % n == 0:         # whole blocks: their means
+            a = a.reshape((n, size // n) + a.shape[1:]).mean(axis=1)
+        elif n != size:
+            total = np.concatenate([np.zeros((1,) + a.shape[1:]), np.cumsum(a, axis=0, dtype=np.float64)])
             edges = np.linspace(0.0, size, n + 1)
             i = np.minimum(np.floor(edges).astype(np.int64), size - 1)
             t = (edges - i).reshape((-1,) + (1,) * (a.ndim - 1))
