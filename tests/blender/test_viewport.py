@@ -248,3 +248,35 @@ def test_the_gpu_drawing_puts_the_scene_linear_image_in_the_viewport(blank, tmp_
     x = np.clip(expected, 0.0, 1.0)
     oetf = np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1 / 2.4) - 0.055)
     assert float(np.abs(display - oetf).max()) <= 0.6 / 255 + 1e-3  # 8-bit rounding
+
+
+def test_the_viewport_draws_the_world_as_the_final_render_does(blank, tmp_path):
+    """An HDRI world aimed by a Mapping node, seen behind the smoke (Film ▸ Transparent off): the
+    converged viewport equals the final render, the background included, and the background is
+    the image, not its mean."""
+    import math
+
+    from tfm_addon.bench import conformance
+
+    scene_builder.build(smoke(width=48, height=36), str(tmp_path), settings=SETTINGS, samples=4)
+    scene = bpy.context.scene
+    scene.render.film_transparent = False
+    wt = scene.world.node_tree
+    bg = next(n for n in wt.nodes if n.bl_idname == 'ShaderNodeBackground')
+    coords, mapping = wt.nodes.new('ShaderNodeTexCoord'), wt.nodes.new('ShaderNodeMapping')
+    env = wt.nodes.new('ShaderNodeTexEnvironment')
+    env.image = conformance._sky_image(128, 64, bands=True)
+    mapping.inputs["Rotation"].default_value = (0.0, 0.0, math.radians(60.0))
+    wt.links.new(coords.outputs["Generated"], mapping.inputs["Vector"])
+    wt.links.new(mapping.outputs["Vector"], env.inputs["Vector"])
+    wt.links.new(env.outputs["Color"], bg.inputs["Color"])
+    final = render_passes(tmp_path)["Combined"]
+    top = final[0, :, :3]
+    assert float(top.std(axis=0).max()) > 0.01          # the bands: the world varies behind the smoke
+    dg = bpy.context.evaluated_depsgraph_get()
+    session = _mod("viewport").ViewportSession()
+    session.update(dg)
+    assert session.request(_view_camera(dg, 48, 36), 4)
+    frame = _converged(session, 4)
+    assert float(np.abs(frame.image - final).max()) <= 1e-4
+    session.close()
