@@ -125,7 +125,7 @@ MISSING_IMAGE = "missing image"    # the key of an image without pixels: never r
 
 
 def image_key(image, image_user=None, max_width: int | None = None) -> str:
-    """An image's content key (name, size, dirty flag, file); its pixels are read once per key into
+    """An image's key (the image, its name, size, dirty flag, file); its pixels are read once per key into
     ``shading.IMAGES`` (averaged down by a power of two to at most ``max_width`` wide). An image
     whose file is missing or gives no pixels (files.image_problem) has the key MISSING_IMAGE,
     which the engine renders in Cycles' missing-texture pink."""
@@ -135,7 +135,10 @@ def image_key(image, image_user=None, max_width: int | None = None) -> str:
         return MISSING_IMAGE
     w, h = image.size
     f = 1 if max_width is None or w <= max_width else 2 ** int(np.ceil(np.log2(w / max_width)))
-    key = digest("image", image.name, tuple(image.size), bool(image.is_dirty), image.filepath, f)
+    # the image itself (two images of one name and size, one freed and one made, are not one),
+    # its name, size, dirty flag and file
+    key = digest("image", image.as_pointer(), image.name, tuple(image.size), bool(image.is_dirty),
+                 image.filepath, f)
     if key not in shading.IMAGES:
         px = np.empty(w * h * image.channels, np.float32)
         image.pixels.foreach_get(px)
