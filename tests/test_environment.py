@@ -6,8 +6,6 @@ import math
 import numpy as np
 
 from tfm_addon.engine import environment, shading
-from tfm_addon.engine.affine import fold
-from tfm_addon.engine.shading import Input, Link, Node, ShaderGraph
 
 
 def test_a_direction_reads_the_pixel_the_equirectangular_mapping_puts_it_on():
@@ -54,14 +52,3 @@ def test_an_environment_keeps_its_image_when_other_textures_push_it_out():
     pano = env.panorama(256)
     assert not np.allclose(pano[0, 0], (1.0, 0.0, 1.0))         # not Cycles' missing-image pink
     assert abs(float(pano.mean()) - float(px[..., :3].mean())) < 0.05
-
-
-def test_a_scatter_without_anisotropy_folds_with_none():
-    """Volume Scatter with a phase that has no Anisotropy socket (Rayleigh, Mie...): g 0."""
-    scatter = Node("VOLUME_SCATTER", (), (Input("Color", "RGBA", (0.8, 0.8, 0.8)),
-                                          Input("Density", "VALUE", 2.0)), "Volume Scatter")
-    graph = ShaderGraph((scatter,), Link(0, "Volume", "SHADER"))
-    medium = fold(graph)
-    assert medium.sigma_s == (1.6, 1.6, 1.6) and medium.anisotropy == 0.0
-    fields = shading.evaluate(graph, {}, 1)
-    assert np.allclose(fields.sigma_s, 1.6) and float(fields.anisotropy[0]) == 0.0
