@@ -76,8 +76,8 @@ def test_volume_bounces_read_from_cycles_unless_set(blank, addon):
 def test_brightness_grows_smoothly_with_the_bounce_count(blank, tmp_path):
     """A held-out cloud at the counts an artist picks: the image never darkens as the count grows,
     and 15 and 16 bounces differ by under 2 % (the fitted rows' weights are interpolated in the
-    count's logarithm; read from the row below, counts 4 to 15 once rendered one image and 16 was
-    9 % brighter on this cloud)."""
+    count's logarithm; read from the row below instead, counts 4 to 15 would render one image and
+    16 would be 9 % brighter on this cloud)."""
     counts = (1, 2, 3, 4, 6, 8, 12, 15, 16, 32, 64, 128)
     totals = [float(bn.render_tfm("dense_cloud_sun", n, str(tmp_path / str(n))).image[..., :3].sum())
               for n in counts]

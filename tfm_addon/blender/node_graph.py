@@ -158,8 +158,7 @@ def image_key(image, image_user=None, max_width: int | None = None) -> str:
 
 def _missing(node) -> bool:
     """Whether an image node's image is set but cannot give its pixels (image_key: MISSING_IMAGE)."""
-    return node.image is not None and files.image_problem("", node.image, files.scene_frame(),
-                                                          node.image_user) is not None
+    return node.image is not None and image_note(node) is not None
 
 
 def image_note(node, owner: str = "") -> str | None:

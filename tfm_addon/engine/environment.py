@@ -49,12 +49,9 @@ def directions(size: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
     """(directions (h w, 3), solid angles (h w,)) of the pixel centres of an equirectangular image
     of ``size`` = (rows, columns), top row first (Cycles' mapping: shading.equirectangular)."""
     h, w = size
-    theta = math.pi * (np.arange(h) + 0.5) / h                 # from +Z, top row first
-    phi = math.pi - 2.0 * math.pi * (np.arange(w) + 0.5) / w
-    t, p = np.meshgrid(theta, phi, indexing="ij")
-    dirs = np.stack([np.sin(t) * np.cos(p), np.sin(t) * np.sin(p), np.cos(t)], axis=-1).reshape(-1, 3)
-    omega = (2.0 * math.pi / w) * (math.pi / h) * np.sin(t).reshape(-1)
-    return dirs, omega
+    sin_theta = np.sin(math.pi * (np.arange(h) + 0.5) / h)                  # from +Z, top row first
+    omega = np.repeat((2.0 * math.pi / w) * (math.pi / h) * sin_theta, w)
+    return band_directions(size, 0, h), omega
 
 
 _images = caches.memo("environment.images", 8)      # (graph key, size) -> radiance image
@@ -108,25 +105,27 @@ class Environment:
                 shading.register_image(key, pixels, srgb)
 
     @cached_property
+    def image_sizes(self) -> tuple[tuple[int, int], ...]:
+        """(rows, columns) of each image its Environment Textures read."""
+        self._register()
+        entries = [shading.IMAGES.get(n.param("image", "")) for n in self.graph.nodes
+                   if n.kind == "TEX_ENVIRONMENT"]
+        return tuple(e[0].shape[:2] for e in entries if e is not None)
+
+    @property
     def light_size(self) -> tuple[int, int]:
         """The size of the image the world's light is made from: LIGHT_SIZE, or an environment
         image's own size where it is smaller (it is read as it is, not interpolated up)."""
-        self._register()
-        sizes = [shading.IMAGES.get(n.param("image", ""), (None,))[0] for n in self.graph.nodes
-                 if n.kind == "TEX_ENVIRONMENT"]
-        sizes = [px.shape[:2] for px in sizes if px is not None]
+        sizes = self.image_sizes
         if not sizes:
             return LIGHT_SIZE
         return (min(LIGHT_SIZE[0], max(h for h, _ in sizes)), min(LIGHT_SIZE[1], max(w for _, w in sizes)))
 
-    @cached_property
+    @property
     def detail(self) -> int:
         """The widest panorama that shows more of it: its widest image's width rounded up to a
         power of two, or GRAPH_DETAIL for a world of nodes alone."""
-        self._register()
-        widths = [shading.IMAGES.get(n.param("image", ""), (None,))[0] for n in self.graph.nodes
-                  if n.kind == "TEX_ENVIRONMENT"]
-        widths = [px.shape[1] for px in widths if px is not None]
+        widths = [w for _, w in self.image_sizes]
         if not widths:
             return GRAPH_DETAIL
         return 2 ** math.ceil(math.log2(max(max(widths), 1)))
